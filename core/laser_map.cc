@@ -1,0 +1,29 @@
+#include "core/laser_map.h"
+
+#include <algorithm>
+
+namespace hetslam {
+namespace {
+OccupancyGridOptions WithMargin(OccupancyGridOptions grid, const LikelihoodFieldOptions& field) {
+  grid.border_margin_meters =
+      std::max(grid.border_margin_meters, field.max_distance_meters + 2 * grid.resolution_meters);
+  return grid;
+}
+}  // namespace
+
+LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
+                   const LikelihoodFieldOptions& field_options)
+    : grid_(WithMargin(grid_options, field_options)), field_(field_options) {}
+
+void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
+                          const std::vector<Eigen::Vector2f>& points_robot) {
+  points_world_.clear();
+  points_world_.reserve(points_robot.size());
+  for (const Eigen::Vector2f& p : points_robot) points_world_.push_back(world_T_robot * p.cast<double>());
+  changed_cells_.clear();
+  grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_);
+  field_.ApplyChanges(grid_, changed_cells_);
+  ++num_scans_inserted_;
+}
+
+}  // namespace hetslam

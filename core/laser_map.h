@@ -1,0 +1,39 @@
+// An occupancy grid with its likelihood-field lookup table kept in step: the map a scan
+// matcher matches against and a SLAM front end inserts into.
+#ifndef HETSLAM_CORE_LASER_MAP_H_
+#define HETSLAM_CORE_LASER_MAP_H_
+
+#include <vector>
+
+#include "Eigen/Core"
+#include "core/likelihood_field.h"
+#include "core/occupancy_grid.h"
+#include "core/se2.h"
+
+namespace hetslam {
+
+class LaserMap {
+ public:
+  // The grid's border margin is raised to cover the likelihood window so no window clips.
+  LaserMap(const OccupancyGridOptions& grid_options, const LikelihoodFieldOptions& field_options);
+
+  // Inserts points given in the robot frame, seen from `sensor_robot` (sensor origin in the
+  // robot frame), with the robot at `world_T_robot`.
+  void InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
+                  const std::vector<Eigen::Vector2f>& points_robot);
+
+  const OccupancyGrid& grid() const { return grid_; }
+  const LikelihoodField& field() const { return field_; }
+  int num_scans_inserted() const { return num_scans_inserted_; }
+
+ private:
+  OccupancyGrid grid_;
+  LikelihoodField field_;
+  std::vector<int> changed_cells_;  // scratch
+  std::vector<Eigen::Vector2d> points_world_;  // scratch
+  int num_scans_inserted_ = 0;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_LASER_MAP_H_

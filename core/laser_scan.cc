@@ -1,0 +1,52 @@
+#include "core/laser_scan.h"
+
+#include <cmath>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+
+int LaserScan::NumValidBeams() const {
+  int count = 0;
+  for (double r : ranges_meters) count += IsValidRange(r) ? 1 : 0;
+  return count;
+}
+
+std::vector<double> EvenlySpacedAngles(int num_beams, double first_angle_radians,
+                                       double increment_radians) {
+  CHECK_GE(num_beams, 0) << "num_beams=" << num_beams;
+  std::vector<double> angles(num_beams);
+  for (int i = 0; i < num_beams; ++i) angles[i] = first_angle_radians + i * increment_radians;
+  return angles;
+}
+
+std::vector<ProjectedPoint> ProjectScan(const LaserScan& scan, const BodyAttitude& attitude) {
+  CHECK_EQ(scan.angles_radians.size(), scan.ranges_meters.size())
+      << "scan at t=" << scan.stamp_seconds << " has mismatched angles and ranges";
+  const Eigen::Matrix3d nav_R_robot =
+      (Eigen::AngleAxisd(attitude.pitch_radians, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(attitude.roll_radians, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  const Eigen::Isometry3d& robot_T_sensor = scan.robot_T_sensor;
+  std::vector<ProjectedPoint> points;
+  points.reserve(scan.ranges_meters.size());
+  for (size_t i = 0; i < scan.ranges_meters.size(); ++i) {
+    const double r = scan.ranges_meters[i];
+    if (!scan.IsValidRange(r)) continue;
+    const double a = scan.angles_radians[i];
+    const Eigen::Vector3d e_sensor(r * std::cos(a), r * std::sin(a), 0.0);
+    const Eigen::Vector3d p_nav = nav_R_robot * (robot_T_sensor * e_sensor) +
+                                  Eigen::Vector3d(0.0, 0.0, attitude.base_height_meters);
+    points.push_back({p_nav.head<2>().cast<float>(), static_cast<float>(p_nav.z()),
+                      static_cast<int>(i)});
+  }
+  return points;
+}
+
+std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan) {
+  std::vector<Eigen::Vector2f> points;
+  for (const ProjectedPoint& p : ProjectScan(scan, BodyAttitude())) points.push_back(p.p_robot);
+  return points;
+}
+
+}  // namespace hetslam

@@ -1,0 +1,62 @@
+// One 2D laser scan and its projection into the robot's ground plane.
+//
+// Frames: the sensor frame has x along the beam of angle 0, z up; `robot_T_sensor` is the
+// sensor mount (SE(3)) in the robot body frame. Invalid beams (NaN or infinite, <= range_min,
+// >= range_max) are dropped by every function here: they are never matched or ray-cast.
+#ifndef HETSLAM_CORE_LASER_SCAN_H_
+#define HETSLAM_CORE_LASER_SCAN_H_
+
+#include <vector>
+
+#include "Eigen/Core"
+#include "Eigen/Geometry"
+
+namespace hetslam {
+
+struct LaserScan {
+  double stamp_seconds = 0.0;
+  std::vector<double> angles_radians;  // per beam, in the sensor frame
+  std::vector<double> ranges_meters;   // per beam; same length as angles_radians
+  double range_min_meters = 0.0;
+  double range_max_meters = 30.0;
+  Eigen::Isometry3d robot_T_sensor = Eigen::Isometry3d::Identity();
+
+  bool IsValidRange(double range_meters) const {
+    return range_meters == range_meters && range_meters > range_min_meters &&
+           range_meters < range_max_meters;
+  }
+  int NumValidBeams() const;
+};
+
+// Builds evenly spaced beam angles: angle_i = first_angle + i * increment.
+std::vector<double> EvenlySpacedAngles(int num_beams, double first_angle_radians,
+                                       double increment_radians);
+
+// A beam end point projected into the robot's ground plane (paper §III-D): `p_robot` is
+// the orthographic projection onto the plane z = 0 of the navigation frame (robot
+// position, heading only), `z_meters` its height above the floor.
+struct ProjectedPoint {
+  Eigen::Vector2f p_robot;
+  float z_meters;
+  int beam_index;
+};
+
+// Attitude and height of the robot body used by the 2.5D projection. A level wheeled
+// robot uses the defaults.
+struct BodyAttitude {
+  double roll_radians = 0.0;
+  double pitch_radians = 0.0;
+  double base_height_meters = 0.0;  // height of the body frame origin above the floor
+};
+
+// Projects the valid beams of `scan` under the 2.5D assumption:
+//   p_nav = R_y(pitch) R_x(roll) (robot_T_sensor * e_sensor) + (0, 0, base_height),
+// keeping (x, y) and reporting z (paper §III-D, T * T_nav^global * O(T_βγ E)).
+std::vector<ProjectedPoint> ProjectScan(const LaserScan& scan, const BodyAttitude& attitude);
+
+// Convenience for a level robot: the 2D end points of the valid beams in the robot frame.
+std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_LASER_SCAN_H_

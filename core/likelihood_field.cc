@@ -1,0 +1,127 @@
+#include "core/likelihood_field.h"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+namespace {
+const Eigen::Vector2f kNone(std::numeric_limits<float>::quiet_NaN(),
+                            std::numeric_limits<float>::quiet_NaN());
+}  // namespace
+
+bool LikelihoodFieldOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (!(sigma_meters > 0.0)) msg << "sigma_meters must be > 0 (got " << sigma_meters << "); ";
+  if (!(max_distance_meters > 0.0)) msg << "max_distance_meters must be > 0 (got " << max_distance_meters << "); ";
+  if (!(republish_distance_meters >= 0.0)) msg << "republish_distance_meters must be >= 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options) : options_(options) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid LikelihoodFieldOptions: " << error;
+}
+
+void LikelihoodField::Resize(const GridGeometry& g) {
+  const double r = g.resolution_meters();
+  radius_cells_ = static_cast<int>(std::ceil(options_.max_distance_meters / r - 1e-9));
+  std::vector<float> values(g.num_cells(), 0.f);
+  std::vector<Eigen::Vector2f> published(g.num_cells(), kNone);
+  if (geometry_.num_cells() > 0) {
+    CHECK_EQ(g.resolution_meters(), geometry_.resolution_meters()) << "resolution changed";
+    const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
+    const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / r));
+    for (int y = 0; y < geometry_.height(); ++y) {
+      for (int x = 0; x < geometry_.width(); ++x) {
+        const int from = y * geometry_.width() + x;
+        const int to = (y + dy) * g.width() + (x + dx);
+        values[to] = values_[from];
+        published[to] = published_[from];
+      }
+    }
+  }
+  geometry_ = g;
+  values_.swap(values);
+  published_.swap(published);
+}
+
+float LikelihoodField::Contribution(const CellIndex& c, const CellIndex& o,
+                                    const Eigen::Vector2f& p_o) const {
+  const float r = static_cast<float>(geometry_.resolution_meters());
+  const float dx = (static_cast<float>(c.x - o.x) + 0.5f) * r - p_o.x();
+  const float dy = (static_cast<float>(c.y - o.y) + 0.5f) * r - p_o.y();
+  return std::exp(-std::sqrt(dx * dx + dy * dy) / static_cast<float>(options_.sigma_meters));
+}
+
+float LikelihoodField::RecomputeCell(const CellIndex& c) const {
+  float best = 0.f;
+  const int x0 = std::max(0, c.x - radius_cells_), x1 = std::min(geometry_.width() - 1, c.x + radius_cells_);
+  const int y0 = std::max(0, c.y - radius_cells_), y1 = std::min(geometry_.height() - 1, c.y + radius_cells_);
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      const int i = y * geometry_.width() + x;
+      if (!HasPublished(i)) continue;
+      best = std::max(best, Contribution(c, {x, y}, published_[i]));
+    }
+  }
+  return best;
+}
+
+void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<int>& changed_cells) {
+  if (geometry_.num_cells() != grid.geometry().num_cells() ||
+      geometry_.origin() != grid.geometry().origin()) {
+    Resize(grid.geometry());
+  }
+  const float republish_sq = static_cast<float>(options_.republish_distance_meters * options_.republish_distance_meters);
+  for (int i : changed_cells) {
+    const CellIndex o = geometry_.FromLinearIndex(i);
+    const Eigen::Vector2f old_p = published_[i];
+    const bool had = HasPublished(i);
+    const bool has = grid.IsOccupied(i);
+    Eigen::Vector2f new_p = kNone;
+    if (has) {
+      new_p = (grid.HitPoint(i) - geometry_.CellMinCorner(o)).cast<float>();
+      if (had && (new_p - old_p).squaredNorm() <= republish_sq) continue;  // not worth republishing
+    } else if (!had) {
+      continue;
+    }
+    published_[i] = new_p;
+    const int x0 = std::max(0, o.x - radius_cells_), x1 = std::min(geometry_.width() - 1, o.x + radius_cells_);
+    const int y0 = std::max(0, o.y - radius_cells_), y1 = std::min(geometry_.height() - 1, o.y + radius_cells_);
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        const CellIndex c{x, y};
+        float& value = values_[y * geometry_.width() + x];
+        const float new_contribution = has ? Contribution(c, o, new_p) : 0.f;
+        if (new_contribution >= value) {
+          value = new_contribution;
+        } else if (had && Contribution(c, o, old_p) >= value) {
+          // c's value may have come from o's old point, which is gone: recompute it.
+          value = RecomputeCell(c);
+        }
+      }
+    }
+  }
+}
+
+void LikelihoodField::RebuildAll() {
+  for (int y = 0; y < geometry_.height(); ++y) {
+    for (int x = 0; x < geometry_.width(); ++x) values_[y * geometry_.width() + x] = RecomputeCell({x, y});
+  }
+}
+
+void LikelihoodField::RebuildFrom(const OccupancyGrid& grid) {
+  Resize(grid.geometry());
+  for (int i = 0; i < geometry_.num_cells(); ++i) {
+    published_[i] = grid.IsOccupied(i)
+                        ? Eigen::Vector2f((grid.HitPoint(i) - geometry_.CellMinCorner(geometry_.FromLinearIndex(i))).cast<float>())
+                        : kNone;
+  }
+  RebuildAll();
+}
+
+}  // namespace hetslam

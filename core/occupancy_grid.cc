@@ -1,0 +1,201 @@
+#include "core/occupancy_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+
+bool OccupancyGridOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (!(resolution_meters > 0.0)) msg << "resolution_meters must be > 0 (got " << resolution_meters << "); ";
+  if (!(hit_log_odds > 0.0)) msg << "hit_log_odds must be > 0 (got " << hit_log_odds << "); ";
+  if (!(miss_log_odds < 0.0)) msg << "miss_log_odds must be < 0 (got " << miss_log_odds << "); ";
+  if (!(min_log_odds < occupied_threshold_log_odds && occupied_threshold_log_odds < max_log_odds))
+    msg << "need min_log_odds < occupied_threshold_log_odds < max_log_odds; ";
+  if (!(border_margin_meters >= 0.0)) msg << "border_margin_meters must be >= 0; ";
+  if (!(growth_step_meters >= 0.0)) msg << "growth_step_meters must be >= 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+OccupancyGrid::OccupancyGrid(const OccupancyGridOptions& options) : options_(options) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid OccupancyGridOptions: " << error;
+  geometry_ = GridGeometry(Eigen::Vector2d::Zero(), options_.resolution_meters, 0, 0);
+}
+
+bool OccupancyGrid::EnsureContains(const Eigen::Vector2d& min_world,
+                                   const Eigen::Vector2d& max_world) {
+  CHECK(min_world.allFinite() && max_world.allFinite()) << "non-finite box";
+  const double r = options_.resolution_meters;
+  const double margin = options_.border_margin_meters;
+  const Eigen::Vector2d need_min = min_world.array() - margin;
+  const Eigen::Vector2d need_max = max_world.array() + margin;
+  if (geometry_.num_cells() > 0) {
+    const CellIndex lo = geometry_.WorldToCell(need_min);
+    const CellIndex hi = geometry_.WorldToCell(need_max);
+    if (geometry_.Contains(lo) && geometry_.Contains(hi)) return false;
+  }
+  const double step = options_.growth_step_meters;
+  // New bounds in whole cells on a world-aligned lattice (origin a multiple of r), so that
+  // the grid does not depend on the order in which areas were explored.
+  auto align_down = [r](double v) { return r * std::floor(v / r); };
+  Eigen::Vector2d new_min, new_max;
+  if (geometry_.num_cells() == 0) {
+    new_min = Eigen::Vector2d(align_down(need_min.x() - step / 2), align_down(need_min.y() - step / 2));
+    new_max = need_max.array() + step / 2;
+  } else {
+    const Eigen::Vector2d old_min = geometry_.origin();
+    const Eigen::Vector2d old_max =
+        old_min + Eigen::Vector2d(geometry_.width(), geometry_.height()) * r;
+    new_min = old_min;
+    new_max = old_max;
+    for (int i = 0; i < 2; ++i) {
+      if (need_min[i] < old_min[i]) new_min[i] = old_min[i] - r * std::ceil((old_min[i] - need_min[i] + step) / r);
+      if (need_max[i] >= old_max[i]) new_max[i] = old_max[i] + (need_max[i] - old_max[i] + step);
+    }
+  }
+  const int width = static_cast<int>(std::ceil((new_max.x() - new_min.x()) / r - 1e-9));
+  const int height = static_cast<int>(std::ceil((new_max.y() - new_min.y()) / r - 1e-9));
+  CHECK_LT(static_cast<double>(width) * height, 4e8)
+      << "occupancy grid would exceed 4e8 cells (" << width << " x " << height
+      << "); a pose or scan point is far away (bad input?)";
+  Resize(GridGeometry(new_min, r, width, height));
+  return true;
+}
+
+void OccupancyGrid::Resize(const GridGeometry& g) {
+  const int n = g.num_cells();
+  std::vector<float> log_odds(n, 0.f);
+  std::vector<uint8_t> observed(n, 0);
+  std::vector<Eigen::Vector2f> hit_sum(n, Eigen::Vector2f::Zero());
+  std::vector<uint32_t> hit_count(n, 0);
+  std::vector<uint32_t> last_update(n, 0);
+  // Offset of the old grid inside the new one, in cells.
+  const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / g.resolution_meters()));
+  const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / g.resolution_meters()));
+  for (int y = 0; y < geometry_.height(); ++y) {
+    for (int x = 0; x < geometry_.width(); ++x) {
+      const int from = y * geometry_.width() + x;
+      const int to = (y + dy) * g.width() + (x + dx);
+      log_odds[to] = log_odds_[from];
+      observed[to] = observed_[from];
+      hit_sum[to] = hit_sum_[from];
+      hit_count[to] = hit_count_[from];
+      last_update[to] = last_update_[from];
+    }
+  }
+  if (observed_max_.x >= observed_min_.x) {
+    observed_min_ = {observed_min_.x + dx, observed_min_.y + dy};
+    observed_max_ = {observed_max_.x + dx, observed_max_.y + dy};
+  }
+  geometry_ = g;
+  log_odds_.swap(log_odds);
+  observed_.swap(observed);
+  hit_sum_.swap(hit_sum);
+  hit_count_.swap(hit_count);
+  last_update_.swap(last_update);
+}
+
+void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cells) {
+  last_update_[i] = scan_counter_;
+  const bool was_occupied = IsOccupied(i);
+  log_odds_[i] = std::clamp(log_odds_[i] + delta, static_cast<float>(options_.min_log_odds),
+                            static_cast<float>(options_.max_log_odds));
+  if (!observed_[i]) {
+    observed_[i] = 1;
+    const CellIndex c = geometry_.FromLinearIndex(i);
+    observed_min_ = {std::min(observed_min_.x, c.x), std::min(observed_min_.y, c.y)};
+    observed_max_ = {std::max(observed_max_.x, c.x), std::max(observed_max_.y, c.y)};
+  }
+  const bool now_occupied = IsOccupied(i);
+  if (was_occupied && !now_occupied) {
+    // The cell turned free (paper §III-B): its hit point is forgotten.
+    hit_sum_[i].setZero();
+    hit_count_[i] = 0;
+  }
+  if ((was_occupied != now_occupied || (delta > 0 && now_occupied)) && changed_cells != nullptr) {
+    changed_cells->push_back(i);
+  }
+}
+
+void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
+                               const std::vector<Eigen::Vector2d>& points_world,
+                               std::vector<int>* changed_cells) {
+  Eigen::Vector2d lo = sensor_world, hi = sensor_world;
+  for (const Eigen::Vector2d& p : points_world) {
+    CHECK(p.allFinite()) << "non-finite scan point";
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  EnsureContains(lo, hi);
+  ++scan_counter_;
+  if (scan_counter_ == 0) {  // wrapped after 4e9 scans: restart the stamps
+    std::fill(last_update_.begin(), last_update_.end(), 0);
+    scan_counter_ = 1;
+  }
+  const float hit = static_cast<float>(options_.hit_log_odds);
+  const float miss = static_cast<float>(options_.miss_log_odds);
+  // End points first, so that a ray never clears a cell this same scan hits.
+  for (const Eigen::Vector2d& p : points_world) {
+    const CellIndex c = geometry_.WorldToCell(p);
+    const int i = geometry_.LinearIndex(c);
+    const bool first_this_scan = last_update_[i] != scan_counter_;
+    if (first_this_scan) UpdateCell(i, hit, changed_cells);
+    if (IsOccupied(i)) {
+      hit_sum_[i] += (p - geometry_.CellMinCorner(c)).cast<float>();
+      ++hit_count_[i];
+    }
+  }
+
+  // Free space: traverse every cell a ray crosses (Amanatides–Woo), end cell excluded.
+  const Eigen::Vector2d start = geometry_.WorldToContinuousCell(sensor_world);
+  const CellIndex start_cell = geometry_.WorldToCell(sensor_world);
+  for (const Eigen::Vector2d& p : points_world) {
+    const Eigen::Vector2d end = geometry_.WorldToContinuousCell(p);
+    const CellIndex end_cell = geometry_.WorldToCell(p);
+    const Eigen::Vector2d d = end - start;
+    CellIndex c = start_cell;
+    const int step_x = d.x() > 0 ? 1 : -1;
+    const int step_y = d.y() > 0 ? 1 : -1;
+    const double inf = std::numeric_limits<double>::infinity();
+    const double t_delta_x = d.x() != 0 ? std::abs(1.0 / d.x()) : inf;
+    const double t_delta_y = d.y() != 0 ? std::abs(1.0 / d.y()) : inf;
+    double t_max_x = d.x() != 0 ? ((step_x > 0 ? (c.x + 1 - start.x()) : (start.x() - c.x)) * t_delta_x) : inf;
+    double t_max_y = d.y() != 0 ? ((step_y > 0 ? (c.y + 1 - start.y()) : (start.y() - c.y)) * t_delta_y) : inf;
+    const int max_steps = std::abs(end_cell.x - start_cell.x) + std::abs(end_cell.y - start_cell.y);
+    for (int n = 0; n < max_steps && !(c == end_cell); ++n) {
+      const int i = geometry_.LinearIndex(c);
+      if (last_update_[i] != scan_counter_) UpdateCell(i, miss, changed_cells);
+      if (t_max_x < t_max_y) {
+        t_max_x += t_delta_x;
+        c.x += step_x;
+      } else {
+        t_max_y += t_delta_y;
+        c.y += step_y;
+      }
+    }
+  }
+}
+
+CellState OccupancyGrid::State(int i) const {
+  if (!observed_[i]) return CellState::kUnknown;
+  return IsOccupied(i) ? CellState::kOccupied : CellState::kFree;
+}
+
+Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
+  const CellIndex c = geometry_.FromLinearIndex(i);
+  if (hit_count_[i] == 0) return geometry_.CellCenter(c);
+  return geometry_.CellMinCorner(c) + (hit_sum_[i] / static_cast<float>(hit_count_[i])).cast<double>();
+}
+
+float OccupancyGrid::Probability(int i) const {
+  if (!observed_[i]) return 0.5f;
+  return 1.f - 1.f / (1.f + std::exp(log_odds_[i]));
+}
+
+}  // namespace hetslam

@@ -1,0 +1,102 @@
+// Log-odds occupancy grid over 5 cm cells (by default) that grows as the robot explores,
+// with the per-cell accumulated sub-cell hit point of paper §III-B.
+//
+// Grid convention: see core/grid_geometry.h. Cell states:
+//   unknown  – never observed (log-odds exactly 0 and no observation),
+//   occupied – log-odds > occupied_threshold_log_odds,
+//   free     – observed and not occupied.
+// Each cell keeps the running mean of the laser end points that fell into it while it was
+// occupied ("hit point"); the likelihood field measures distances to these means rather than
+// to cell centres, which keeps sub-cell precision in scan matching.
+#ifndef HETSLAM_CORE_OCCUPANCY_GRID_H_
+#define HETSLAM_CORE_OCCUPANCY_GRID_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "Eigen/Core"
+#include "core/grid_geometry.h"
+#include "core/se2.h"
+
+namespace hetslam {
+
+struct OccupancyGridOptions {
+  double resolution_meters = 0.05;
+  double hit_log_odds = 0.85;     // log(0.7 / 0.3)
+  double miss_log_odds = -0.4;    // log(0.4 / 0.6)
+  double min_log_odds = -2.0;     // clamping keeps cells able to change state
+  double max_log_odds = 3.5;
+  double occupied_threshold_log_odds = 0.0;
+  // Distance the grid keeps between any observed cell and its border, so that neighbourhood
+  // operations (the likelihood field) never clip. Growth adds at least this much.
+  double border_margin_meters = 1.0;
+  // When growing, the grid adds this much extra room beyond what is needed, so that growth
+  // (a copy) stays rare.
+  double growth_step_meters = 10.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+enum class CellState : uint8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
+
+class OccupancyGrid {
+ public:
+  explicit OccupancyGrid(const OccupancyGridOptions& options);
+
+  const OccupancyGridOptions& options() const { return options_; }
+  const GridGeometry& geometry() const { return geometry_; }
+
+  // Makes sure the box [min, max] (world, metres) plus the border margin lies in the grid,
+  // growing it if needed. Returns true when the geometry changed. Growth keeps every cell's
+  // contents and world position; linear indices change.
+  bool EnsureContains(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world);
+
+  // Inserts one scan: rays from `sensor_world` to each end point lower the log-odds of the
+  // cells they cross (once per cell per scan); each end cell is raised once per scan and its
+  // hit point accumulated. The grid grows to contain all points. `changed_cells` (optional)
+  // receives the linear indices (in the geometry after growth) of the cells whose state went
+  // to or from occupied, or whose hit point was updated while occupied.
+  void InsertScan(const Eigen::Vector2d& sensor_world,
+                  const std::vector<Eigen::Vector2d>& points_world,
+                  std::vector<int>* changed_cells);
+
+  CellState State(int linear_index) const;
+  CellState State(const CellIndex& c) const { return State(geometry_.LinearIndex(c)); }
+  float LogOdds(int linear_index) const { return log_odds_[linear_index]; }
+  bool IsOccupied(int linear_index) const {
+    return log_odds_[linear_index] > options_.occupied_threshold_log_odds;
+  }
+  // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
+  Eigen::Vector2d HitPoint(int linear_index) const;
+  int HitCount(int linear_index) const { return hit_count_[linear_index]; }
+
+  // Bounding box (cells) of all observed cells; empty (max < min) before any insertion.
+  CellIndex observed_min() const { return observed_min_; }
+  CellIndex observed_max() const { return observed_max_; }
+
+  // Occupancy probability in [0, 1], 0.5 for unknown.
+  float Probability(int linear_index) const;
+
+ private:
+  void Resize(const GridGeometry& new_geometry);
+  void UpdateCell(int linear_index, float delta_log_odds, std::vector<int>* changed_cells);
+
+  OccupancyGridOptions options_;
+  GridGeometry geometry_;
+  std::vector<float> log_odds_;
+  std::vector<uint8_t> observed_;
+  // Hit point sums relative to the cell's minimum corner (metres); relative storage keeps
+  // float precision and survives growth unchanged.
+  std::vector<Eigen::Vector2f> hit_sum_;
+  std::vector<uint32_t> hit_count_;
+  // Scan counter stamps so that a cell is updated at most once per scan.
+  std::vector<uint32_t> last_update_;
+  uint32_t scan_counter_ = 0;
+  CellIndex observed_min_{1, 1};
+  CellIndex observed_max_{0, 0};
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_OCCUPANCY_GRID_H_

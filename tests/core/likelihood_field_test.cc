@@ -1,0 +1,82 @@
+#include "core/likelihood_field.h"
+
+#include <random>
+
+#include "core/laser_map.h"
+#include "core/occupancy_grid.h"
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+// A 20 x 20 cell world (5 cm cells) with one wall along x = 0.5 m seen from the origin.
+TEST(LikelihoodFieldTest, OneWallByHand) {
+  LikelihoodFieldOptions field_options;
+  field_options.sigma_meters = 0.05;
+  field_options.max_distance_meters = 0.3;
+  LaserMap map(OccupancyGridOptions(), field_options);
+  std::vector<Eigen::Vector2f> wall;
+  for (int i = -5; i <= 5; ++i) wall.emplace_back(0.5125f, i * 0.05f + 0.025f);
+  map.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall);
+
+  const GridGeometry& g = map.grid().geometry();
+  const CellIndex wall_cell = g.WorldToCell({0.5125, 0.025});
+  EXPECT_EQ(CellState::kOccupied, map.grid().State(wall_cell));
+  const CellIndex free_cell = g.WorldToCell({0.2, 0.0});
+  EXPECT_EQ(CellState::kFree, map.grid().State(free_cell));
+  EXPECT_EQ(CellState::kUnknown, map.grid().State(g.WorldToCell({-0.5, 0.0})));
+  // Cell centre of the wall cell is 0.025 - 0.0125 m... hit point (0.5125, 0.025) lies
+  // 0.0125 m from its cell centre in x.
+  const Eigen::Vector2d centre = g.CellCenter(wall_cell);
+  const double d = (centre - Eigen::Vector2d(0.5125, 0.025)).norm();
+  EXPECT_NEAR(std::exp(-d / 0.05), map.field().Value(wall_cell), 1e-5);
+  // Three cells in front of the wall: distance from that centre to the nearest hit point.
+  const CellIndex front{wall_cell.x - 3, wall_cell.y};
+  const double d_front = std::abs(g.CellCenter(front).x() - 0.5125);
+  EXPECT_NEAR(std::exp(-d_front / 0.05), map.field().Value(front), 1e-5);
+  // Outside the window: zero.
+  EXPECT_EQ(0.f, map.field().Value(CellIndex{wall_cell.x - 8, wall_cell.y}));
+}
+
+// Seeded random insertions (including cells that turn free again) keep the incremental table
+// identical to a brute-force rebuild from the same published hit points.
+TEST(LikelihoodFieldTest, IncrementalMatchesBruteForceOnRandomUpdates) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> coord(-3.f, 3.f);
+  std::uniform_real_distribution<double> pose_xy(-1.0, 1.0), pose_th(-M_PI, M_PI);
+  LikelihoodFieldOptions field_options;
+  field_options.republish_distance_meters = 0.01;
+  OccupancyGridOptions grid_options;
+  grid_options.growth_step_meters = 0.5;  // grow often, to exercise Resize
+  LaserMap map(grid_options, field_options);
+  int turned_free = 0;
+  for (int scan = 0; scan < 60; ++scan) {
+    // World positions of the occupied cells before this scan.
+    std::vector<Eigen::Vector2d> occupied_before;
+    for (int i = 0; i < map.grid().geometry().num_cells(); ++i) {
+      if (map.grid().IsOccupied(i)) {
+        occupied_before.push_back(map.grid().geometry().CellCenter(map.grid().geometry().FromLinearIndex(i)));
+      }
+    }
+    std::vector<Eigen::Vector2f> points;
+    // A few persistent structures plus random clutter that later rays clear again.
+    for (int i = 0; i < 40; ++i) points.emplace_back(coord(rng), coord(rng));
+    for (int i = 0; i < 40; ++i) points.emplace_back(3.2f, -2.f + 0.1f * i);
+    map.InsertScan(Pose2(pose_xy(rng), pose_xy(rng), pose_th(rng)), Eigen::Vector2d::Zero(), points);
+
+    LikelihoodField reference = map.field();
+    reference.RebuildAll();
+    ASSERT_EQ(reference.values().size(), map.field().values().size());
+    for (size_t i = 0; i < reference.values().size(); ++i) {
+      ASSERT_EQ(reference.values()[i], map.field().values()[i]) << "scan " << scan << " cell " << i;
+    }
+    for (const Eigen::Vector2d& p : occupied_before) {
+      turned_free += map.grid().State(map.grid().geometry().WorldToCell(p)) == CellState::kFree;
+    }
+  }
+  // Cells must have turned free after being occupied, or the decrease path went untested.
+  EXPECT_GT(turned_free, 50);
+}
+
+}  // namespace
+}  // namespace hetslam
