@@ -1,0 +1,92 @@
+// CARMEN laser logs (the `.clf` format of the Radish and Freiburg datasets).
+//
+// Messages read (one per line, fields separated by white space):
+//   FLASER n r_1..r_n x y theta odom_x odom_y odom_theta ipc_timestamp ipc_hostname logger_timestamp
+//   ROBOTLASER1 laser_type start_angle fov angular_res max_range accuracy remission_mode
+//               n r_1..r_n m rem_1..rem_m laser_x laser_y laser_theta robot_x robot_y robot_theta
+//               tv rv forward_safety side_safety turn_axis ipc_timestamp ipc_hostname logger_timestamp
+//   RAWLASER1 laser_type start_angle fov angular_res max_range accuracy remission_mode
+//             n r_1..r_n m rem_1..rem_m ipc_timestamp ipc_hostname logger_timestamp
+//   ODOM x y theta tv rv accel ipc_timestamp ipc_hostname logger_timestamp
+//   PARAM name value ...   (kept as strings; laser geometry params are used for FLASER beams)
+// '#' lines and blank lines are comments. Other message types are skipped and counted.
+// The timestamp used is ipc_timestamp.
+//
+// FLASER beam geometry: not in the message. Beams are spread evenly over
+// `flaser_fov_radians` (default pi) starting at -fov/2, i.e. increment fov / n for
+// n = 180 or 360 (SICK 1° / 0.5° modes: -90° .. +89°/+89.5°), and fov / (n - 1) when n is odd
+// (361 beams: -90° .. +90°). PARAM laser_front_laser_fov / _resolution override the defaults
+// when present. Readings >= max range (`flaser_max_range_meters`, default 81.0: the shared
+// logs write 81.83/81.91 for "no return") are invalid and dropped downstream.
+//
+// Errors: a malformed line (too few fields, a non-numeric or non-finite field where a number
+// is required, a beam count that is negative, over 100000 or larger than the fields present)
+// is an error naming file and line, unless `lenient` is set, in which case the line is
+// skipped and counted. Timestamps that go backwards are counted (and the first few reported
+// in `warnings`), never reordered.
+#ifndef HETSLAM_CORE_CARMEN_LOG_H_
+#define HETSLAM_CORE_CARMEN_LOG_H_
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/laser_scan.h"
+#include "core/se2.h"
+#include "core/status.h"
+
+namespace hetslam {
+
+struct OdometryReading {
+  double stamp_seconds = 0.0;
+  Pose2 pose;  // odometry frame
+  int line_number = 0;
+};
+
+struct LaserReading {
+  LaserScan scan;
+  // The pose the log stores with the scan (FLASER: the odometry pose `odom_x..`; ROBOTLASER1:
+  // the robot pose). In the shared logs this is raw odometry: never ground truth.
+  Pose2 odometry_pose;
+  bool has_odometry_pose = false;
+  int line_number = 0;
+};
+
+struct CarmenReadOptions {
+  bool lenient = false;                // skip malformed lines with a count instead of failing
+  double flaser_fov_radians = M_PI;
+  double flaser_max_range_meters = 81.0;
+  double range_min_meters = 0.0;
+  int max_warnings_kept = 10;          // how many warning messages to keep verbatim
+};
+
+struct CarmenReadStats {
+  int lines = 0;
+  int comment_lines = 0;
+  int malformed_lines_skipped = 0;     // only in lenient mode
+  int unknown_messages_skipped = 0;
+  int laser_timestamps_backwards = 0;
+  int odometry_timestamps_backwards = 0;
+  std::map<std::string, int> unknown_message_counts;
+};
+
+struct CarmenLog {
+  std::vector<LaserReading> lasers;      // in file order
+  std::vector<OdometryReading> odometry; // in file order
+  std::map<std::string, std::string> params;
+  CarmenReadStats stats;
+  std::vector<std::string> warnings;     // first few, "file:line: message"
+};
+
+Status ReadCarmenLog(const std::string& path, const CarmenReadOptions& options, CarmenLog* log);
+
+// Writes FLASER (using each scan's ranges; beams must follow the FLASER default geometry
+// for the reader to recover their angles; invalid ranges are written as the scan's max range)
+// and ODOM lines merged in timestamp order, with PARAM lines for the laser geometry and
+// `comment_lines` as '#' lines first. Used by the simulator.
+Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
+                      const std::vector<std::string>& comment_lines);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_CARMEN_LOG_H_

@@ -1,0 +1,30 @@
+// Trajectories as text: one pose per line, `timestamp x y theta` (seconds, metres, metres,
+// radians), '#' starts a comment line. This is also the layout of the shared `.gmapping.txt`
+// reference files and of simulator truth files.
+#ifndef HETSLAM_CORE_TRAJECTORY_IO_H_
+#define HETSLAM_CORE_TRAJECTORY_IO_H_
+
+#include <string>
+#include <vector>
+
+#include "core/se2.h"
+#include "core/status.h"
+
+namespace hetslam {
+
+struct StampedPose2 {
+  double stamp_seconds = 0.0;
+  Pose2 pose;
+};
+
+// Writes with full precision (timestamps to the microsecond, poses to 1e-9), one header
+// comment line `# timestamp x y theta` first. An error names the file.
+Status WriteTrajectory(const std::string& path, const std::vector<StampedPose2>& trajectory);
+
+// Reads `timestamp x y theta` lines; blank and '#' lines are skipped. A malformed or
+// non-finite line is an error naming file and line number.
+Status ReadTrajectory(const std::string& path, std::vector<StampedPose2>* trajectory);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_TRAJECTORY_IO_H_
