@@ -1,0 +1,69 @@
+#include "core/trajectory_metrics.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hetslam {
+
+AbsoluteTrajectoryError ComputeAbsoluteTrajectoryError(const std::vector<StampedPose2>& estimate,
+                                                       const std::vector<StampedPose2>& truth,
+                                                       double match_tolerance_seconds) {
+  AbsoluteTrajectoryError ate;
+  // Truth sorted by time for nearest-stamp lookups (input order is kept elsewhere).
+  std::vector<StampedPose2> sorted_truth = truth;
+  std::stable_sort(sorted_truth.begin(), sorted_truth.end(),
+                   [](const StampedPose2& a, const StampedPose2& b) { return a.stamp_seconds < b.stamp_seconds; });
+  std::vector<std::pair<Pose2, Pose2>> pairs;  // (estimate, truth)
+  for (const StampedPose2& e : estimate) {
+    auto it = std::lower_bound(sorted_truth.begin(), sorted_truth.end(), e.stamp_seconds,
+                               [](const StampedPose2& a, double t) { return a.stamp_seconds < t; });
+    const StampedPose2* best = nullptr;
+    for (auto candidate : {it, it == sorted_truth.begin() ? it : it - 1}) {
+      if (candidate == sorted_truth.end()) continue;
+      if (best == nullptr || std::abs(candidate->stamp_seconds - e.stamp_seconds) <
+                                 std::abs(best->stamp_seconds - e.stamp_seconds)) {
+        best = &*candidate;
+      }
+    }
+    if (best != nullptr && std::abs(best->stamp_seconds - e.stamp_seconds) <= match_tolerance_seconds) {
+      pairs.emplace_back(e.pose, best->pose);
+    }
+  }
+  ate.matched = static_cast<int>(pairs.size());
+  if (pairs.empty()) return ate;
+
+  Eigen::Vector2d mean_e = Eigen::Vector2d::Zero(), mean_t = Eigen::Vector2d::Zero();
+  for (const auto& [e, t] : pairs) {
+    mean_e += e.translation();
+    mean_t += t.translation();
+  }
+  mean_e /= pairs.size();
+  mean_t /= pairs.size();
+  double sxx = 0, sxy = 0;  // cross terms of the rotation that best maps estimate onto truth
+  for (const auto& [e, t] : pairs) {
+    const Eigen::Vector2d a = e.translation() - mean_e, b = t.translation() - mean_t;
+    sxx += a.dot(b);
+    sxy += a.x() * b.y() - a.y() * b.x();
+  }
+  const double yaw = pairs.size() > 1 ? std::atan2(sxy, sxx) : WrapAngle(pairs[0].second.theta() - pairs[0].first.theta());
+  const Pose2 rotation(0.0, 0.0, yaw);
+  ate.truth_T_estimate = Pose2(mean_t - rotation * mean_e, yaw);
+
+  double sum_sq_t = 0, sum_t = 0, sum_sq_r = 0;
+  for (const auto& [e, t] : pairs) {
+    const Pose2 aligned = ate.truth_T_estimate * e;
+    const double dt = (aligned.translation() - t.translation()).norm();
+    const double dr = std::abs(WrapAngle(aligned.theta() - t.theta())) * 180.0 / M_PI;
+    sum_sq_t += dt * dt;
+    sum_t += dt;
+    sum_sq_r += dr * dr;
+    ate.translation_max_meters = std::max(ate.translation_max_meters, dt);
+    ate.rotation_max_degrees = std::max(ate.rotation_max_degrees, dr);
+  }
+  ate.translation_rmse_meters = std::sqrt(sum_sq_t / pairs.size());
+  ate.translation_mean_meters = sum_t / pairs.size();
+  ate.rotation_rmse_degrees = std::sqrt(sum_sq_r / pairs.size());
+  return ate;
+}
+
+}  // namespace hetslam

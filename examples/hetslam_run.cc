@@ -1,0 +1,171 @@
+// hetslam_run: single-robot laser SLAM on a CARMEN log; writes the map and trajectory.
+//
+//   hetslam_run --log=intel.clf --out=out/intel
+//   hetslam_run --log=sim/log.clf --truth=sim/truth.txt --out=out/sim
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "core/carmen_log.h"
+#include "core/map_io.h"
+#include "core/trajectory_io.h"
+#include "core/trajectory_metrics.h"
+#include "frontends/scan_matching_slam.h"
+#include "gflags/gflags.h"
+#include "glog/logging.h"
+
+DEFINE_string(log, "", "CARMEN log (.clf) to map: FLASER/ROBOTLASER1/RAWLASER1 scans, ODOM optional. Required.");
+DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm, map.yaml, map.png, trajectory.txt. Required.");
+DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
+              "prints the absolute trajectory error after SE(2) alignment.");
+DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
+DEFINE_bool(use_odometry, false, "Predict each scan's pose from the log's odometry. Off by default: the pipeline is "
+            "odometry-free and uses --prediction instead.");
+DEFINE_string(prediction, "constant_velocity", "Motion prediction without odometry: constant_velocity (extrapolate "
+              "--velocity_fraction of the last motion) or stationary.");
+DEFINE_double(velocity_fraction, 0.5, "Fraction of the last scan-to-scan motion extrapolated by constant_velocity, in [0, 1.5].");
+DEFINE_double(resolution, 0.05, "Grid cell size in metres (paper: 5 cm).");
+DEFINE_double(sigma, 0.05, "Likelihood field p_hit ~ exp(-d / sigma): sigma in metres.");
+DEFINE_double(field_max_distance, 0.3, "Likelihood field window radius in metres (beyond it p_hit = 0).");
+DEFINE_double(linear_window, 1.2, "Scan matcher search window, ± metres around the prediction in x and y.");
+DEFINE_double(angular_window_deg, 40.0, "Scan matcher search window, ± degrees around the predicted heading.");
+DEFINE_double(min_score, 0.10, "Minimum correlative score (mean p_hit) for a match to count; else the scan is "
+              "inserted at the prediction and counted as a failure.");
+DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
+DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
+DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
+DEFINE_int32(progress_every, 100, "Print progress every N scans (0 = never).");
+
+namespace hetslam {
+namespace {
+
+bool Fail(const std::string& message) {
+  std::cerr << "hetslam_run: " << message << "\n";
+  return false;
+}
+
+bool OptionsFromFlags(ScanMatchingSlamOptions* options, std::string* error) {
+  if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file)"), false;
+  if (FLAGS_out.empty()) return (*error = "--out is required (an output folder)"), false;
+  options->grid.resolution_meters = FLAGS_resolution;
+  options->field.sigma_meters = FLAGS_sigma;
+  options->field.max_distance_meters = FLAGS_field_max_distance;
+  options->matcher.linear_search_window_meters = FLAGS_linear_window;
+  options->matcher.angular_search_window_radians = FLAGS_angular_window_deg * M_PI / 180.0;
+  options->matcher.min_correlative_score = FLAGS_min_score;
+  options->max_point_range_meters = FLAGS_max_range;
+  options->velocity_fraction = FLAGS_velocity_fraction;
+  if (FLAGS_use_odometry) {
+    options->prediction = MotionPrediction::kOdometry;
+  } else if (!ParseMotionPrediction(FLAGS_prediction, &options->prediction) ||
+             options->prediction == MotionPrediction::kOdometry) {
+    *error = "--prediction must be constant_velocity or stationary (got '" + FLAGS_prediction +
+             "'); use --use_odometry for odometry";
+    return false;
+  }
+  if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
+  if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
+  std::string invalid;
+  if (!options->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
+  return true;
+}
+
+int Run() {
+  ScanMatchingSlamOptions options;
+  std::string error;
+  if (!OptionsFromFlags(&options, &error)) return Fail(error + " (see --help)"), 2;
+
+  CarmenReadOptions read_options;
+  read_options.lenient = FLAGS_lenient;
+  read_options.flaser_max_range_meters = FLAGS_flaser_max_range;
+  CarmenLog log;
+  const Status read = ReadCarmenLog(FLAGS_log, read_options, &log);
+  if (!read.ok()) return Fail(read.message()), 1;
+  for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
+  if (log.stats.malformed_lines_skipped > 0)
+    std::cerr << "warning: skipped " << log.stats.malformed_lines_skipped << " malformed lines (--lenient)\n";
+  if (log.lasers.empty()) return Fail("'" + FLAGS_log + "' holds no laser scans"), 1;
+  if (FLAGS_use_odometry) {
+    for (const LaserReading& reading : log.lasers) {
+      if (!reading.has_odometry_pose) {
+        return Fail(FLAGS_log + ":" + std::to_string(reading.line_number) +
+                    ": --use_odometry needs an odometry pose with every scan"), 1;
+      }
+    }
+  }
+  std::vector<StampedPose2> truth;
+  if (!FLAGS_truth.empty()) {
+    const Status status = ReadTrajectory(FLAGS_truth, &truth);
+    if (!status.ok()) return Fail(status.message()), 1;
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(FLAGS_out, ec);
+  if (ec) return Fail("cannot create output folder '" + FLAGS_out + "': " + ec.message()), 1;
+
+  const size_t num_scans = FLAGS_max_scans > 0 ? std::min<size_t>(FLAGS_max_scans, log.lasers.size()) : log.lasers.size();
+  std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log
+            << (FLAGS_use_odometry ? " (odometry prediction)" : " (no odometry)") << "\n";
+  ScanMatchingSlam slam(options);
+  const auto start = std::chrono::steady_clock::now();
+  for (size_t i = 0; i < num_scans; ++i) {
+    const LaserReading& reading = log.lasers[i];
+    slam.AddScan(reading.scan, reading.has_odometry_pose ? std::optional<Pose2>(reading.odometry_pose) : std::nullopt);
+    if (FLAGS_progress_every > 0 && (i + 1) % FLAGS_progress_every == 0) {
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::fprintf(stderr, "  %zu/%zu scans, %.1f s, %.0f scans/s\n", i + 1, num_scans, elapsed, (i + 1) / elapsed);
+    }
+  }
+  const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  const std::string base = (std::filesystem::path(FLAGS_out) / "map").string();
+  const std::string trajectory_path = (std::filesystem::path(FLAGS_out) / "trajectory.txt").string();
+  std::vector<Pose2> path;
+  for (const StampedPose2& p : slam.trajectory()) path.push_back(p.pose);
+  std::vector<std::vector<Pose2>> paths = {path};
+  for (const Status& status : {WriteMapPgmYaml(slam.map().grid(), base),
+                               WriteMapPng(slam.map().grid(), paths, base + ".png"),
+                               WriteTrajectory(trajectory_path, slam.trajectory())}) {
+    if (!status.ok()) return Fail(status.message()), 1;
+  }
+
+  const ScanMatchingSlamStats& stats = slam.stats();
+  double first = log.lasers.front().scan.stamp_seconds, last = first;
+  for (size_t i = 0; i < num_scans; ++i) {
+    first = std::min(first, log.lasers[i].scan.stamp_seconds);
+    last = std::max(last, log.lasers[i].scan.stamp_seconds);
+  }
+  const double duration = last - first;
+  std::printf("scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n",
+              stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards);
+  std::printf("time: %.2f s wall, %.1f scans/s, data duration %.1f s, real-time factor %.1fx\n", wall_seconds,
+              stats.scans / wall_seconds, duration, duration / wall_seconds);
+  if (!truth.empty()) {
+    const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(slam.trajectory(), truth);
+    std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
+                FLAGS_truth.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
+                ate.rotation_rmse_degrees, ate.rotation_max_degrees);
+  }
+  std::printf("wrote %s.pgm, %s.yaml, %s.png, %s\n", base.c_str(), base.c_str(), base.c_str(), trajectory_path.c_str());
+  return 0;
+}
+
+}  // namespace
+}  // namespace hetslam
+
+int main(int argc, char** argv) {
+  gflags::SetUsageMessage(
+      "single-robot laser SLAM on a CARMEN log, without odometry by default.\n"
+      "  hetslam_run --log=FILE.clf --out=DIR [--truth=truth.txt]\n"
+      "Writes DIR/map.pgm + map.yaml (ROS map_server), DIR/map.png (map with trajectory) and\n"
+      "DIR/trajectory.txt (`timestamp x y theta`), and prints a summary.");
+  gflags::ParseCommandLineFlags(&argc, &argv, true);
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_logtostderr = true;
+  if (argc > 1) {
+    std::cerr << "hetslam_run: unexpected argument '" << argv[1] << "' (flags are --name=value; see --help)\n";
+    return 2;
+  }
+  return hetslam::Run();
+}

@@ -1,0 +1,37 @@
+// Scan-to-likelihood-field cost: how badly a scan's points, placed by a candidate pose,
+// miss the map's likelihood field (paper §III-C, eq. 1).
+//
+// For N points p_i (robot frame, metres) with weights w_i and a pose block
+// world_T_robot = [x, y, yaw] (metres, metres, radians):
+//   r_i = w_i / sqrt(N) * (1 - L(R(yaw) p_i + [x y]^T)),
+// where L is the likelihood field (core/likelihood_field.h) interpolated bicubically between
+// cell centres. Maximising the summed likelihood (eq. 1) is minimising sum r_i^2. The
+// 1/sqrt(N) keeps a scan's pull independent of its beam count. A point with w_i = 0 (a floor
+// obstacle) contributes nothing; walls may carry w_i > 1 (paper §III-E).
+//
+// No robust loss: the field is already bounded in [0, 1].
+//
+// Lifetime: the cost keeps a pointer to `field.values()` and to `field.geometry()` — the
+// field must outlive the cost function and must not be modified or resized (no scan
+// insertion) while the cost is used. The points and weights are copied.
+#ifndef HETSLAM_FACTORS_SCAN_COST_H_
+#define HETSLAM_FACTORS_SCAN_COST_H_
+
+#include <vector>
+
+#include "Eigen/Core"
+#include "ceres/cost_function.h"
+#include "core/likelihood_field.h"
+
+namespace hetslam {
+
+// Returns a cost over one [x, y, yaw] parameter block with N residuals. `weights` is empty
+// (all 1) or one weight per point. The caller owns the returned cost function (or passes
+// ownership to a ceres::Problem).
+ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& field,
+                                                     const std::vector<Eigen::Vector2f>& points_robot,
+                                                     const std::vector<float>& weights = {});
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FACTORS_SCAN_COST_H_

@@ -1,0 +1,301 @@
+#include "frontends/scan_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "ceres/ceres.h"
+#include "factors/scan_cost.h"
+#include "glog/logging.h"
+
+namespace hetslam {
+namespace {
+
+// One discrete candidate: yaw index and cell offset of its block's minimum corner.
+struct Candidate {
+  int yaw_index;
+  int dx;
+  int dy;
+  float score;
+};
+
+// The scan rotated by every yaw of the search, as absolute cells of the field at zero
+// translation offset, and the box of cells any candidate can touch.
+struct DiscretizedSearch {
+  std::vector<double> yaws;
+  std::vector<std::vector<CellIndex>> cells;  // [yaw][point]
+  int window_cells = 0;
+  CellIndex region_min{0, 0};
+  int region_width = 0;
+  int region_height = 0;
+};
+
+DiscretizedSearch Discretize(const ScanMatcherOptions& options, const GridGeometry& geometry,
+                             const Pose2& predicted, const std::vector<Eigen::Vector2f>& points,
+                             int block_cells) {
+  DiscretizedSearch search;
+  const double r = geometry.resolution_meters();
+  double step = options.angular_step_radians;
+  if (step <= 0.0) {
+    std::vector<float> ranges;
+    for (const auto& p : points) ranges.push_back(p.norm());
+    std::nth_element(ranges.begin(), ranges.begin() + ranges.size() * 9 / 10, ranges.end());
+    const double d = std::max<double>(ranges[ranges.size() * 9 / 10], r);
+    // A yaw step that moves a point at range d by one cell (law of cosines).
+    step = std::acos(std::clamp(1.0 - r * r / (2.0 * d * d), -1.0, 1.0));
+    step = std::clamp(step, options.min_angular_step_radians, options.max_angular_step_radians);
+  }
+  const int num_steps = static_cast<int>(std::ceil(options.angular_search_window_radians / step));
+  search.window_cells = static_cast<int>(std::ceil(options.linear_search_window_meters / r));
+  CellIndex lo{INT32_MAX, INT32_MAX}, hi{INT32_MIN, INT32_MIN};
+  for (int k = -num_steps; k <= num_steps; ++k) {
+    const double yaw = predicted.theta() + k * step;
+    const Pose2 world_T_robot(predicted.translation(), yaw);
+    std::vector<CellIndex> cells;
+    cells.reserve(points.size());
+    for (const auto& p : points) {
+      const CellIndex c = geometry.WorldToCell(world_T_robot * p.cast<double>());
+      cells.push_back(c);
+      lo = {std::min(lo.x, c.x), std::min(lo.y, c.y)};
+      hi = {std::max(hi.x, c.x), std::max(hi.y, c.y)};
+    }
+    search.yaws.push_back(yaw);
+    search.cells.push_back(std::move(cells));
+  }
+  const int w = search.window_cells;
+  search.region_min = {lo.x - w, lo.y - w};
+  search.region_width = hi.x - lo.x + 2 * w + block_cells + 1;
+  search.region_height = hi.y - lo.y + 2 * w + block_cells + 1;
+  return search;
+}
+
+// Max-pooled copies of the field over the search region: levels[h](c) is the max of the
+// field over the 2^h × 2^h block whose minimum corner is c (cells outside the field are 0).
+std::vector<std::vector<float>> BuildPyramid(const LikelihoodField& field, const DiscretizedSearch& s,
+                                             int depth) {
+  const int w = s.region_width, h = s.region_height;
+  std::vector<std::vector<float>> levels(depth + 1, std::vector<float>(static_cast<size_t>(w) * h, 0.f));
+  const GridGeometry& g = field.geometry();
+  const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
+  for (int y = 0; y < h; ++y) {
+    const int gy = s.region_min.y + y;
+    if (gy < 0 || gy >= g.height() || x_begin >= x_end) continue;
+    const float* src = field.values().data() + static_cast<size_t>(gy) * g.width() + s.region_min.x;
+    std::copy(src + x_begin, src + x_end, levels[0].begin() + static_cast<size_t>(y) * w + x_begin);
+  }
+  for (int level = 1; level <= depth; ++level) {
+    const int half = 1 << (level - 1);
+    const std::vector<float>& in = levels[level - 1];
+    std::vector<float>& out = levels[level];
+    for (int y = 0; y < h; ++y) {
+      const int y2 = std::min(y + half, h - 1);
+      for (int x = 0; x < w; ++x) {
+        const int x2 = std::min(x + half, w - 1);
+        out[y * w + x] = std::max(std::max(in[y * w + x], in[y * w + x2]), std::max(in[y2 * w + x], in[y2 * w + x2]));
+      }
+    }
+  }
+  return levels;
+}
+
+float ScoreCandidate(const std::vector<float>& level, const DiscretizedSearch& s,
+                     const std::vector<float>& weights, double inv_weight_sum, int yaw_index, int dx, int dy) {
+  const std::vector<CellIndex>& cells = s.cells[yaw_index];
+  const int ox = dx - s.region_min.x, oy = dy - s.region_min.y;
+  double sum = 0.0;
+  if (weights.empty()) {
+    for (const CellIndex& c : cells) sum += level[static_cast<size_t>(c.y + oy) * s.region_width + c.x + ox];
+  } else {
+    for (size_t i = 0; i < cells.size(); ++i) {
+      sum += weights[i] * level[static_cast<size_t>(cells[i].y + oy) * s.region_width + cells[i].x + ox];
+    }
+  }
+  return static_cast<float>(sum * inv_weight_sum);
+}
+
+double InverseWeightSum(const std::vector<float>& weights, size_t n) {
+  if (weights.empty()) return 1.0 / n;
+  double sum = 0.0;
+  for (float w : weights) sum += w;
+  return sum > 0.0 ? 1.0 / sum : 0.0;
+}
+
+// Depth-first branch and bound (children visited best-bound first); `best` holds the best
+// leaf so far and prunes every block whose bound cannot beat it.
+void BranchAndBound(const std::vector<std::vector<float>>& levels, const DiscretizedSearch& s,
+                    const std::vector<float>& weights, double inv_weight_sum, std::vector<Candidate> candidates,
+                    int level, Candidate* best, int* scored) {
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  for (const Candidate& candidate : candidates) {
+    if (candidate.score <= best->score) break;
+    if (level == 0) {
+      *best = candidate;
+      continue;
+    }
+    const int half = 1 << (level - 1);
+    std::vector<Candidate> children;
+    children.reserve(4);
+    for (int oy : {0, half}) {
+      for (int ox : {0, half}) {
+        const int dx = candidate.dx + ox, dy = candidate.dy + oy;
+        if (dx > s.window_cells || dy > s.window_cells) continue;
+        children.push_back({candidate.yaw_index, dx, dy,
+                            ScoreCandidate(levels[level - 1], s, weights, inv_weight_sum, candidate.yaw_index, dx, dy)});
+        ++*scored;
+      }
+    }
+    BranchAndBound(levels, s, weights, inv_weight_sum, std::move(children), level - 1, best, scored);
+  }
+}
+
+double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std::vector<Eigen::Vector2f>& points,
+                     const std::vector<float>& weights) {
+  const GridGeometry& g = field.geometry();
+  double sum = 0.0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2d q = g.WorldToContinuousCell(pose * points[i].cast<double>()).array() - 0.5;
+    const int x0 = static_cast<int>(std::floor(q.x())), y0 = static_cast<int>(std::floor(q.y()));
+    const double fx = q.x() - x0, fy = q.y() - y0;
+    const double v = (1 - fx) * (1 - fy) * field.Value(CellIndex{x0, y0}) + fx * (1 - fy) * field.Value(CellIndex{x0 + 1, y0}) +
+                     (1 - fx) * fy * field.Value(CellIndex{x0, y0 + 1}) + fx * fy * field.Value(CellIndex{x0 + 1, y0 + 1});
+    sum += (weights.empty() ? 1.0 : weights[i]) * v;
+  }
+  return sum * InverseWeightSum(weights, points.size());
+}
+
+}  // namespace
+
+bool ScanMatcherOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (!(linear_search_window_meters >= 0)) msg << "linear_search_window_meters must be >= 0; ";
+  if (!(angular_search_window_radians >= 0 && angular_search_window_radians <= M_PI))
+    msg << "angular_search_window_radians must be in [0, pi] (got " << angular_search_window_radians << "); ";
+  if (!(angular_step_radians >= 0)) msg << "angular_step_radians must be >= 0; ";
+  if (!(min_angular_step_radians > 0 && min_angular_step_radians <= max_angular_step_radians))
+    msg << "need 0 < min_angular_step_radians <= max_angular_step_radians; ";
+  if (branch_and_bound_depth < 0 || branch_and_bound_depth > 10)
+    msg << "branch_and_bound_depth must be in [0, 10] (got " << branch_and_bound_depth << "); ";
+  if (!(min_correlative_score >= 0 && min_correlative_score < 1)) msg << "min_correlative_score must be in [0, 1); ";
+  if (max_ceres_iterations < 0) msg << "max_ceres_iterations must be >= 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+ScanMatcher::ScanMatcher(const ScanMatcherOptions& options) : options_(options) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid ScanMatcherOptions: " << error;
+}
+
+ScanMatchResult ScanMatcher::BruteForceSearch(const LikelihoodField& field, const Pose2& predicted,
+                                              const std::vector<Eigen::Vector2f>& points_robot,
+                                              const std::vector<float>& weights) const {
+  ScanMatchResult result;
+  result.pose = predicted;
+  if (points_robot.empty() || field.geometry().num_cells() == 0) return result;
+  const DiscretizedSearch s = Discretize(options_, field.geometry(), predicted, points_robot, 1);
+  const std::vector<std::vector<float>> levels = BuildPyramid(field, s, 0);
+  const double inv_weight_sum = InverseWeightSum(weights, points_robot.size());
+  Candidate best{0, 0, 0, -1.f};
+  for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
+    for (int dy = -s.window_cells; dy <= s.window_cells; ++dy) {
+      for (int dx = -s.window_cells; dx <= s.window_cells; ++dx) {
+        const float score = ScoreCandidate(levels[0], s, weights, inv_weight_sum, k, dx, dy);
+        ++result.candidates_scored;
+        if (score > best.score) best = {k, dx, dy, score};
+      }
+    }
+  }
+  const double r = field.geometry().resolution_meters();
+  result.pose = Pose2(predicted.translation() + Eigen::Vector2d(best.dx, best.dy) * r, s.yaws[best.yaw_index]);
+  result.correlative_score = best.score;
+  result.converged = best.score >= options_.min_correlative_score;
+  return result;
+}
+
+ScanMatchResult ScanMatcher::Match(const LikelihoodField& field, const Pose2& predicted,
+                                   const std::vector<Eigen::Vector2f>& points_robot,
+                                   const std::vector<float>& weights) const {
+  CHECK(weights.empty() || weights.size() == points_robot.size())
+      << weights.size() << " weights for " << points_robot.size() << " points";
+  ScanMatchResult result;
+  result.pose = predicted;
+  if (points_robot.empty()) {
+    result.message = "scan has no valid points";
+    return result;
+  }
+  if (field.geometry().num_cells() == 0) {
+    result.message = "map is empty";
+    return result;
+  }
+  const int depth = options_.branch_and_bound_depth;
+  const int block = 1 << depth;
+  const DiscretizedSearch s = Discretize(options_, field.geometry(), predicted, points_robot, block);
+  const std::vector<std::vector<float>> levels = BuildPyramid(field, s, depth);
+  const double inv_weight_sum = InverseWeightSum(weights, points_robot.size());
+
+  std::vector<Candidate> top;
+  for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
+    for (int dy = -s.window_cells; dy <= s.window_cells; dy += block) {
+      for (int dx = -s.window_cells; dx <= s.window_cells; dx += block) {
+        top.push_back({k, dx, dy, ScoreCandidate(levels[depth], s, weights, inv_weight_sum, k, dx, dy)});
+      }
+    }
+  }
+  result.candidates_scored = static_cast<int>(top.size());
+  Candidate best{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
+  BranchAndBound(levels, s, weights, inv_weight_sum, std::move(top), depth, &best, &result.candidates_scored);
+  if (best.yaw_index < 0) {
+    std::ostringstream msg;
+    msg << "no candidate within ±" << options_.linear_search_window_meters << " m, ±"
+        << options_.angular_search_window_radians << " rad scores >= " << options_.min_correlative_score;
+    result.message = msg.str();
+    return result;
+  }
+  const double r = field.geometry().resolution_meters();
+  result.pose = Pose2(predicted.translation() + Eigen::Vector2d(best.dx, best.dy) * r, s.yaws[best.yaw_index]);
+  result.correlative_score = best.score;
+  result.converged = true;
+
+  if (options_.refine_with_ceres) {
+    double pose[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};
+    ceres::Problem::Options problem_options;
+    ceres::Problem problem(problem_options);
+    problem.AddResidualBlock(CreateScanToLikelihoodFieldCost(field, points_robot, weights), nullptr, pose);
+    ceres::Solver::Options solver_options;
+    solver_options.linear_solver_type = ceres::DENSE_QR;
+    solver_options.max_num_iterations = options_.max_ceres_iterations;
+    solver_options.num_threads = 1;
+    solver_options.minimizer_progress_to_stdout = false;
+    solver_options.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    const Pose2 refined(pose[0], pose[1], pose[2]);
+    result.iterations = static_cast<int>(summary.iterations.size()) - 1;
+    result.final_cost = summary.final_cost;
+    // Keep the refinement only if it stayed near the discrete optimum and did not lower
+    // the score; otherwise the discrete pose is the better answer.
+    const double refined_score = BilinearScore(field, refined, points_robot, weights);
+    const double discrete_score = BilinearScore(field, result.pose, points_robot, weights);
+    if (summary.IsSolutionUsable() && refined_score >= discrete_score &&
+        (refined.translation() - result.pose.translation()).norm() < 4 * r) {
+      result.pose = refined;
+    }
+    ceres::Problem::EvaluateOptions evaluate_options;
+    double p[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};
+    std::copy(p, p + 3, pose);
+    ceres::CRSMatrix jacobian;
+    problem.Evaluate(evaluate_options, nullptr, nullptr, nullptr, &jacobian);
+    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+    for (int row = 0; row < jacobian.num_rows; ++row) {
+      Eigen::Vector3d j = Eigen::Vector3d::Zero();
+      for (int k = jacobian.rows[row]; k < jacobian.rows[row + 1]; ++k) j[jacobian.cols[k]] = jacobian.values[k];
+      jtj += j * j.transpose();
+    }
+    result.information = jtj;
+  }
+  result.score = BilinearScore(field, result.pose, points_robot, weights);
+  return result;
+}
+
+}  // namespace hetslam

@@ -1,0 +1,77 @@
+// Scan-to-map matching (paper §III-C): a branch-and-bound correlative search around a
+// predicted pose over the likelihood-field lookup table, followed by a Ceres refinement
+// with the scan-to-likelihood-field cost (factors/scan_cost.h).
+//
+// Correlative search. Candidate poses are (yaw_k, t + (dx, dy) * r) for yaw steps k and whole
+// cell offsets (dx, dy) within the windows; a candidate's score is the weighted mean of the
+// field L at the cells its points fall in. Branch and bound over a pyramid of max-pooled
+// tables M_h(c) = max_{0 <= a, b < 2^h} L(c + (a, b)) finds the best-scoring candidate exactly
+// (the mean over M_h bounds every candidate of a 2^h × 2^h block), visiting a small fraction
+// of the candidates. The search is exact with respect to that discretisation; Ceres then
+// removes the discretisation error.
+#ifndef HETSLAM_FRONTENDS_SCAN_MATCHER_H_
+#define HETSLAM_FRONTENDS_SCAN_MATCHER_H_
+
+#include <string>
+#include <vector>
+
+#include "Eigen/Core"
+#include "core/likelihood_field.h"
+#include "core/se2.h"
+
+namespace hetslam {
+
+struct ScanMatcherOptions {
+  double linear_search_window_meters = 1.2;     // ± around the prediction, in x and y
+  double angular_search_window_radians = 0.70;  // ± around the predicted yaw (≈ 40°)
+  // Yaw step of the search; 0 picks it from the scan so that the 90th-percentile point
+  // moves by at most one cell per step, clamped to [min, max] below.
+  double angular_step_radians = 0.0;
+  double min_angular_step_radians = 0.0025;
+  double max_angular_step_radians = 0.0175;
+  int branch_and_bound_depth = 4;               // coarsest block is 2^depth cells
+  double min_correlative_score = 0.10;          // below: the match failed
+  bool refine_with_ceres = true;
+  int max_ceres_iterations = 20;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct ScanMatchResult {
+  Pose2 pose;                    // world_T_robot after matching
+  bool converged = false;        // the search found a pose scoring >= min_correlative_score
+  double correlative_score = 0;  // weighted mean field value at the best discrete candidate
+  double score = 0;              // weighted mean field value (bilinear) at `pose`
+  int iterations = 0;            // Ceres iterations
+  double final_cost = 0;         // Ceres final cost
+  int candidates_scored = 0;     // branch-and-bound work
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // J^T J of the scan cost at `pose`
+  std::string message;           // why it did not converge
+};
+
+class ScanMatcher {
+ public:
+  explicit ScanMatcher(const ScanMatcherOptions& options);
+
+  // Matches `points_robot` (robot frame, metres) against `field` around `predicted`
+  // (world_T_robot). `weights` empty or one per point. The field must not change during
+  // the call.
+  ScanMatchResult Match(const LikelihoodField& field, const Pose2& predicted,
+                        const std::vector<Eigen::Vector2f>& points_robot,
+                        const std::vector<float>& weights = {}) const;
+
+  // Exhaustive evaluation of every discrete candidate (for tests of the branch and bound);
+  // returns the best as `pose` with its correlative score.
+  ScanMatchResult BruteForceSearch(const LikelihoodField& field, const Pose2& predicted,
+                                   const std::vector<Eigen::Vector2f>& points_robot,
+                                   const std::vector<float>& weights = {}) const;
+
+  const ScanMatcherOptions& options() const { return options_; }
+
+ private:
+  ScanMatcherOptions options_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FRONTENDS_SCAN_MATCHER_H_

@@ -1,0 +1,94 @@
+#include "frontends/scan_matching_slam.h"
+
+#include <sstream>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+
+bool ParseMotionPrediction(const std::string& name, MotionPrediction* prediction) {
+  if (name == "stationary") {
+    *prediction = MotionPrediction::kStationary;
+  } else if (name == "constant_velocity") {
+    *prediction = MotionPrediction::kConstantVelocity;
+  } else if (name == "odometry") {
+    *prediction = MotionPrediction::kOdometry;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+bool ScanMatchingSlamOptions::IsValid(std::string* error) const {
+  std::string sub;
+  std::ostringstream msg;
+  if (!grid.IsValid(&sub)) msg << "grid: " << sub;
+  if (!field.IsValid(&sub)) msg << "field: " << sub;
+  if (!matcher.IsValid(&sub)) msg << "matcher: " << sub;
+  if (!(velocity_fraction >= 0 && velocity_fraction <= 1.5))
+    msg << "velocity_fraction must be in [0, 1.5] (got " << velocity_fraction << "); ";
+  if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
+  if (min_points < 1) msg << "min_points must be >= 1; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+ScanMatchingSlam::ScanMatchingSlam(const ScanMatchingSlamOptions& options)
+    : options_(options), matcher_(options.matcher), map_(options.grid, options.field) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid ScanMatchingSlamOptions: " << error;
+}
+
+Pose2 ScanMatchingSlam::Predict(const std::optional<Pose2>& odometry_pose) const {
+  if (trajectory_.empty()) return Pose2::Identity();
+  const Pose2& last = trajectory_.back().pose;
+  switch (options_.prediction) {
+    case MotionPrediction::kStationary:
+      return last;
+    case MotionPrediction::kConstantVelocity: {
+      if (trajectory_.size() < 2) return last;
+      const Pose2 delta = Between(trajectory_[trajectory_.size() - 2].pose, last);
+      return last * Interpolate(Pose2::Identity(), delta, options_.velocity_fraction);
+    }
+    case MotionPrediction::kOdometry:
+      CHECK(odometry_pose.has_value()) << "odometry prediction needs an odometry pose with every scan";
+      if (!last_odometry_.has_value()) return last;
+      return last * Between(*last_odometry_, *odometry_pose);
+  }
+  return last;
+}
+
+ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose) {
+  ScanResult result;
+  result.stamp_seconds = scan.stamp_seconds;
+  ++stats_.scans;
+  if (!trajectory_.empty() && scan.stamp_seconds < trajectory_.back().stamp_seconds) ++stats_.timestamps_backwards;
+
+  std::vector<Eigen::Vector2f> points;
+  const float max_range = static_cast<float>(options_.max_point_range_meters);
+  for (const ProjectedPoint& p : ProjectScan(scan, BodyAttitude())) {
+    if (p.p_robot.norm() <= max_range) points.push_back(p.p_robot);
+  }
+  result.predicted = Predict(odometry_pose);
+  result.pose = result.predicted;
+  if (static_cast<int>(points.size()) < options_.min_points) {
+    ++stats_.skipped_too_few_points;
+    return result;
+  }
+  if (map_.num_scans_inserted() > 0) {
+    result.match = matcher_.Match(map_.field(), result.predicted, points);
+    if (result.match.converged) {
+      result.pose = result.match.pose;
+    } else {
+      ++stats_.match_failures;
+    }
+  }
+  const Eigen::Vector3d sensor = scan.robot_T_sensor.translation();
+  map_.InsertScan(result.pose, sensor.head<2>(), points);
+  result.inserted = true;
+  trajectory_.push_back({scan.stamp_seconds, result.pose});
+  if (odometry_pose.has_value()) last_odometry_ = odometry_pose;
+  return result;
+}
+
+}  // namespace hetslam
