@@ -1,0 +1,349 @@
+#include "core/map_io.h"
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <sstream>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+namespace {
+
+constexpr double kMaxPicturePixels = 1e8;
+
+Status WriteBytes(const std::string& path, const void* data, size_t size) {
+  FILE* file = std::fopen(path.c_str(), "wb");
+  if (file == nullptr) {
+    return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
+  }
+  const size_t written = size == 0 ? 0 : std::fwrite(data, 1, size, file);
+  const int write_errno = errno;
+  if (std::fclose(file) != 0 || written != size) {
+    return Status::Error("error writing '" + path + "': " +
+                         std::strerror(written != size ? write_errno : errno));
+  }
+  return Status::Ok();
+}
+
+// ---- PNG (ISO/IEC 15948) pieces: CRC-32 of chunks, Adler-32 of the zlib stream. ----
+
+const std::array<uint32_t, 256>& Crc32Table() {
+  static const std::array<uint32_t, 256> table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t n = 0; n < 256; ++n) {
+      uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[n] = c;
+    }
+    return t;
+  }();
+  return table;
+}
+
+uint32_t UpdateCrc32(uint32_t crc, const uint8_t* data, size_t size) {
+  const auto& table = Crc32Table();
+  for (size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xFFu] ^ (crc >> 8);
+  return crc;
+}
+
+uint32_t Adler32(const std::vector<uint8_t>& data) {
+  constexpr uint32_t kMod = 65521;
+  uint32_t a = 1, b = 0;
+  // 5552 is the largest block for which b cannot overflow 32 bits before the modulo.
+  size_t i = 0;
+  while (i < data.size()) {
+    const size_t end = std::min(data.size(), i + 5552);
+    for (; i < end; ++i) {
+      a += data[i];
+      b += a;
+    }
+    a %= kMod;
+    b %= kMod;
+  }
+  return (b << 16) | a;
+}
+
+void AppendBigEndian32(uint32_t v, std::vector<uint8_t>* out) {
+  out->push_back(static_cast<uint8_t>(v >> 24));
+  out->push_back(static_cast<uint8_t>(v >> 16));
+  out->push_back(static_cast<uint8_t>(v >> 8));
+  out->push_back(static_cast<uint8_t>(v));
+}
+
+void AppendChunk(const char type[4], const uint8_t* data, size_t size, std::vector<uint8_t>* out) {
+  AppendBigEndian32(static_cast<uint32_t>(size), out);
+  const size_t type_at = out->size();
+  out->insert(out->end(), type, type + 4);
+  out->insert(out->end(), data, data + size);
+  const uint32_t crc =
+      UpdateCrc32(0xFFFFFFFFu, out->data() + type_at, size + 4) ^ 0xFFFFFFFFu;
+  AppendBigEndian32(crc, out);
+}
+
+// ---- Map rendering shared by the PGM and the PNG. ----
+
+// A rectangle of cells [min_x, max_x] x [min_y, max_y] (inclusive), possibly reaching
+// outside the grid.
+struct CellBox {
+  long long min_x, min_y, max_x, max_y;
+  long long width() const { return max_x - min_x + 1; }
+  long long height() const { return max_y - min_y + 1; }
+};
+
+uint8_t CellGrey(const OccupancyGrid& grid, long long x, long long y) {
+  const GridGeometry& g = grid.geometry();
+  if (x < 0 || y < 0 || x >= g.width() || y >= g.height()) return kPgmUnknown;
+  switch (grid.State(g.LinearIndex({static_cast<int>(x), static_cast<int>(y)}))) {
+    case CellState::kOccupied:
+      return kPgmOccupied;
+    case CellState::kFree:
+      return kPgmFree;
+    case CellState::kUnknown:
+      break;
+  }
+  return kPgmUnknown;
+}
+
+bool HasObservedCells(const OccupancyGrid& grid) {
+  return grid.observed_max().x >= grid.observed_min().x &&
+         grid.observed_max().y >= grid.observed_min().y;
+}
+
+// Grey picture of `box`, row 0 = box.max_y.
+std::vector<uint8_t> RenderGrey(const OccupancyGrid& grid, const CellBox& box) {
+  std::vector<uint8_t> pixels(static_cast<size_t>(box.width() * box.height()));
+  size_t k = 0;
+  for (long long y = box.max_y; y >= box.min_y; --y) {
+    for (long long x = box.min_x; x <= box.max_x; ++x) pixels[k++] = CellGrey(grid, x, y);
+  }
+  return pixels;
+}
+
+std::string Basename(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+}  // namespace
+
+void TrajectoryColor(int index, uint8_t rgb[3]) {
+  // Eight hues that stay distinct from each other and from the black/white/grey map.
+  static const uint8_t kColors[8][3] = {
+      {230, 25, 75},  {0, 130, 200},  {60, 180, 75},   {245, 130, 48},
+      {145, 30, 180}, {240, 50, 230}, {170, 110, 40},  {0, 128, 128}};
+  const int k = ((index % 8) + 8) % 8;
+  std::copy(kColors[k], kColors[k] + 3, rgb);
+}
+
+Status WritePng(const std::string& path, int width, int height, int channels,
+                const std::vector<uint8_t>& pixels) {
+  if (width < 1 || height < 1) {
+    return Status::Error("cannot write '" + path + "': image size " + std::to_string(width) +
+                         " x " + std::to_string(height) + " is empty or negative");
+  }
+  if (channels != 1 && channels != 3) {
+    return Status::Error("cannot write '" + path + "': channels must be 1 or 3 (got " +
+                         std::to_string(channels) + ")");
+  }
+  const size_t row_bytes = static_cast<size_t>(width) * channels;
+  if (pixels.size() != row_bytes * static_cast<size_t>(height)) {
+    return Status::Error("cannot write '" + path + "': " + std::to_string(pixels.size()) +
+                         " pixel bytes given for " + std::to_string(width) + " x " +
+                         std::to_string(height) + " x " + std::to_string(channels));
+  }
+
+  // Scanlines, each with filter type 0 (None).
+  std::vector<uint8_t> raw;
+  raw.reserve((row_bytes + 1) * height);
+  for (int r = 0; r < height; ++r) {
+    raw.push_back(0);
+    const auto row = pixels.begin() + static_cast<std::ptrdiff_t>(r * row_bytes);
+    raw.insert(raw.end(), row, row + static_cast<std::ptrdiff_t>(row_bytes));
+  }
+
+  // zlib stream (RFC 1950): CMF 0x78 (deflate, 32K window), FLG 0x01 (no dictionary, fastest;
+  // 0x7801 is a multiple of 31), deflate stored blocks (RFC 1951 §3.2.4) of at most 65535
+  // bytes, then Adler-32 of the uncompressed data, big endian.
+  std::vector<uint8_t> zlib;
+  constexpr size_t kMaxStored = 65535;
+  zlib.reserve(raw.size() + raw.size() / kMaxStored * 5 + 16);
+  zlib.push_back(0x78);
+  zlib.push_back(0x01);
+  size_t offset = 0;
+  do {
+    const size_t n = std::min(kMaxStored, raw.size() - offset);
+    const bool final_block = offset + n == raw.size();
+    zlib.push_back(final_block ? 0x01 : 0x00);  // BFINAL, BTYPE = 00 (stored)
+    zlib.push_back(static_cast<uint8_t>(n & 0xFF));
+    zlib.push_back(static_cast<uint8_t>(n >> 8));
+    zlib.push_back(static_cast<uint8_t>(~n & 0xFF));
+    zlib.push_back(static_cast<uint8_t>((~n >> 8) & 0xFF));
+    zlib.insert(zlib.end(), raw.begin() + offset, raw.begin() + offset + n);
+    offset += n;
+  } while (offset < raw.size());
+  AppendBigEndian32(Adler32(raw), &zlib);
+
+  std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  std::vector<uint8_t> header;
+  AppendBigEndian32(static_cast<uint32_t>(width), &header);
+  AppendBigEndian32(static_cast<uint32_t>(height), &header);
+  header.push_back(8);                        // bit depth
+  header.push_back(channels == 1 ? 0 : 2);    // colour type: greyscale or truecolour
+  header.push_back(0);                        // compression: deflate
+  header.push_back(0);                        // filter method 0
+  header.push_back(0);                        // no interlace
+  png.reserve(zlib.size() + zlib.size() / (1 << 20) * 12 + 64);
+  AppendChunk("IHDR", header.data(), header.size(), &png);
+  // IDAT chunks of at most 1 MiB: the stream may be split anywhere.
+  constexpr size_t kMaxChunk = 1 << 20;
+  for (size_t at = 0; at < zlib.size(); at += kMaxChunk) {
+    AppendChunk("IDAT", zlib.data() + at, std::min(kMaxChunk, zlib.size() - at), &png);
+  }
+  AppendChunk("IEND", nullptr, 0, &png);
+  return WriteBytes(path, png.data(), png.size());
+}
+
+Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_without_extension) {
+  const std::string pgm_path = path_without_extension + ".pgm";
+  const std::string yaml_path = path_without_extension + ".yaml";
+  if (!HasObservedCells(grid)) {
+    return Status::Error("cannot write '" + pgm_path + "': the map has no observed cell");
+  }
+  const CellBox box{grid.observed_min().x - kMapBorderCells, grid.observed_min().y - kMapBorderCells,
+                    grid.observed_max().x + kMapBorderCells, grid.observed_max().y + kMapBorderCells};
+  const std::vector<uint8_t> pixels = RenderGrey(grid, box);
+
+  std::string pgm = "P5\n" + std::to_string(box.width()) + " " + std::to_string(box.height()) +
+                    "\n255\n";
+  pgm.append(pixels.begin(), pixels.end());
+  Status status = WriteBytes(pgm_path, pgm.data(), pgm.size());
+  if (!status.ok()) return status;
+
+  const GridGeometry& g = grid.geometry();
+  const Eigen::Vector2d origin =
+      g.origin() + Eigen::Vector2d(box.min_x, box.min_y) * g.resolution_meters();
+  std::ostringstream yaml;
+  yaml.precision(10);
+  yaml << "image: " << Basename(pgm_path) << "\n"
+       << "resolution: " << g.resolution_meters() << "\n"
+       << "origin: [" << origin.x() << ", " << origin.y() << ", 0.0]\n"
+       << "negate: 0\n"
+       << "occupied_thresh: 0.65\n"
+       << "free_thresh: 0.196\n";
+  const std::string text = yaml.str();
+  return WriteBytes(yaml_path, text.data(), text.size());
+}
+
+Status WriteMapPng(const OccupancyGrid& grid, const std::vector<std::vector<Pose2>>& trajectories,
+                   const std::string& path) {
+  const GridGeometry& g = grid.geometry();
+  const double resolution = g.resolution_meters();
+  // Picture bounds in (unbounded) cell coordinates, computed in double first so that a far
+  // away pose cannot overflow an int.
+  double lo_x = std::numeric_limits<double>::infinity(), lo_y = lo_x;
+  double hi_x = -lo_x, hi_y = -lo_x;
+  if (HasObservedCells(grid)) {
+    lo_x = grid.observed_min().x;
+    lo_y = grid.observed_min().y;
+    hi_x = grid.observed_max().x;
+    hi_y = grid.observed_max().y;
+  }
+  for (size_t t = 0; t < trajectories.size(); ++t) {
+    for (size_t k = 0; k < trajectories[t].size(); ++k) {
+      const Pose2& pose = trajectories[t][k];
+      if (!pose.ToVector().allFinite()) {
+        return Status::Error("cannot write '" + path + "': trajectory " + std::to_string(t) +
+                             " pose " + std::to_string(k) + " is not finite");
+      }
+      const Eigen::Vector2d c = (pose.translation() - g.origin()) / resolution;
+      lo_x = std::min(lo_x, std::floor(c.x()));
+      lo_y = std::min(lo_y, std::floor(c.y()));
+      hi_x = std::max(hi_x, std::floor(c.x()));
+      hi_y = std::max(hi_y, std::floor(c.y()));
+    }
+  }
+  if (!(lo_x <= hi_x && lo_y <= hi_y)) {
+    return Status::Error("cannot write '" + path + "': no observed cell and no pose to draw");
+  }
+  const double pixels_needed =
+      (hi_x - lo_x + 1 + 2 * kMapBorderCells) * (hi_y - lo_y + 1 + 2 * kMapBorderCells);
+  if (pixels_needed > kMaxPicturePixels) {
+    return Status::Error("cannot write '" + path + "': the picture would have " +
+                         std::to_string(pixels_needed) + " pixels (limit 1e8); is a pose far "
+                         "away from the map?");
+  }
+  const CellBox box{static_cast<long long>(lo_x) - kMapBorderCells,
+                    static_cast<long long>(lo_y) - kMapBorderCells,
+                    static_cast<long long>(hi_x) + kMapBorderCells,
+                    static_cast<long long>(hi_y) + kMapBorderCells};
+  const int width = static_cast<int>(box.width());
+  const int height = static_cast<int>(box.height());
+  const std::vector<uint8_t> grey = RenderGrey(grid, box);
+  std::vector<uint8_t> rgb(grey.size() * 3);
+  for (size_t i = 0; i < grey.size(); ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = grey[i];
+
+  auto put = [&](long long col, long long row, const uint8_t color[3]) {
+    if (col < 0 || row < 0 || col >= width || row >= height) return;
+    uint8_t* p = &rgb[3 * (static_cast<size_t>(row) * width + col)];
+    p[0] = color[0];
+    p[1] = color[1];
+    p[2] = color[2];
+  };
+  // Pixel of a world point: column = cell x - min_x, row = max_y - cell y (row 0 on top).
+  auto to_pixel = [&](const Pose2& pose, long long* col, long long* row) {
+    const Eigen::Vector2d c = (pose.translation() - g.origin()) / resolution;
+    *col = static_cast<long long>(std::floor(c.x())) - box.min_x;
+    *row = box.max_y - static_cast<long long>(std::floor(c.y()));
+  };
+
+  for (size_t t = 0; t < trajectories.size(); ++t) {
+    const std::vector<Pose2>& poses = trajectories[t];
+    if (poses.empty()) continue;
+    uint8_t color[3];
+    TrajectoryColor(static_cast<int>(t), color);
+    // Polyline by Bresenham's algorithm between consecutive poses.
+    for (size_t k = 0; k + 1 < poses.size(); ++k) {
+      long long x0, y0, x1, y1;
+      to_pixel(poses[k], &x0, &y0);
+      to_pixel(poses[k + 1], &x1, &y1);
+      const long long dx = std::llabs(x1 - x0), dy = -std::llabs(y1 - y0);
+      const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
+      long long err = dx + dy;
+      while (true) {
+        put(x0, y0, color);
+        if (x0 == x1 && y0 == y1) break;
+        const long long e2 = 2 * err;
+        if (e2 >= dy) {
+          err += dy;
+          x0 += sx;
+        }
+        if (e2 <= dx) {
+          err += dx;
+          y0 += sy;
+        }
+      }
+    }
+    // Start marker: a disc of radius 3 px in the trajectory colour inside a black ring.
+    long long sc, sr;
+    to_pixel(poses.front(), &sc, &sr);
+    const uint8_t black[3] = {0, 0, 0};
+    for (int dr = -4; dr <= 4; ++dr) {
+      for (int dc = -4; dc <= 4; ++dc) {
+        const int d2 = dr * dr + dc * dc;
+        if (d2 <= 9) {
+          put(sc + dc, sr + dr, color);
+        } else if (d2 <= 20) {
+          put(sc + dc, sr + dr, black);
+        }
+      }
+    }
+  }
+  return WritePng(path, width, height, 3, rgb);
+}
+
+}  // namespace hetslam

@@ -1,0 +1,60 @@
+// Writing maps and pictures: the ROS map_server PGM + YAML pair, and PNG images written by a
+// small self-contained encoder (no zlib, no OpenCV: core depends on Eigen and glog only).
+//
+// Image convention (core/grid_geometry.h): image row 0 is the TOP of the map, i.e. the
+// largest y; image column c is grid column x. Maps are cropped to the observed bounding box
+// of the grid plus `kMapBorderCells` cells on each side.
+#ifndef HETSLAM_CORE_MAP_IO_H_
+#define HETSLAM_CORE_MAP_IO_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/occupancy_grid.h"
+#include "core/se2.h"
+#include "core/status.h"
+
+namespace hetslam {
+
+// Cells of unknown space kept around the observed bounding box in written maps.
+constexpr int kMapBorderCells = 5;
+
+// Grey levels of the map_server "trinary" convention (negate 0): p = (255 - v) / 255, so
+// occupied (p = 1) > occupied_thresh 0.65, free (p = 0.004) < free_thresh 0.196, and unknown
+// (p = 0.196078...) falls between the thresholds.
+constexpr uint8_t kPgmOccupied = 0;
+constexpr uint8_t kPgmFree = 254;
+constexpr uint8_t kPgmUnknown = 205;
+
+// Writes `<path_without_extension>.pgm` (binary P5, 8-bit, values above) and
+// `<path_without_extension>.yaml` with
+//   image: <basename>.pgm, resolution: <m/cell>, origin: [x, y, 0.0],
+//   negate: 0, occupied_thresh: 0.65, free_thresh: 0.196
+// where origin is the world position of the lower-left corner of the lower-left pixel (the
+// minimum corner of the cropped area), as map_server expects. An error names the file; a
+// grid with no observed cell is an error.
+Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_without_extension);
+
+// Writes an 8-bit PNG, greyscale (channels = 1) or RGB (channels = 3). `pixels` is row-major,
+// row 0 at the top, channels interleaved: size width * height * channels. The image data is
+// stored uncompressed (deflate "stored" blocks) with the zlib Adler-32 and chunk CRC-32 that
+// every decoder checks. Width and height must be in [1, 2^31 - 1].
+Status WritePng(const std::string& path, int width, int height, int channels,
+                const std::vector<uint8_t>& pixels);
+
+// Renders the map (occupied black, free white, unknown grey, as in the PGM) and draws each
+// trajectory (world_T_robot poses, in the grid's world frame) as a 1-pixel polyline in its own
+// colour, with a filled disc at its first pose, and writes it as an RGB PNG at one pixel per
+// cell. The picture covers the observed map and every trajectory pose, plus the border.
+// Errors: nothing to draw (no observed cell and no pose), a non-finite pose, or a picture
+// over 100 million pixels.
+Status WriteMapPng(const OccupancyGrid& grid, const std::vector<std::vector<Pose2>>& trajectories,
+                   const std::string& path);
+
+// The colour (RGB) WriteMapPng uses for trajectory `index`; colours repeat after 8.
+void TrajectoryColor(int index, uint8_t rgb[3]);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_MAP_IO_H_

@@ -1,0 +1,74 @@
+// Small helpers shared by the text-file readers of core/ (CARMEN logs, trajectories,
+// relations): split a line into white-space separated fields and parse one field as a
+// number, insisting that the whole field is consumed. Not a public API of hetslam.
+#ifndef HETSLAM_CORE_TEXT_FIELDS_H_
+#define HETSLAM_CORE_TEXT_FIELDS_H_
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+namespace hetslam {
+namespace text_fields {
+
+// Splits on spaces, tabs, '\r' (CRLF files) and other white space; no empty fields.
+inline void Split(const std::string& line, std::vector<std::string>* fields) {
+  fields->clear();
+  size_t i = 0;
+  const size_t n = line.size();
+  auto is_space = [](char c) {
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+  };
+  while (i < n) {
+    while (i < n && is_space(line[i])) ++i;
+    if (i >= n) break;
+    const size_t start = i;
+    while (i < n && !is_space(line[i])) ++i;
+    fields->emplace_back(line, start, i - start);
+  }
+}
+
+// True when the whole of `field` is a number (strtod syntax). NaN and infinities are
+// accepted here; callers that need a finite number use ParseFiniteDouble.
+inline bool ParseDouble(const std::string& field, double* value) {
+  if (field.empty()) return false;
+  const char* begin = field.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (end != begin + field.size()) return false;
+  // ERANGE on overflow gives +-HUGE_VAL, rejected by the finiteness checks of callers;
+  // ERANGE on underflow gives a tiny finite value, which is fine.
+  *value = v;
+  return true;
+}
+
+inline bool ParseFiniteDouble(const std::string& field, double* value) {
+  double v = 0.0;
+  if (!ParseDouble(field, &v) || !std::isfinite(v)) return false;
+  *value = v;
+  return true;
+}
+
+// A decimal integer (optional sign), whole field consumed, within [min_value, max_value].
+// `*value` receives the parsed number (clamped to long long) even when it is out of range,
+// so that callers can report it.
+inline bool ParseInteger(const std::string& field, long long min_value, long long max_value,
+                         long long* value) {
+  if (field.empty()) return false;
+  const char* begin = field.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(begin, &end, 10);
+  if (end != begin + field.size()) return false;
+  *value = v;
+  if (errno == ERANGE) return false;
+  return v >= min_value && v <= max_value;
+}
+
+}  // namespace text_fields
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_TEXT_FIELDS_H_
