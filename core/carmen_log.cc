@@ -454,7 +454,10 @@ Status CheckGeometry(const CarmenLog& log, WrittenGeometry* g) {
     if (scan.angles_radians.size() >= 2) {
       g->has_angles = true;
       g->fov_radians = -2.0 * scan.angles_radians[0];
-      g->resolution_degrees = (scan.angles_radians[1] - scan.angles_radians[0]) / kDegToRad;
+      // Mean spacing over the whole fan: less rounding than the first difference alone.
+      const size_t n = scan.angles_radians.size();
+      g->resolution_degrees =
+          (scan.angles_radians[n - 1] - scan.angles_radians[0]) / (n - 1) / kDegToRad;
       break;
     }
   }

@@ -16,8 +16,11 @@
 // `flaser_fov_radians` (default pi) starting at -fov/2, i.e. increment fov / n for
 // n = 180 or 360 (SICK 1° / 0.5° modes: -90° .. +89°/+89.5°), and fov / (n - 1) when n is odd
 // (361 beams: -90° .. +90°). PARAM laser_front_laser_fov / _resolution override the defaults
-// when present. Readings >= max range (`flaser_max_range_meters`, default 81.0: the shared
-// logs write 81.83/81.91 for "no return") are invalid and dropped downstream.
+// for the FLASER lines after them (fov: radians when <= 2*pi, else degrees; resolution:
+// degrees, as in CARMEN; a single beam looks straight ahead). Readings >= max range
+// (`flaser_max_range_meters`, default 81.0: the shared logs write 81.83/81.91 for "no return";
+// PARAM laser_front_laser_max_range, written by WriteCarmenLog, overrides it) are invalid and
+// dropped downstream.
 //
 // Errors: a malformed line (too few fields, a non-numeric or non-finite field where a number
 // is required, a beam count that is negative, over 100000 or larger than the fields present)
@@ -80,10 +83,12 @@ struct CarmenLog {
 
 Status ReadCarmenLog(const std::string& path, const CarmenReadOptions& options, CarmenLog* log);
 
-// Writes FLASER (using each scan's ranges; beams must follow the FLASER default geometry
-// for the reader to recover their angles; invalid ranges are written as the scan's max range)
-// and ODOM lines merged in timestamp order, with PARAM lines for the laser geometry and
-// `comment_lines` as '#' lines first. Used by the simulator.
+// Writes FLASER (using each scan's ranges; all scans must share one fan of evenly spaced
+// beams starting at -fov/2 and one max range, stored as PARAM laser_front_laser_fov /
+// _resolution / _max_range so that the reader recovers them, else an error; invalid ranges
+// are written as the scan's max range; the sensor mount is not stored) and ODOM lines merged
+// in timestamp order (ODOM first at equal times), with PARAM lines for the laser geometry and
+// `log.params`, and `comment_lines` as '#' lines first. Used by the simulator.
 Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
                       const std::vector<std::string>& comment_lines);
 

@@ -109,9 +109,28 @@ uint8_t CellGrey(const OccupancyGrid& grid, long long x, long long y) {
   return kPgmUnknown;
 }
 
-bool HasObservedCells(const OccupancyGrid& grid) {
-  return grid.observed_max().x >= grid.observed_min().x &&
-         grid.observed_max().y >= grid.observed_min().y;
+// Bounding box (cells) of the observed cells, found by scanning the grid. The grid's own
+// observed_min()/observed_max() are not used: at the time of writing they always include
+// cells (0..1, 0..1) (their empty-box sentinel {1,1}/{0,0} takes part in the min/max), which
+// would stretch every map to the grid's corner. Returns false when no cell is observed.
+bool ObservedBox(const OccupancyGrid& grid, CellIndex* lo, CellIndex* hi) {
+  const GridGeometry& g = grid.geometry();
+  bool any = false;
+  for (int y = 0; y < g.height(); ++y) {
+    for (int x = 0; x < g.width(); ++x) {
+      if (grid.State(CellIndex{x, y}) == CellState::kUnknown) continue;
+      if (!any) {
+        *lo = *hi = CellIndex{x, y};
+        any = true;
+      } else {
+        lo->x = std::min(lo->x, x);
+        lo->y = std::min(lo->y, y);
+        hi->x = std::max(hi->x, x);
+        hi->y = std::max(hi->y, y);
+      }
+    }
+  }
+  return any;
 }
 
 // Grey picture of `box`, row 0 = box.max_y.
@@ -211,11 +230,12 @@ Status WritePng(const std::string& path, int width, int height, int channels,
 Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_without_extension) {
   const std::string pgm_path = path_without_extension + ".pgm";
   const std::string yaml_path = path_without_extension + ".yaml";
-  if (!HasObservedCells(grid)) {
+  CellIndex lo, hi;
+  if (!ObservedBox(grid, &lo, &hi)) {
     return Status::Error("cannot write '" + pgm_path + "': the map has no observed cell");
   }
-  const CellBox box{grid.observed_min().x - kMapBorderCells, grid.observed_min().y - kMapBorderCells,
-                    grid.observed_max().x + kMapBorderCells, grid.observed_max().y + kMapBorderCells};
+  const CellBox box{lo.x - kMapBorderCells, lo.y - kMapBorderCells, hi.x + kMapBorderCells,
+                    hi.y + kMapBorderCells};
   const std::vector<uint8_t> pixels = RenderGrey(grid, box);
 
   std::string pgm = "P5\n" + std::to_string(box.width()) + " " + std::to_string(box.height()) +
@@ -247,11 +267,12 @@ Status WriteMapPng(const OccupancyGrid& grid, const std::vector<std::vector<Pose
   // away pose cannot overflow an int.
   double lo_x = std::numeric_limits<double>::infinity(), lo_y = lo_x;
   double hi_x = -lo_x, hi_y = -lo_x;
-  if (HasObservedCells(grid)) {
-    lo_x = grid.observed_min().x;
-    lo_y = grid.observed_min().y;
-    hi_x = grid.observed_max().x;
-    hi_y = grid.observed_max().y;
+  CellIndex observed_lo, observed_hi;
+  if (ObservedBox(grid, &observed_lo, &observed_hi)) {
+    lo_x = observed_lo.x;
+    lo_y = observed_lo.y;
+    hi_x = observed_hi.x;
+    hi_y = observed_hi.y;
   }
   for (size_t t = 0; t < trajectories.size(); ++t) {
     for (size_t k = 0; k < trajectories[t].size(); ++k) {

@@ -1,0 +1,281 @@
+#include "core/map_io.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "opencv2/imgcodecs.hpp"
+
+namespace hetslam {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string TempPath(const std::string& name) {
+  return ::testing::TempDir() + "/map_io_test_" + name;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// A 4 m x 3 m room: walls at x = -2, x = 2, y = -1, y = 2, scanned from the origin with one
+// end point every centimetre.
+OccupancyGrid SquareRoomGrid() {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  std::vector<Eigen::Vector2d> points;
+  for (double s = -1.99; s < 1.99; s += 0.01) {
+    points.emplace_back(s, 1.995);
+    points.emplace_back(s, -0.995);
+  }
+  for (double s = -0.99; s < 1.99; s += 0.01) {
+    points.emplace_back(-1.995, s);
+    points.emplace_back(1.995, s);
+  }
+  grid.InsertScan(Eigen::Vector2d(0.02, 0.02), points, nullptr);
+  return grid;
+}
+
+// Observed bounding box by brute force (independent of OccupancyGrid::observed_min/max).
+void ObservedBox(const OccupancyGrid& grid, CellIndex* lo, CellIndex* hi) {
+  *lo = {1 << 30, 1 << 30};
+  *hi = {-(1 << 30), -(1 << 30)};
+  for (int y = 0; y < grid.geometry().height(); ++y) {
+    for (int x = 0; x < grid.geometry().width(); ++x) {
+      if (grid.State(CellIndex{x, y}) == CellState::kUnknown) continue;
+      *lo = {std::min(lo->x, x), std::min(lo->y, y)};
+      *hi = {std::max(hi->x, x), std::max(hi->y, y)};
+    }
+  }
+}
+
+uint8_t ExpectedGrey(const OccupancyGrid& grid, int x, int y) {
+  const CellIndex c{x, y};
+  if (!grid.geometry().Contains(c)) return kPgmUnknown;
+  switch (grid.State(c)) {
+    case CellState::kOccupied:
+      return kPgmOccupied;
+    case CellState::kFree:
+      return kPgmFree;
+    default:
+      return kPgmUnknown;
+  }
+}
+
+TEST(MapIoTest, PgmYamlFollowsMapServerConvention) {
+  const OccupancyGrid grid = SquareRoomGrid();
+  const std::string base = TempPath("room");
+  const Status status = WriteMapPgmYaml(grid, base);
+  ASSERT_TRUE(status.ok()) << status.message();
+
+  // P5 header then width * height bytes.
+  const std::string pgm = ReadFile(base + ".pgm");
+  std::istringstream header(pgm);
+  std::string magic;
+  int width = 0, height = 0, max_value = 0;
+  header >> magic >> width >> height >> max_value;
+  header.get();  // the single white space before the raster
+  ASSERT_EQ("P5", magic);
+  ASSERT_EQ(255, max_value);
+  CellIndex lo, hi;
+  ObservedBox(grid, &lo, &hi);
+  ASSERT_EQ(hi.x - lo.x + 1 + 2 * kMapBorderCells, width);
+  ASSERT_EQ(hi.y - lo.y + 1 + 2 * kMapBorderCells, height);
+  const size_t raster_at = static_cast<size_t>(header.tellg());
+  ASSERT_EQ(raster_at + static_cast<size_t>(width) * height, pgm.size());
+
+  // Every pixel: row 0 is the top (largest y), column 0 the smallest x.
+  int occupied = 0, free_cells = 0;
+  for (int row = 0; row < height; ++row) {
+    for (int col = 0; col < width; ++col) {
+      const int x = lo.x - kMapBorderCells + col;
+      const int y = hi.y + kMapBorderCells - row;
+      const uint8_t value = static_cast<uint8_t>(pgm[raster_at + row * width + col]);
+      ASSERT_EQ(ExpectedGrey(grid, x, y), value) << "row " << row << " col " << col;
+      occupied += value == kPgmOccupied;
+      free_cells += value == kPgmFree;
+    }
+  }
+  EXPECT_GT(occupied, 4 * 60);      // the walls, ~14 m at 5 cm
+  EXPECT_GT(free_cells, 60 * 40);   // the room's inside
+  // The border is unknown.
+  for (int col = 0; col < width; ++col) {
+    EXPECT_EQ(kPgmUnknown, static_cast<uint8_t>(pgm[raster_at + col]));
+  }
+
+  const std::string yaml = ReadFile(base + ".yaml");
+  EXPECT_THAT(yaml, HasSubstr("image: map_io_test_room.pgm\n"));
+  EXPECT_THAT(yaml, HasSubstr("resolution: 0.05\n"));
+  EXPECT_THAT(yaml, HasSubstr("negate: 0\n"));
+  EXPECT_THAT(yaml, HasSubstr("occupied_thresh: 0.65\n"));
+  EXPECT_THAT(yaml, HasSubstr("free_thresh: 0.196\n"));
+  double origin_x = 0, origin_y = 0;
+  const size_t at = yaml.find("origin: [");
+  ASSERT_NE(std::string::npos, at);
+  ASSERT_EQ(2, std::sscanf(yaml.c_str() + at, "origin: [%lf, %lf, 0.0]", &origin_x, &origin_y));
+  // The origin is the lower-left corner of the lower-left pixel (bottom row, column 0).
+  const Eigen::Vector2d corner =
+      grid.geometry().CellMinCorner({lo.x - kMapBorderCells, lo.y - kMapBorderCells});
+  EXPECT_NEAR(corner.x(), origin_x, 1e-9);
+  EXPECT_NEAR(corner.y(), origin_y, 1e-9);
+  // The room's walls are at -2 .. 2 and -1 .. 2: the map starts just outside them.
+  EXPECT_NEAR(-2.0 - kMapBorderCells * 0.05, origin_x, 0.051);
+  EXPECT_NEAR(-1.0 - kMapBorderCells * 0.05, origin_y, 0.051);
+}
+
+TEST(MapIoTest, PgmRejectsEmptyGridAndBadPath) {
+  const OccupancyGrid empty{OccupancyGridOptions()};
+  Status status = WriteMapPgmYaml(empty, TempPath("empty"));
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("no observed cell"));
+  status = WriteMapPgmYaml(SquareRoomGrid(), TempPath("no_such_dir/map"));
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("no_such_dir/map.pgm"));
+}
+
+TEST(PngTest, GreyAndRgbRoundTripThroughOpenCv) {
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> byte(0, 255);
+  // Small and odd sizes, one image over 65535 bytes (several stored deflate blocks) and one
+  // over 1 MiB (several IDAT chunks).
+  const int sizes[][2] = {{1, 1}, {3, 2}, {17, 5}, {300, 251}, {700, 600}};
+  for (const auto& size : sizes) {
+    for (int channels : {1, 3}) {
+      const int width = size[0], height = size[1];
+      std::vector<uint8_t> pixels(static_cast<size_t>(width) * height * channels);
+      for (uint8_t& p : pixels) p = static_cast<uint8_t>(byte(rng));
+      const std::string path = TempPath("roundtrip.png");
+      const Status status = WritePng(path, width, height, channels, pixels);
+      ASSERT_TRUE(status.ok()) << status.message();
+      const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+      ASSERT_FALSE(image.empty()) << width << "x" << height << "x" << channels;
+      ASSERT_EQ(width, image.cols);
+      ASSERT_EQ(height, image.rows);
+      ASSERT_EQ(channels, image.channels());
+      ASSERT_EQ(CV_8U, image.depth());
+      for (int r = 0; r < height; ++r) {
+        for (int c = 0; c < width; ++c) {
+          for (int k = 0; k < channels; ++k) {
+            // OpenCV stores colour as BGR.
+            const int cv_k = channels == 3 ? 2 - k : 0;
+            const uint8_t expected = pixels[(static_cast<size_t>(r) * width + c) * channels + k];
+            ASSERT_EQ(expected, image.ptr<uint8_t>(r)[c * channels + cv_k])
+                << width << "x" << height << "x" << channels << " at " << r << "," << c;
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(PngTest, FileStructureIsValid) {
+  const std::string path = TempPath("structure.png");
+  ASSERT_TRUE(WritePng(path, 2, 1, 1, {0, 255}).ok());
+  const std::string png = ReadFile(path);
+  ASSERT_GE(png.size(), 8u + 25u + 12u);
+  EXPECT_EQ(std::string("\x89PNG\r\n\x1a\n", 8), png.substr(0, 8));
+  EXPECT_EQ("IHDR", png.substr(12, 4));
+  // The IEND chunk and its well-known CRC ae 42 60 82.
+  EXPECT_EQ(std::string("\0\0\0\0IEND\xae\x42\x60\x82", 12), png.substr(png.size() - 12));
+  // IDAT: zlib header 78 01, one final stored block of 3 bytes (filter byte + 2 pixels),
+  // then Adler-32 of {0, 0, 255}: a = 256, b = 1 + 1 + 256 = 258 -> 0x01020100.
+  const size_t idat = png.find("IDAT");
+  ASSERT_NE(std::string::npos, idat);
+  const std::string expected_zlib("\x78\x01\x01\x03\x00\xfc\xff\x00\x00\xff\x01\x02\x01\x00", 14);
+  EXPECT_EQ(expected_zlib, png.substr(idat + 4, expected_zlib.size()));
+}
+
+TEST(PngTest, RejectsBadArguments) {
+  EXPECT_THAT(WritePng(TempPath("bad.png"), 0, 5, 1, {}).message(), HasSubstr("empty"));
+  EXPECT_THAT(WritePng(TempPath("bad.png"), 2, 2, 2, std::vector<uint8_t>(8)).message(),
+              HasSubstr("channels must be 1 or 3"));
+  EXPECT_THAT(WritePng(TempPath("bad.png"), 2, 2, 3, std::vector<uint8_t>(11)).message(),
+              HasSubstr("11 pixel bytes given for 2 x 2 x 3"));
+  EXPECT_THAT(WritePng(TempPath("no_such_dir/x.png"), 1, 1, 1, {0}).message(),
+              HasSubstr("no_such_dir/x.png"));
+}
+
+TEST(MapPngTest, DrawsMapAndColouredTrajectoriesWithStartMarkers) {
+  const OccupancyGrid grid = SquareRoomGrid();
+  // Two trajectories inside the room and one that leaves it to the right (x = 3.5): the
+  // picture must grow to include it.
+  const std::vector<std::vector<Pose2>> trajectories = {
+      {Pose2(-1.0, 0.0, 0), Pose2(1.0, 0.0, 0)},
+      {Pose2(-1.0, 1.0, 0), Pose2(0.0, 1.5, 0), Pose2(1.0, 1.0, 0)},
+      {Pose2(0.0, -0.5, 0), Pose2(3.5, -0.5, 0)}};
+  const std::string path = TempPath("map.png");
+  const Status status = WriteMapPng(grid, trajectories, path);
+  ASSERT_TRUE(status.ok()) << status.message();
+  const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+
+  const GridGeometry& g = grid.geometry();
+  CellIndex lo, hi;
+  ObservedBox(grid, &lo, &hi);
+  const int max_x = g.WorldToCell(Eigen::Vector2d(3.5, 0)).x;
+  EXPECT_EQ(max_x - lo.x + 1 + 2 * kMapBorderCells, image.cols);
+  EXPECT_EQ(hi.y - lo.y + 1 + 2 * kMapBorderCells, image.rows);
+  auto pixel_of = [&](const Eigen::Vector2d& p) {
+    const CellIndex c = g.WorldToCell(p);
+    return cv::Point(c.x - (lo.x - kMapBorderCells), (hi.y + kMapBorderCells) - c.y);
+  };
+  auto colour_at = [&](const Eigen::Vector2d& p) {
+    const cv::Vec3b bgr = image.at<cv::Vec3b>(pixel_of(p));
+    return std::vector<int>{bgr[2], bgr[1], bgr[0]};
+  };
+  auto colour_of = [](int index) {
+    uint8_t rgb[3];
+    TrajectoryColor(index, rgb);
+    return std::vector<int>{rgb[0], rgb[1], rgb[2]};
+  };
+  // Distinct colours.
+  EXPECT_NE(colour_of(0), colour_of(1));
+  EXPECT_NE(colour_of(1), colour_of(2));
+  EXPECT_NE(colour_of(0), colour_of(2));
+  // Start markers and points on the polylines (away from other drawings).
+  EXPECT_EQ(colour_of(0), colour_at({-1.0, 0.0}));
+  EXPECT_EQ(colour_of(0), colour_at({0.6, 0.0}));
+  EXPECT_EQ(colour_of(1), colour_at({-1.0, 1.0}));
+  EXPECT_EQ(colour_of(1), colour_at({0.0, 1.5}));
+  EXPECT_EQ(colour_of(2), colour_at({3.0, -0.5}));
+  // The start marker has a black ring 4 pixels out; a pixel 10 cells away is plain map.
+  const cv::Point start = pixel_of({-1.0, 1.0});
+  const cv::Vec3b ring = image.at<cv::Vec3b>(start + cv::Point(0, 4));
+  EXPECT_EQ(cv::Vec3b(0, 0, 0), ring);
+  // The map: a wall cell is black, the room's free inside white-ish, outside the grid grey.
+  const std::vector<int> black = {0, 0, 0}, free_grey = {254, 254, 254},
+                         unknown = {205, 205, 205};
+  EXPECT_EQ(black, colour_at({1.995, -0.2}));
+  EXPECT_EQ(free_grey, colour_at({-0.5, -0.3}));
+  EXPECT_EQ(unknown, colour_at({3.5, 1.5}));
+}
+
+TEST(MapPngTest, RejectsNothingToDrawAndFarAwayPoses) {
+  const OccupancyGrid empty{OccupancyGridOptions()};
+  Status status = WriteMapPng(empty, {}, TempPath("nothing.png"));
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("nothing.png"));
+  EXPECT_THAT(status.message(), HasSubstr("no observed cell and no pose"));
+  status = WriteMapPng(SquareRoomGrid(), {{Pose2(0, 0, 0), Pose2(1e7, 0, 0)}}, TempPath("far.png"));
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("limit 1e8"));
+  status = WriteMapPng(SquareRoomGrid(), {{Pose2(NAN, 0, 0)}}, TempPath("nan.png"));
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("trajectory 0 pose 0 is not finite"));
+  // Trajectories alone (no map) still draw.
+  status = WriteMapPng(empty, {{Pose2(0, 0, 0), Pose2(1, 1, 0)}}, TempPath("only_path.png"));
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_FALSE(cv::imread(TempPath("only_path.png")).empty());
+}
+
+}  // namespace
+}  // namespace hetslam
