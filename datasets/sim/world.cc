@@ -262,7 +262,9 @@ int Scenario::FirstWaypointToReach() const { return has_start_pose ? 0 : 1; }
 
 bool Scenario::IsValid(std::string* error) const {
   std::string why;
-  if (!laser.IsValid(&why) || !robot.IsValid(&why) || !odometry.IsValid(&why)) {
+  const bool options_valid = laser.IsValid(&why) && robot.IsValid(&why) && odometry.IsValid(&why);
+  if (!options_valid) {
+    // `why` names the first invalid option.
   } else if (waypoints.empty()) {
     why = "scenario has no 'waypoint' lines (at least one is needed)";
   } else if (world.empty()) {
