@@ -1,7 +1,10 @@
 #include "core/carmen_log.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -306,6 +309,58 @@ TEST(CarmenLogTest, MalformedLinesAreErrorsNamingFileAndLine) {
     ASSERT_EQ(1u, lenient_log.warnings.size()) << c.line;
     EXPECT_THAT(lenient_log.warnings[0], HasSubstr("bad.clf:2: ")) << c.line;
     EXPECT_THAT(lenient_log.warnings[0], HasSubstr(c.reason)) << c.line;
+  }
+}
+
+// Seeded random mutations of valid lines (tokens dropped, duplicated or replaced by hostile
+// values): reading never crashes; a strict read either succeeds or names file and line 1;
+// a lenient read always succeeds and accounts for the line.
+TEST(CarmenLogTest, RandomlyMutatedLinesNeverCrash) {
+  const std::vector<std::string> good = {
+      "FLASER 4 1 2 3 4 0 0 0 0 0 0 1 nohost 1",
+      "ODOM 1 2 3 0 0 0 5 nohost 5",
+      "ROBOTLASER1 0 -0.1 0.2 0.1 8.0 0.01 0 3 1 2 3 1 7 1 2 3 4 5 6 7 8 9 10 11 1 nohost 1",
+      "RAWLASER1 0 -1.5 3.0 1.5 30 0.01 0 3 1 2 3 0 55.5 nohost 55.6",
+      "PARAM laser_front_laser_fov 180 0 nohost 0"};
+  const std::vector<std::string> hostile = {"nan", "-inf", "1e999", "-1", "999999999", "abc",
+                                            "", "0x10", "3.5", "-2147483649", "FLASER", "#"};
+  std::mt19937 rng(12345);
+  for (int trial = 0; trial < 300; ++trial) {
+    std::vector<std::string> fields;
+    std::istringstream in(good[trial % good.size()]);
+    for (std::string f; in >> f;) fields.push_back(f);
+    const int edits = 1 + static_cast<int>(rng() % 3);
+    for (int e = 0; e < edits && !fields.empty(); ++e) {
+      const size_t at = 1 + rng() % std::max<size_t>(1, fields.size() - 1);
+      const size_t i = std::min(at, fields.size() - 1);
+      switch (rng() % 3) {
+        case 0:
+          fields.erase(fields.begin() + i);
+          break;
+        case 1:
+          fields.insert(fields.begin() + i, fields[i]);
+          break;
+        default:
+          fields[i] = hostile[rng() % hostile.size()];
+      }
+    }
+    std::string line;
+    for (const std::string& f : fields) line += f + " ";
+    const std::string path = WriteText("fuzz.clf", line + "\n");
+    CarmenLog log;
+    const Status status = Read(path, &log);
+    if (!status.ok()) {
+      EXPECT_THAT(status.message(), HasSubstr("fuzz.clf:1: ")) << line;
+    }
+    CarmenLog lenient_log;
+    ASSERT_TRUE(Read(path, &lenient_log, /*lenient=*/true).ok()) << line;
+    const int accounted = static_cast<int>(lenient_log.lasers.size() + lenient_log.odometry.size() +
+                                           lenient_log.params.size()) +
+                          lenient_log.stats.malformed_lines_skipped +
+                          lenient_log.stats.unknown_messages_skipped +
+                          lenient_log.stats.comment_lines;
+    EXPECT_EQ(1, accounted) << line;
+    EXPECT_EQ(status.ok(), lenient_log.stats.malformed_lines_skipped == 0) << line;
   }
 }
 
