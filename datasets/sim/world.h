@@ -88,9 +88,10 @@ class World {
 // Beam i of n is at angle  -fov/2 + i * fov / n       for even n (e.g. 180 or 360 over 180°:
 //                                                     -90° .. +89° / +89.5°, the SICK modes)
 //                          -fov/2 + i * fov / (n - 1) for odd n (361 over 180°: -90° .. +90°)
-// which is exactly how core/carmen_log.h recovers FLASER beam angles, so a written log reads
-// back with the same angles. Beams that hit nothing within max range, and dropouts, are "no
-// return" readings.
+// which is how core/carmen_log.h recovers FLASER beam angles by default (180° fans); for
+// other fans WriteCarmenLog adds PARAM lines (fov, resolution, max range), so a written log
+// reads back with the same angles and the same no-return range. Beams that hit nothing within
+// max range, and dropouts, are "no return" readings.
 struct LaserOptions {
   double field_of_view_radians = M_PI;
   int num_beams = 361;

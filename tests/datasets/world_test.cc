@@ -1,6 +1,7 @@
 #include "datasets/sim/world.h"
 
 #include <cmath>
+#include <fstream>
 #include <string>
 
 #include "gmock/gmock.h"
@@ -233,6 +234,19 @@ TEST(ScenarioTest, MissingFileIsAnErrorNamingThePath) {
   const Status status = ReadScenarioFile("/nonexistent/dir/x.scenario", &scenario);
   ASSERT_FALSE(status.ok());
   EXPECT_THAT(status.message(), HasSubstr("/nonexistent/dir/x.scenario"));
+}
+
+TEST(ScenarioTest, FileErrorsNameThePathAndLine) {
+  const std::string path = testing::TempDir() + "/world_test_bad.scenario";
+  {
+    std::ofstream file(path);
+    file << "wall 0 0 10 0\n# comment\nwaypoint 1 2\nrobot 0.5 fast\n";
+  }
+  Scenario scenario;
+  const Status status = ReadScenarioFile(path, &scenario);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.message().rfind(path + ":4: ", 0), 0u) << status.message();
+  EXPECT_THAT(status.message(), HasSubstr("'fast' is not a number"));
 }
 
 TEST(ScenarioTest, ShippedOfficeLoopIsAConsistentFloorPlan) {
