@@ -26,10 +26,10 @@
 // |dyaw| < pi) is smooth everywhere, which is all Ceres uses.
 //
 // Thread-safety: stateless; one instance may be shared by any number of blocks and problems.
-// Ownership: ceres::Problem takes ownership of a manifold passed to SetManifold unless
-// Problem::Options::manifold_ownership is DO_NOT_TAKE_OWNERSHIP; a manifold shared by several
-// blocks must be owned only once (allocate one per problem, or keep your own and set
-// DO_NOT_TAKE_OWNERSHIP). CreateSe2Manifold() returns a new object the caller owns.
+// Ownership: ceres::Problem deletes the manifolds it is given (once each, even when one is shared
+// by many blocks) unless Problem::Options::manifold_ownership is DO_NOT_TAKE_OWNERSHIP: so either
+// give each problem a heap object (CreateSe2Manifold(), which returns a new object the caller
+// owns until handed over), or keep one that outlives the problem and set DO_NOT_TAKE_OWNERSHIP.
 #ifndef HETSLAM_FACTORS_SE2_MANIFOLD_H_
 #define HETSLAM_FACTORS_SE2_MANIFOLD_H_
 
