@@ -1,6 +1,8 @@
 #include "core/laser_scan.h"
 
 #include <cmath>
+#include <cstdint>
+#include <unordered_set>
 
 #include "glog/logging.h"
 
@@ -47,6 +49,19 @@ std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan) {
   std::vector<Eigen::Vector2f> points;
   for (const ProjectedPoint& p : ProjectScan(scan, BodyAttitude())) points.push_back(p.p_robot);
   return points;
+}
+
+std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters) {
+  CHECK_GT(voxel_size_meters, 0.f) << "voxel_size_meters=" << voxel_size_meters;
+  std::unordered_set<uint64_t> seen;
+  std::vector<Eigen::Vector2f> kept;
+  for (const Eigen::Vector2f& p : points) {
+    const int64_t ix = static_cast<int64_t>(std::floor(p.x() / voxel_size_meters));
+    const int64_t iy = static_cast<int64_t>(std::floor(p.y() / voxel_size_meters));
+    const uint64_t key = (static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffu);
+    if (seen.insert(key).second) kept.push_back(p);
+  }
+  return kept;
 }
 
 }  // namespace hetslam

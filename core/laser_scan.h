@@ -57,6 +57,10 @@ std::vector<ProjectedPoint> ProjectScan(const LaserScan& scan, const BodyAttitud
 // Convenience for a level robot: the 2D end points of the valid beams in the robot frame.
 std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan);
 
+// Keeps the first point (in input order) of every square voxel of side `voxel_size_meters`,
+// so that dense near walls do not outvote sparse far structure. Deterministic.
+std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters);
+
 }  // namespace hetslam
 
 #endif  // HETSLAM_CORE_LASER_SCAN_H_

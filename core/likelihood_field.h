@@ -25,7 +25,7 @@
 namespace hetslam {
 
 struct LikelihoodFieldOptions {
-  double sigma_meters = 0.05;            // p_hit ~ exp(-d / sigma)
+  double sigma_meters = 0.10;            // p_hit ~ exp(-d / sigma)
   double max_distance_meters = 0.30;     // window radius R = ceil(max_distance / resolution)
   double republish_distance_meters = 0.005;
 

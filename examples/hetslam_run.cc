@@ -2,6 +2,7 @@
 //
 //   hetslam_run --log=intel.clf --out=out/intel
 //   hetslam_run --log=sim/log.clf --truth=sim/truth.txt --out=out/sim
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -24,15 +25,24 @@ DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of st
 DEFINE_bool(use_odometry, false, "Predict each scan's pose from the log's odometry. Off by default: the pipeline is "
             "odometry-free and uses --prediction instead.");
 DEFINE_string(prediction, "constant_velocity", "Motion prediction without odometry: constant_velocity (extrapolate "
-              "--velocity_fraction of the last motion) or stationary.");
-DEFINE_double(velocity_fraction, 0.5, "Fraction of the last scan-to-scan motion extrapolated by constant_velocity, in [0, 1.5].");
+              "--velocity_fraction of the last translation and --angular_velocity_fraction of the last turn) or stationary.");
+DEFINE_double(velocity_fraction, 0.5, "Fraction of the last scan-to-scan translation (robot frame) extrapolated by "
+              "constant_velocity, in [0, 1.5].");
+DEFINE_double(angular_velocity_fraction, 0.0, "Fraction of the last scan-to-scan heading change extrapolated by "
+              "constant_velocity, in [0, 1.5].");
 DEFINE_double(resolution, 0.05, "Grid cell size in metres (paper: 5 cm).");
-DEFINE_double(sigma, 0.05, "Likelihood field p_hit ~ exp(-d / sigma): sigma in metres.");
+DEFINE_double(sigma, 0.10, "Likelihood field p_hit ~ exp(-d / sigma): sigma in metres.");
 DEFINE_double(field_max_distance, 0.3, "Likelihood field window radius in metres (beyond it p_hit = 0).");
 DEFINE_double(linear_window, 1.2, "Scan matcher search window, ± metres around the prediction in x and y.");
 DEFINE_double(angular_window_deg, 40.0, "Scan matcher search window, ± degrees around the predicted heading.");
 DEFINE_double(min_score, 0.10, "Minimum correlative score (mean p_hit) for a match to count; else the scan is "
               "inserted at the prediction and counted as a failure.");
+DEFINE_double(free_space_penalty, 0.5, "Score penalty for each scan point that lands in known free space away from any "
+              "hit (disambiguates corridors); 0 disables.");
+DEFINE_double(translation_penalty, 0.0, "Weak motion prior: score penalty per square metre of distance from the prediction.");
+DEFINE_double(rotation_penalty, 0.0, "Weak motion prior: score penalty per square radian of heading change from the prediction.");
+DEFINE_double(matching_voxel, 0.20, "Thin the points used for scan matching to one per voxel of this size in metres, "
+              "so near walls do not outvote far structure (0 = use every point). The map gets every point.");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
@@ -55,8 +65,13 @@ bool OptionsFromFlags(ScanMatchingSlamOptions* options, std::string* error) {
   options->matcher.linear_search_window_meters = FLAGS_linear_window;
   options->matcher.angular_search_window_radians = FLAGS_angular_window_deg * M_PI / 180.0;
   options->matcher.min_correlative_score = FLAGS_min_score;
+  options->matcher.free_space_penalty = FLAGS_free_space_penalty;
+  options->matcher.translation_penalty_per_square_meter = FLAGS_translation_penalty;
+  options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
   options->max_point_range_meters = FLAGS_max_range;
+  options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
+  options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
   if (FLAGS_use_odometry) {
     options->prediction = MotionPrediction::kOdometry;
   } else if (!ParseMotionPrediction(FLAGS_prediction, &options->prediction) ||
@@ -108,10 +123,13 @@ int Run() {
   std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log
             << (FLAGS_use_odometry ? " (odometry prediction)" : " (no odometry)") << "\n";
   ScanMatchingSlam slam(options);
+  std::vector<double> scores;
   const auto start = std::chrono::steady_clock::now();
   for (size_t i = 0; i < num_scans; ++i) {
     const LaserReading& reading = log.lasers[i];
-    slam.AddScan(reading.scan, reading.has_odometry_pose ? std::optional<Pose2>(reading.odometry_pose) : std::nullopt);
+    const ScanResult result =
+        slam.AddScan(reading.scan, reading.has_odometry_pose ? std::optional<Pose2>(reading.odometry_pose) : std::nullopt);
+    if (result.match.converged) scores.push_back(result.match.score);
     if (FLAGS_progress_every > 0 && (i + 1) % FLAGS_progress_every == 0) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       std::fprintf(stderr, "  %zu/%zu scans, %.1f s, %.0f scans/s\n", i + 1, num_scans, elapsed, (i + 1) / elapsed);
@@ -139,6 +157,11 @@ int Run() {
   const double duration = last - first;
   std::printf("scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n",
               stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards);
+  if (!scores.empty()) {
+    std::sort(scores.begin(), scores.end());
+    std::printf("match score (mean likelihood at the matched pose): p10 %.3f, median %.3f, p90 %.3f\n",
+                scores[scores.size() / 10], scores[scores.size() / 2], scores[scores.size() * 9 / 10]);
+  }
   std::printf("time: %.2f s wall, %.1f scans/s, data duration %.1f s, real-time factor %.1fx\n", wall_seconds,
               stats.scans / wall_seconds, duration, duration / wall_seconds);
   if (!truth.empty()) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "ceres/ceres.h"
@@ -23,6 +24,7 @@ struct Candidate {
 // translation offset, and the box of cells any candidate can touch.
 struct DiscretizedSearch {
   std::vector<double> yaws;
+  std::vector<double> yaw_offsets;  // yaw - predicted yaw
   std::vector<std::vector<CellIndex>> cells;  // [yaw][point]
   int window_cells = 0;
   CellIndex region_min{0, 0};
@@ -60,6 +62,7 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const GridGeomet
       hi = {std::max(hi.x, c.x), std::max(hi.y, c.y)};
     }
     search.yaws.push_back(yaw);
+    search.yaw_offsets.push_back(k * step);
     search.cells.push_back(std::move(cells));
   }
   const int w = search.window_cells;
@@ -71,17 +74,25 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const GridGeomet
 
 // Max-pooled copies of the field over the search region: levels[h](c) is the max of the
 // field over the 2^h × 2^h block whose minimum corner is c (cells outside the field are 0).
-std::vector<std::vector<float>> BuildPyramid(const LikelihoodField& field, const DiscretizedSearch& s,
-                                             int depth) {
+std::vector<std::vector<float>> BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth,
+                                             float free_space_penalty) {
   const int w = s.region_width, h = s.region_height;
   std::vector<std::vector<float>> levels(depth + 1, std::vector<float>(static_cast<size_t>(w) * h, 0.f));
+  const LikelihoodField& field = map.field();
   const GridGeometry& g = field.geometry();
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
   for (int y = 0; y < h; ++y) {
     const int gy = s.region_min.y + y;
     if (gy < 0 || gy >= g.height() || x_begin >= x_end) continue;
-    const float* src = field.values().data() + static_cast<size_t>(gy) * g.width() + s.region_min.x;
-    std::copy(src + x_begin, src + x_end, levels[0].begin() + static_cast<size_t>(y) * w + x_begin);
+    const size_t row = static_cast<size_t>(gy) * g.width() + s.region_min.x;
+    float* dst = levels[0].data() + static_cast<size_t>(y) * w;
+    for (int x = x_begin; x < x_end; ++x) {
+      const float value = field.Value(static_cast<int>(row + x));
+      // A point in known free space, away from any hit, is evidence against the pose.
+      dst[x] = (value == 0.f && free_space_penalty > 0.f && map.grid().State(static_cast<int>(row + x)) == CellState::kFree)
+                   ? -free_space_penalty
+                   : value;
+    }
   }
   for (int level = 1; level <= depth; ++level) {
     const int half = 1 << (level - 1);
@@ -98,21 +109,6 @@ std::vector<std::vector<float>> BuildPyramid(const LikelihoodField& field, const
   return levels;
 }
 
-float ScoreCandidate(const std::vector<float>& level, const DiscretizedSearch& s,
-                     const std::vector<float>& weights, double inv_weight_sum, int yaw_index, int dx, int dy) {
-  const std::vector<CellIndex>& cells = s.cells[yaw_index];
-  const int ox = dx - s.region_min.x, oy = dy - s.region_min.y;
-  double sum = 0.0;
-  if (weights.empty()) {
-    for (const CellIndex& c : cells) sum += level[static_cast<size_t>(c.y + oy) * s.region_width + c.x + ox];
-  } else {
-    for (size_t i = 0; i < cells.size(); ++i) {
-      sum += weights[i] * level[static_cast<size_t>(cells[i].y + oy) * s.region_width + cells[i].x + ox];
-    }
-  }
-  return static_cast<float>(sum * inv_weight_sum);
-}
-
 double InverseWeightSum(const std::vector<float>& weights, size_t n) {
   if (weights.empty()) return 1.0 / n;
   double sum = 0.0;
@@ -120,13 +116,47 @@ double InverseWeightSum(const std::vector<float>& weights, size_t n) {
   return sum > 0.0 ? 1.0 / sum : 0.0;
 }
 
+// Everything a candidate's score depends on. Score of a block of 2^h × 2^h offsets at level h:
+//   weighted mean of M_h over the points − motion penalty of the block's offset nearest to the
+//   prediction, an upper bound of every member's score (paper eq. 1 with a weak motion prior).
+struct SearchContext {
+  const DiscretizedSearch* search;
+  const std::vector<std::vector<float>>* levels;
+  const std::vector<float>* weights;
+  double inv_weight_sum;
+  double resolution_meters;
+  double translation_penalty_per_square_meter;
+  double rotation_penalty_per_square_radian;
+
+  float Score(int level, int yaw_index, int dx, int dy) const {
+    const DiscretizedSearch& s = *search;
+    const std::vector<float>& table = (*levels)[level];
+    const std::vector<CellIndex>& cells = s.cells[yaw_index];
+    const int ox = dx - s.region_min.x, oy = dy - s.region_min.y;
+    double sum = 0.0;
+    if (weights->empty()) {
+      for (const CellIndex& c : cells) sum += table[static_cast<size_t>(c.y + oy) * s.region_width + c.x + ox];
+    } else {
+      for (size_t i = 0; i < cells.size(); ++i) {
+        sum += (*weights)[i] * table[static_cast<size_t>(cells[i].y + oy) * s.region_width + cells[i].x + ox];
+      }
+    }
+    const int size = 1 << level;
+    auto nearest_to_zero = [size](int begin) { return begin > 0 ? begin : (begin + size - 1 < 0 ? begin + size - 1 : 0); };
+    const double tx = nearest_to_zero(dx) * resolution_meters, ty = nearest_to_zero(dy) * resolution_meters;
+    const double dyaw = s.yaw_offsets[yaw_index];
+    return static_cast<float>(sum * inv_weight_sum - translation_penalty_per_square_meter * (tx * tx + ty * ty) -
+                              rotation_penalty_per_square_radian * dyaw * dyaw);
+  }
+};
+
 // Depth-first branch and bound (children visited best-bound first); `best` holds the best
 // leaf so far and prunes every block whose bound cannot beat it.
-void BranchAndBound(const std::vector<std::vector<float>>& levels, const DiscretizedSearch& s,
-                    const std::vector<float>& weights, double inv_weight_sum, std::vector<Candidate> candidates,
-                    int level, Candidate* best, int* scored) {
+void BranchAndBound(const SearchContext& context, std::vector<Candidate> candidates, int level, Candidate* best,
+                    int* scored) {
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  const int window = context.search->window_cells;
   for (const Candidate& candidate : candidates) {
     if (candidate.score <= best->score) break;
     if (level == 0) {
@@ -139,13 +169,12 @@ void BranchAndBound(const std::vector<std::vector<float>>& levels, const Discret
     for (int oy : {0, half}) {
       for (int ox : {0, half}) {
         const int dx = candidate.dx + ox, dy = candidate.dy + oy;
-        if (dx > s.window_cells || dy > s.window_cells) continue;
-        children.push_back({candidate.yaw_index, dx, dy,
-                            ScoreCandidate(levels[level - 1], s, weights, inv_weight_sum, candidate.yaw_index, dx, dy)});
+        if (dx > window || dy > window) continue;
+        children.push_back({candidate.yaw_index, dx, dy, context.Score(level - 1, candidate.yaw_index, dx, dy)});
         ++*scored;
       }
     }
-    BranchAndBound(levels, s, weights, inv_weight_sum, std::move(children), level - 1, best, scored);
+    BranchAndBound(context, std::move(children), level - 1, best, scored);
   }
 }
 
@@ -164,6 +193,13 @@ double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std:
   return sum * InverseWeightSum(weights, points.size());
 }
 
+SearchContext MakeContext(const ScanMatcherOptions& options, const LaserMap& map, const DiscretizedSearch& s,
+                          const std::vector<std::vector<float>>& levels, const std::vector<float>& weights) {
+  return SearchContext{&s, &levels, &weights, InverseWeightSum(weights, s.cells.front().size()),
+                       map.field().geometry().resolution_meters(),
+                       options.translation_penalty_per_square_meter, options.rotation_penalty_per_square_radian};
+}
+
 }  // namespace
 
 bool ScanMatcherOptions::IsValid(std::string* error) const {
@@ -178,6 +214,9 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
     msg << "branch_and_bound_depth must be in [0, 10] (got " << branch_and_bound_depth << "); ";
   if (!(min_correlative_score >= 0 && min_correlative_score < 1)) msg << "min_correlative_score must be in [0, 1); ";
   if (max_ceres_iterations < 0) msg << "max_ceres_iterations must be >= 0; ";
+  if (!(free_space_penalty >= 0)) msg << "free_space_penalty must be >= 0; ";
+  if (!(translation_penalty_per_square_meter >= 0 && rotation_penalty_per_square_radian >= 0))
+    msg << "motion penalties must be >= 0; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -187,20 +226,21 @@ ScanMatcher::ScanMatcher(const ScanMatcherOptions& options) : options_(options) 
   CHECK(options_.IsValid(&error)) << "invalid ScanMatcherOptions: " << error;
 }
 
-ScanMatchResult ScanMatcher::BruteForceSearch(const LikelihoodField& field, const Pose2& predicted,
+ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& predicted,
                                               const std::vector<Eigen::Vector2f>& points_robot,
                                               const std::vector<float>& weights) const {
   ScanMatchResult result;
   result.pose = predicted;
+  const LikelihoodField& field = map.field();
   if (points_robot.empty() || field.geometry().num_cells() == 0) return result;
   const DiscretizedSearch s = Discretize(options_, field.geometry(), predicted, points_robot, 1);
-  const std::vector<std::vector<float>> levels = BuildPyramid(field, s, 0);
-  const double inv_weight_sum = InverseWeightSum(weights, points_robot.size());
-  Candidate best{0, 0, 0, -1.f};
+  const std::vector<std::vector<float>> levels = BuildPyramid(map, s, 0, options_.free_space_penalty);
+  const SearchContext context = MakeContext(options_, map, s, levels, weights);
+  Candidate best{0, 0, 0, -std::numeric_limits<float>::infinity()};
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
     for (int dy = -s.window_cells; dy <= s.window_cells; ++dy) {
       for (int dx = -s.window_cells; dx <= s.window_cells; ++dx) {
-        const float score = ScoreCandidate(levels[0], s, weights, inv_weight_sum, k, dx, dy);
+        const float score = context.Score(0, k, dx, dy);
         ++result.candidates_scored;
         if (score > best.score) best = {k, dx, dy, score};
       }
@@ -213,11 +253,12 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LikelihoodField& field, cons
   return result;
 }
 
-ScanMatchResult ScanMatcher::Match(const LikelihoodField& field, const Pose2& predicted,
+ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                    const std::vector<Eigen::Vector2f>& points_robot,
                                    const std::vector<float>& weights) const {
   CHECK(weights.empty() || weights.size() == points_robot.size())
       << weights.size() << " weights for " << points_robot.size() << " points";
+  const LikelihoodField& field = map.field();
   ScanMatchResult result;
   result.pose = predicted;
   if (points_robot.empty()) {
@@ -231,20 +272,20 @@ ScanMatchResult ScanMatcher::Match(const LikelihoodField& field, const Pose2& pr
   const int depth = options_.branch_and_bound_depth;
   const int block = 1 << depth;
   const DiscretizedSearch s = Discretize(options_, field.geometry(), predicted, points_robot, block);
-  const std::vector<std::vector<float>> levels = BuildPyramid(field, s, depth);
-  const double inv_weight_sum = InverseWeightSum(weights, points_robot.size());
+  const std::vector<std::vector<float>> levels = BuildPyramid(map, s, depth, options_.free_space_penalty);
+  const SearchContext context = MakeContext(options_, map, s, levels, weights);
 
   std::vector<Candidate> top;
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
     for (int dy = -s.window_cells; dy <= s.window_cells; dy += block) {
       for (int dx = -s.window_cells; dx <= s.window_cells; dx += block) {
-        top.push_back({k, dx, dy, ScoreCandidate(levels[depth], s, weights, inv_weight_sum, k, dx, dy)});
+        top.push_back({k, dx, dy, context.Score(depth, k, dx, dy)});
       }
     }
   }
   result.candidates_scored = static_cast<int>(top.size());
   Candidate best{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
-  BranchAndBound(levels, s, weights, inv_weight_sum, std::move(top), depth, &best, &result.candidates_scored);
+  BranchAndBound(context, std::move(top), depth, &best, &result.candidates_scored);
   if (best.yaw_index < 0) {
     std::ostringstream msg;
     msg << "no candidate within ±" << options_.linear_search_window_meters << " m, ±"
@@ -275,8 +316,8 @@ ScanMatchResult ScanMatcher::Match(const LikelihoodField& field, const Pose2& pr
     result.final_cost = summary.final_cost;
     // Keep the refinement only if it stayed near the discrete optimum and did not lower
     // the score; otherwise the discrete pose is the better answer.
-    const double refined_score = BilinearScore(field, refined, points_robot, weights);
-    const double discrete_score = BilinearScore(field, result.pose, points_robot, weights);
+    const double refined_score = BilinearScore(map.field(), refined, points_robot, weights);
+    const double discrete_score = BilinearScore(map.field(), result.pose, points_robot, weights);
     if (summary.IsSolutionUsable() && refined_score >= discrete_score &&
         (refined.translation() - result.pose.translation()).norm() < 4 * r) {
       result.pose = refined;
@@ -294,7 +335,7 @@ ScanMatchResult ScanMatcher::Match(const LikelihoodField& field, const Pose2& pr
     }
     result.information = jtj;
   }
-  result.score = BilinearScore(field, result.pose, points_robot, weights);
+  result.score = BilinearScore(map.field(), result.pose, points_robot, weights);
   return result;
 }
 

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "Eigen/Core"
-#include "core/likelihood_field.h"
+#include "core/laser_map.h"
 #include "core/se2.h"
 
 namespace hetslam {
@@ -31,6 +31,12 @@ struct ScanMatcherOptions {
   double max_angular_step_radians = 0.0175;
   int branch_and_bound_depth = 4;               // coarsest block is 2^depth cells
   double min_correlative_score = 0.10;          // below: the match failed
+  // Subtracted from the score for each point that lands in known free space away from any
+  // hit: scans shifted along a corridor put their end-wall points into free space.
+  double free_space_penalty = 0.5;
+  // Weak motion prior: score -= a * |t - t_pred|^2 + b * (yaw - yaw_pred)^2.
+  double translation_penalty_per_square_meter = 0.0;
+  double rotation_penalty_per_square_radian = 0.0;
   bool refine_with_ceres = true;
   int max_ceres_iterations = 20;
 
@@ -53,16 +59,16 @@ class ScanMatcher {
  public:
   explicit ScanMatcher(const ScanMatcherOptions& options);
 
-  // Matches `points_robot` (robot frame, metres) against `field` around `predicted`
-  // (world_T_robot). `weights` empty or one per point. The field must not change during
-  // the call.
-  ScanMatchResult Match(const LikelihoodField& field, const Pose2& predicted,
+  // Matches `points_robot` (robot frame, metres) against the map's likelihood field (and its
+  // free space, for the penalty) around `predicted` (world_T_robot). `weights` empty or one
+  // per point. The map must not change during the call.
+  ScanMatchResult Match(const LaserMap& map, const Pose2& predicted,
                         const std::vector<Eigen::Vector2f>& points_robot,
                         const std::vector<float>& weights = {}) const;
 
   // Exhaustive evaluation of every discrete candidate (for tests of the branch and bound);
   // returns the best as `pose` with its correlative score.
-  ScanMatchResult BruteForceSearch(const LikelihoodField& field, const Pose2& predicted,
+  ScanMatchResult BruteForceSearch(const LaserMap& map, const Pose2& predicted,
                                    const std::vector<Eigen::Vector2f>& points_robot,
                                    const std::vector<float>& weights = {}) const;
 

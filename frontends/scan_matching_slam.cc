@@ -27,7 +27,10 @@ bool ScanMatchingSlamOptions::IsValid(std::string* error) const {
   if (!matcher.IsValid(&sub)) msg << "matcher: " << sub;
   if (!(velocity_fraction >= 0 && velocity_fraction <= 1.5))
     msg << "velocity_fraction must be in [0, 1.5] (got " << velocity_fraction << "); ";
+  if (!(angular_velocity_fraction >= 0 && angular_velocity_fraction <= 1.5))
+    msg << "angular_velocity_fraction must be in [0, 1.5] (got " << angular_velocity_fraction << "); ";
   if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
+  if (!(matching_voxel_meters >= 0)) msg << "matching_voxel_meters must be >= 0; ";
   if (min_points < 1) msg << "min_points must be >= 1; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
@@ -48,7 +51,8 @@ Pose2 ScanMatchingSlam::Predict(const std::optional<Pose2>& odometry_pose) const
     case MotionPrediction::kConstantVelocity: {
       if (trajectory_.size() < 2) return last;
       const Pose2 delta = Between(trajectory_[trajectory_.size() - 2].pose, last);
-      return last * Interpolate(Pose2::Identity(), delta, options_.velocity_fraction);
+      return last * Pose2(options_.velocity_fraction * delta.translation(),
+                          options_.angular_velocity_fraction * delta.theta());
     }
     case MotionPrediction::kOdometry:
       CHECK(odometry_pose.has_value()) << "odometry prediction needs an odometry pose with every scan";
@@ -76,7 +80,10 @@ ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<
     return result;
   }
   if (map_.num_scans_inserted() > 0) {
-    result.match = matcher_.Match(map_.field(), result.predicted, points);
+    const std::vector<Eigen::Vector2f> matching_points =
+        options_.matching_voxel_meters > 0 ? VoxelFilter(points, static_cast<float>(options_.matching_voxel_meters))
+                                           : points;
+    result.match = matcher_.Match(map_, result.predicted, matching_points);
     if (result.match.converged) {
       result.pose = result.match.pose;
     } else {

@@ -35,10 +35,17 @@ struct ScanMatchingSlamOptions {
   LikelihoodFieldOptions field;
   ScanMatcherOptions matcher;
   MotionPrediction prediction = MotionPrediction::kConstantVelocity;
-  // Fraction of the last motion extrapolated by kConstantVelocity (0 = stationary).
+  // Fractions of the last scan-to-scan translation (in the robot frame) and heading change
+  // extrapolated by kConstantVelocity (0 = stationary). Heading changes of robots without
+  // odometry come in bursts (turn, then go straight), so by default only translation is
+  // extrapolated.
   double velocity_fraction = 0.5;
+  double angular_velocity_fraction = 0.0;
   // Points farther than this are not used (long ranges amplify yaw error and cost time).
   double max_point_range_meters = 30.0;
+  // Points used for matching are thinned to one per voxel of this size (0 = all points);
+  // the map always receives every point.
+  double matching_voxel_meters = 0.20;
   // Scans with fewer valid points are not matched or inserted (counted as skipped).
   int min_points = 20;
 

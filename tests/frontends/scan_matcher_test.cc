@@ -65,7 +65,7 @@ class ScanMatcherTest : public ::testing::Test {
   void ExpectConvergesFrom(const Pose2& truth, const Pose2& offset) {
     std::mt19937 rng(2);
     const std::vector<Eigen::Vector2f> scan = SimulateScan(walls_, truth, 0.01, &rng);
-    const ScanMatchResult result = matcher_.Match(map_.field(), truth * offset, scan);
+    const ScanMatchResult result = matcher_.Match(map_, truth * offset, scan);
     ASSERT_TRUE(result.converged) << result.message;
     EXPECT_NEAR(truth.x(), result.pose.x(), 0.02) << "from offset " << offset;
     EXPECT_NEAR(truth.y(), result.pose.y(), 0.02) << "from offset " << offset;
@@ -97,11 +97,11 @@ TEST_F(ScanMatcherTest, ConvergesFromSparseLogOffsets) {
 }
 
 TEST_F(ScanMatcherTest, FailsCleanlyOnEmptyInput) {
-  const ScanMatchResult result = matcher_.Match(map_.field(), Pose2(), {});
+  const ScanMatchResult result = matcher_.Match(map_, Pose2(), {});
   EXPECT_FALSE(result.converged);
   EXPECT_FALSE(result.message.empty());
   LaserMap empty{OccupancyGridOptions(), LikelihoodFieldOptions()};
-  const ScanMatchResult on_empty = matcher_.Match(empty.field(), Pose2(), {{1.f, 0.f}});
+  const ScanMatchResult on_empty = matcher_.Match(empty, Pose2(), {{1.f, 0.f}});
   EXPECT_FALSE(on_empty.converged);
 }
 
@@ -116,7 +116,7 @@ TEST_F(ScanMatcherTest, ZeroWeightPointsAreIgnored) {
     scan.emplace_back(clutter(rng), clutter(rng));
     weights.push_back(0.f);
   }
-  const ScanMatchResult result = matcher_.Match(map_.field(), truth * Pose2(0.2, -0.1, 0.1), scan, weights);
+  const ScanMatchResult result = matcher_.Match(map_, truth * Pose2(0.2, -0.1, 0.1), scan, weights);
   ASSERT_TRUE(result.converged);
   EXPECT_NEAR(truth.x(), result.pose.x(), 0.02);
   EXPECT_NEAR(truth.y(), result.pose.y(), 0.02);
@@ -132,13 +132,16 @@ TEST_F(ScanMatcherTest, BranchAndBoundMatchesBruteForceOnRandomPoses) {
   options.linear_search_window_meters = 0.4;
   options.angular_search_window_radians = 0.1;
   options.min_correlative_score = 0.0;
-  const ScanMatcher matcher(options);
   for (int trial = 0; trial < 12; ++trial) {
+    // Half of the trials with a motion prior, whose bound must stay exact too.
+    options.translation_penalty_per_square_meter = trial % 2 ? 0.3 : 0.0;
+    options.rotation_penalty_per_square_radian = trial % 2 ? 0.5 : 0.0;
+    const ScanMatcher matcher(options);
     const Pose2 truth(xy(rng), xy(rng), th(rng));
     const std::vector<Eigen::Vector2f> scan = SimulateScan(walls_, truth, 0.02, &rng);
     const Pose2 predicted = truth * Pose2(off(rng), off(rng), off_th(rng));
-    const ScanMatchResult fast = matcher.Match(map_.field(), predicted, scan);
-    const ScanMatchResult brute = matcher.BruteForceSearch(map_.field(), predicted, scan);
+    const ScanMatchResult fast = matcher.Match(map_, predicted, scan);
+    const ScanMatchResult brute = matcher.BruteForceSearch(map_, predicted, scan);
     ASSERT_TRUE(fast.converged);
     EXPECT_FLOAT_EQ(brute.correlative_score, fast.correlative_score) << "trial " << trial;
     EXPECT_LT(fast.candidates_scored, brute.candidates_scored) << "trial " << trial;
