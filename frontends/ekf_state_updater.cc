@@ -6,7 +6,6 @@
 #include <utility>
 
 #include "Eigen/Cholesky"
-#include "Eigen/Eigenvalues"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -35,11 +34,14 @@ Status CheckCovariance(const Eigen::Matrix<double, M, M>& covariance, const char
     message << what << " at t=" << stamp_seconds << " has a non-symmetric covariance";
     return Status::Error(message.str());
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, M, M>> eigen(covariance);
-  if (eigen.eigenvalues().minCoeff() < -1e-12 * scale || eigen.eigenvalues().maxCoeff() <= 0.0) {
+  // Pivoted LDLᵀ is cheap at these sizes (an eigen-decomposition would cost more than the
+  // filter update) and exposes a negative or all-zero diagonal.
+  const Eigen::LDLT<Eigen::Matrix<double, M, M>> ldlt(covariance);
+  const auto d = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || d.minCoeff() < -1e-12 * scale || d.maxCoeff() <= 0.0) {
     message << what << " at t=" << stamp_seconds
-            << " has a covariance that is not positive semi-definite (eigenvalues "
-            << eigen.eigenvalues().transpose() << ")";
+            << " has a covariance that is not positive semi-definite (LDLT pivots "
+            << d.transpose() << ")";
     return Status::Error(message.str());
   }
   return Status::Ok();
@@ -74,10 +76,14 @@ void UpdateSelected(const Eigen::Matrix<double, M, 1>& z, const int* rows,
   const Eigen::Matrix<double, kEkfStateSize, M> K = llt.solve(PHt.transpose()).transpose();
   X += K * nu;
   WrapAngles(&X);
-  // Joseph form: P = (I - K H) P (I - K H)ᵀ + K R Kᵀ.
-  EkfMatrix I_KH = EkfMatrix::Identity();
-  for (int i = 0; i < M; ++i) I_KH.col(rows[i]) -= K.col(i);
-  P = I_KH * P * I_KH.transpose() + K * R * K.transpose();
+  // Joseph form P = (I - K H) P (I - K H)ᵀ + K R Kᵀ, using the selection structure of H:
+  // A = P - K (H P), then A (I - K H)ᵀ = A - (A Hᵀ) Kᵀ. 12×M×12 work instead of 12³.
+  Eigen::Matrix<double, M, kEkfStateSize> HP;
+  for (int i = 0; i < M; ++i) HP.row(i) = P.row(rows[i]);
+  const EkfMatrix A = P - K * HP;
+  Eigen::Matrix<double, kEkfStateSize, M> AHt;
+  for (int i = 0; i < M; ++i) AHt.col(i) = A.col(rows[i]);
+  P = A - AHt * K.transpose() + K * R * K.transpose();
   P = 0.5 * (P + P.transpose()).eval();
 }
 
@@ -300,7 +306,7 @@ void EkfStateUpdater::PredictConstantVelocity(double dt, StateEstimate* estimate
   // P = F P Fᵀ: rows then columns.
   for (const auto& pair : pairs) P.row(pair[0]) += dt * P.row(pair[1]);
   for (const auto& pair : pairs) P.col(pair[0]) += dt * P.col(pair[1]);
-  EkfMatrix Q = EkfMatrix::Zero();
+  EkfMatrix& Q = P;  // the noise is added in place
   const double q_xy = std::pow(options_.horizontal_acceleration_noise_mps2_per_sqrt_hz, 2);
   const double q_z = std::pow(options_.vertical_acceleration_noise_mps2_per_sqrt_hz, 2);
   const double q_tilt = std::pow(options_.tilt_acceleration_noise_radps2_per_sqrt_hz, 2);
@@ -311,7 +317,6 @@ void EkfStateUpdater::PredictConstantVelocity(double dt, StateEstimate* estimate
   AddConstantVelocityNoise(kRoll, kRollRate, q_tilt, dt, &Q);
   AddConstantVelocityNoise(kPitch, kPitchRate, q_tilt, dt, &Q);
   AddConstantVelocityNoise(kYaw, kYawRate, q_yaw, dt, &Q);
-  P += Q;
   WrapAngles(&X);
 }
 
@@ -340,20 +345,22 @@ void EkfStateUpdater::PredictWithCommand(double dt, const BodyVelocityCommand& c
   P.col(kY) += dy_dphi * P.col(kYaw);
   for (const auto& pair : cv_pairs) P.col(pair[0]) += dt * P.col(pair[1]);
 
-  EkfMatrix Q = EkfMatrix::Zero();
+  EkfMatrix& Q = P;  // the noise is added in place
   const double q_pos = std::pow(options_.command_position_noise_meters_per_sqrt_second, 2);
   const double q_vel = std::pow(options_.command_velocity_noise_mps_per_sqrt_second, 2);
-  Q(kX, kX) = Q(kY, kY) = q_pos * dt;
-  Q(kVx, kVx) = Q(kVy, kVy) = q_vel * dt;
-  Q(kYaw, kYaw) = std::pow(options_.command_yaw_noise_radians_per_sqrt_second, 2) * dt;
-  Q(kYawRate, kYawRate) = std::pow(options_.command_yaw_rate_noise_radps_per_sqrt_second, 2) * dt;
+  Q(kX, kX) += q_pos * dt;
+  Q(kY, kY) += q_pos * dt;
+  Q(kVx, kVx) += q_vel * dt;
+  Q(kVy, kVy) += q_vel * dt;
+  Q(kYaw, kYaw) += std::pow(options_.command_yaw_noise_radians_per_sqrt_second, 2) * dt;
+  Q(kYawRate, kYawRate) +=
+      std::pow(options_.command_yaw_rate_noise_radps_per_sqrt_second, 2) * dt;
   AddConstantVelocityNoise(kZ, kVz,
                            std::pow(options_.vertical_acceleration_noise_mps2_per_sqrt_hz, 2),
                            dt, &Q);
   const double q_tilt = std::pow(options_.tilt_acceleration_noise_radps2_per_sqrt_hz, 2);
   AddConstantVelocityNoise(kRoll, kRollRate, q_tilt, dt, &Q);
   AddConstantVelocityNoise(kPitch, kPitchRate, q_tilt, dt, &Q);
-  P += Q;
   WrapAngles(&X);
 }
 

@@ -155,6 +155,11 @@ Status MargFilter::Add(const MargSample& sample, MargAttitude* attitude) {
     return Status::Error(message.str());
   }
 
+  // Predict with the bias-corrected gyro over (t_prev, t], then correct with the vectors
+  // measured at t. Correcting the prior attitude (of t_prev) with vectors of t instead would
+  // lag by one sample: a tilt error of k_P dt times the rotation per sample.
+  world_R_body_ = (world_R_body_ * QuaternionExp((sample.gyro_radps - gyro_bias_radps_) * dt))
+                      .normalized();
   const Eigen::Matrix3d R = world_R_body_.toRotationMatrix();
   Eigen::Vector3d correction = Eigen::Vector3d::Zero();
   // Gravity: measured up direction a versus predicted v̂ = R^T e_z; a × v̂ rotates v̂ toward a.
@@ -174,15 +179,14 @@ Status MargFilter::Add(const MargSample& sample, MargAttitude* attitude) {
                     (R.transpose() * Eigen::Vector3d(0.0, 0.0, -sin_error));
     }
   }
-
-  const Eigen::Vector3d rate =
-      sample.gyro_radps - gyro_bias_radps_ + options_.proportional_gain_per_second * correction;
+  world_R_body_ =
+      (world_R_body_ * QuaternionExp(options_.proportional_gain_per_second * correction * dt))
+          .normalized();
   gyro_bias_radps_ -= options_.integral_gain_per_second_squared * correction * dt;
   for (int i = 0; i < 3; ++i) {
     gyro_bias_radps_[i] = std::clamp(gyro_bias_radps_[i], -options_.max_gyro_bias_radps,
                                      options_.max_gyro_bias_radps);
   }
-  world_R_body_ = (world_R_body_ * QuaternionExp(rate * dt)).normalized();
   last_stamp_seconds_ = sample.stamp_seconds;
   *attitude = MakeOutput(sample.stamp_seconds, sample.gyro_radps);
   return Status::Ok();
