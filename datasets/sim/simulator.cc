@@ -118,16 +118,21 @@ LaserScan SimulateScan(const World& world, const LaserOptions& laser, const Pose
   scan.range_min_meters = 0.0;
   scan.range_max_meters = laser.max_range_meters;
   scan.ranges_meters.resize(scan.angles_radians.size());
+  std::vector<double> world_angles(scan.angles_radians.size());
+  for (size_t i = 0; i < world_angles.size(); ++i) {
+    world_angles[i] = world_T_sensor.theta() + scan.angles_radians[i];
+  }
+  std::vector<double> exact_ranges;
+  world.CastRays(world_T_sensor.translation(), world_angles, laser.max_range_meters,
+                 &exact_ranges);
   int no_return = 0;
   for (size_t i = 0; i < scan.angles_radians.size(); ++i) {
     // Both numbers are drawn for every beam, hit or not, so the random stream does not depend
     // on the geometry.
     const double dropout_draw = Uniform01(rng);
     const double noise = laser.range_noise_std_meters * StandardGaussian(rng);
-    double range = 0.0;
-    const bool hit = world.CastRay(world_T_sensor.translation(),
-                                   world_T_sensor.theta() + scan.angles_radians[i],
-                                   laser.max_range_meters, &range);
+    const double range = exact_ranges[i];
+    const bool hit = std::isfinite(range);
     double measured = laser.max_range_meters;
     if (hit && dropout_draw >= laser.dropout_probability) {
       const double noisy = range + noise;

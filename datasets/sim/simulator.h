@@ -18,7 +18,7 @@
 // the run ends when the robot has reached the last waypoint and stopped, or at the scenario's
 // duration limit (then `completed` is false).
 //
-// Laser: per beam, the exact ray cast against the walls (World::CastRay) plus N(0, sigma^2)
+// Laser: per beam, the exact ray cast against the walls (World::CastRays) plus N(0, sigma^2)
 // range noise; no wall within max range, a dropout (probability p, independent per beam) or a
 // noisy range outside (range_min, range_max) is written as range = max range ("no return",
 // invalid for every reader of the log).

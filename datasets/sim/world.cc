@@ -46,6 +46,21 @@ bool SegmentsIntersect(const Eigen::Vector2d& p1, const Eigen::Vector2d& q1,
   return false;
 }
 
+// The distance t >= 0 along the ray origin + t * d (|d| = 1) to `wall`, or +infinity when the
+// ray misses it or runs parallel to it. The one intersection formula of CastRay and CastRays.
+double RayWallDistance(const Eigen::Vector2d& origin, const Eigen::Vector2d& d,
+                       const WallSegment& wall) {
+  // origin + t d = a + s e  =>  t = (w x e) / (d x e),  s = (w x d) / (d x e),  w = a - origin.
+  const Eigen::Vector2d e = wall.b - wall.a;
+  const double denom = Cross(d, e);
+  if (std::abs(denom) <= 1e-12 * e.norm()) return std::numeric_limits<double>::infinity();
+  const Eigen::Vector2d w = wall.a - origin;
+  const double t = Cross(w, e) / denom;
+  const double s = Cross(w, d) / denom;
+  if (t < 0.0 || s < 0.0 || s > 1.0) return std::numeric_limits<double>::infinity();
+  return t;
+}
+
 double PointSegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
                             const Eigen::Vector2d& b) {
   const Eigen::Vector2d ab = b - a;
@@ -138,20 +153,65 @@ bool World::CastRay(const Eigen::Vector2d& origin, double angle_radians,
   CHECK(range_meters != nullptr);
   const Eigen::Vector2d d(std::cos(angle_radians), std::sin(angle_radians));
   double best = std::numeric_limits<double>::infinity();
-  for (const WallSegment& wall : walls_) {
-    // origin + t d = a + s e  =>  t = (w x e) / (d x e),  s = (w x d) / (d x e), w = a - origin.
-    const Eigen::Vector2d e = wall.b - wall.a;
-    const double denom = Cross(d, e);
-    if (std::abs(denom) <= 1e-12 * e.norm()) continue;  // parallel: grazing never returns
-    const Eigen::Vector2d w = wall.a - origin;
-    const double t = Cross(w, e) / denom;
-    const double s = Cross(w, d) / denom;
-    if (t < 0.0 || s < 0.0 || s > 1.0) continue;
-    best = std::min(best, t);
-  }
+  for (const WallSegment& wall : walls_) best = std::min(best, RayWallDistance(origin, d, wall));
   if (best > max_range_meters) return false;
   *range_meters = best;
   return true;
+}
+
+void World::CastRays(const Eigen::Vector2d& origin, const std::vector<double>& angles_radians,
+                     double max_range_meters, std::vector<double>* ranges_meters) const {
+  CHECK(ranges_meters != nullptr);
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  const size_t n = angles_radians.size();
+  ranges_meters->assign(n, kInfinity);
+  if (n == 0) return;
+  // Rays sorted by wrapped angle in [-pi, pi); the directions use the caller's angles as given,
+  // exactly as CastRay does, so both give the same numbers.
+  std::vector<std::pair<double, int>> sorted(n);
+  std::vector<Eigen::Vector2d> directions(n);
+  for (size_t i = 0; i < n; ++i) {
+    sorted[i] = {WrapAngle(angles_radians[i]), static_cast<int>(i)};
+    directions[i] = Eigen::Vector2d(std::cos(angles_radians[i]), std::sin(angles_radians[i]));
+  }
+  std::sort(sorted.begin(), sorted.end());
+  auto test_rays_in = [&](double lo, double hi, const WallSegment& wall) {
+    auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(lo, -1));
+    for (; it != sorted.end() && it->first <= hi; ++it) {
+      double& range = (*ranges_meters)[it->second];
+      range = std::min(range, RayWallDistance(origin, directions[it->second], wall));
+    }
+  };
+  // Widening of each wall's angular interval, so that rays through an end point are never
+  // culled by rounding in atan2.
+  constexpr double kSlackRadians = 1e-9;
+  for (const WallSegment& wall : walls_) {
+    const double distance = PointSegmentDistance(origin, wall.a, wall.b);
+    if (distance > max_range_meters) continue;
+    if (distance <= 1e-9) {
+      // The origin is on (or within rounding of) the wall: rays leave it at t ~ 0 in almost
+      // every direction. Test every ray, as CastRay does.
+      test_rays_in(-M_PI - 1.0, M_PI + 1.0, wall);
+      continue;
+    }
+    // The wall subtends the shorter arc (less than pi: the origin is off the segment) from
+    // angle(pa) to angle(pb).
+    const Eigen::Vector2d pa = wall.a - origin, pb = wall.b - origin;
+    double start = WrapAngle(std::atan2(pa.y(), pa.x()));
+    double width = WrapAngle(std::atan2(pb.y(), pb.x()) - start);
+    if (width < 0.0) {
+      start = WrapAngle(start + width);
+      width = -width;
+    }
+    const double lo = start - kSlackRadians;
+    const double hi = start + width + kSlackRadians;
+    test_rays_in(lo, std::min(hi, M_PI), wall);
+    if (lo < -M_PI) test_rays_in(lo + 2.0 * M_PI, M_PI, wall);
+    if (hi >= M_PI) test_rays_in(-M_PI, hi - 2.0 * M_PI, wall);
+  }
+  for (double& range : *ranges_meters) {
+    if (range > max_range_meters) range = kInfinity;
+  }
 }
 
 bool World::SegmentHitsWall(const Eigen::Vector2d& p, const Eigen::Vector2d& q) const {

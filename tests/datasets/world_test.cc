@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <random>
 #include <string>
 
 #include "gmock/gmock.h"
@@ -86,6 +87,58 @@ TEST(WorldTest, RayReturnsNearestOfSeveralWallsAndIgnoresParallelOnes) {
   // Through the end point of the wall x = 3 (y = 1): still a hit.
   ASSERT_TRUE(world.CastRay(Eigen::Vector2d::Zero(), std::atan2(1.0, 3.0), 30.0, &range));
   EXPECT_NEAR(range, std::sqrt(10.0), 1e-9);
+}
+
+// CastRays (angular culling) against CastRay (brute force), ray by ray.
+void ExpectCastRaysMatchesCastRay(const World& world, const Eigen::Vector2d& origin,
+                                  const std::vector<double>& angles, double max_range) {
+  std::vector<double> ranges;
+  world.CastRays(origin, angles, max_range, &ranges);
+  ASSERT_EQ(ranges.size(), angles.size());
+  for (size_t i = 0; i < angles.size(); ++i) {
+    double expected = 0.0;
+    if (world.CastRay(origin, angles[i], max_range, &expected)) {
+      ASSERT_EQ(ranges[i], expected) << "origin " << origin.transpose() << " angle " << angles[i];
+    } else {
+      ASSERT_TRUE(std::isinf(ranges[i])) << "origin " << origin.transpose() << " angle "
+                                         << angles[i] << " range " << ranges[i];
+    }
+  }
+}
+
+TEST(WorldTest, CastRaysMatchesCastRayInSquareRoomIncludingCornersAndWrap) {
+  const World world = SquareRoom();
+  std::vector<double> angles;
+  for (int k = -720; k <= 720; ++k) angles.push_back(k * 0.5 * kDeg);  // ±360°, hits ±180°
+  ExpectCastRaysMatchesCastRay(world, Eigen::Vector2d::Zero(), angles, 30.0);
+  ExpectCastRaysMatchesCastRay(world, Eigen::Vector2d(1.0, -0.5), angles, 30.0);
+  ExpectCastRaysMatchesCastRay(world, Eigen::Vector2d(1.0, -0.5), angles, 1.5);
+  // Origin on a wall and at a corner.
+  ExpectCastRaysMatchesCastRay(world, Eigen::Vector2d(2.0, 0.5), angles, 30.0);
+  ExpectCastRaysMatchesCastRay(world, Eigen::Vector2d(2.0, 2.0), angles, 30.0);
+  std::vector<double> ranges;
+  world.CastRays(Eigen::Vector2d::Zero(), {0.0, 45.0 * kDeg, M_PI}, 30.0, &ranges);
+  EXPECT_NEAR(ranges[0], 2.0, 1e-12);
+  EXPECT_NEAR(ranges[1], 2.0 * std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(ranges[2], 2.0, 1e-12);
+}
+
+TEST(WorldTest, CastRaysMatchesCastRayAtSeededRandomPosesInTheOfficeLoop) {
+  Scenario scenario;
+  ASSERT_TRUE(ReadScenarioFile(
+                  std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/office_loop.scenario",
+                  &scenario)
+                  .ok());
+  std::mt19937_64 rng(2024);
+  std::uniform_real_distribution<double> x(-1.0, 31.0), y(-1.0, 21.0), heading(-M_PI, M_PI),
+      range(1.0, 40.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    const Eigen::Vector2d origin(x(rng), y(rng));
+    const double h = heading(rng);
+    std::vector<double> angles;
+    for (int k = 0; k < 361; ++k) angles.push_back(h - M_PI / 2 + k * 0.5 * kDeg);
+    ExpectCastRaysMatchesCastRay(scenario.world, origin, angles, range(rng));
+  }
 }
 
 TEST(WorldTest, SegmentAndDistanceQueries) {
