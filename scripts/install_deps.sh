@@ -7,6 +7,7 @@ packages=(
   libopencv-dev libapriltag-dev
   libgflags-dev libgoogle-glog-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  time  # /usr/bin/time -v: peak memory in tests/bench/run_real_logs.sh
 )
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then
