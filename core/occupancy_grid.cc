@@ -109,8 +109,12 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
   if (!observed_[i]) {
     observed_[i] = 1;
     const CellIndex c = geometry_.FromLinearIndex(i);
-    observed_min_ = {std::min(observed_min_.x, c.x), std::min(observed_min_.y, c.y)};
-    observed_max_ = {std::max(observed_max_.x, c.x), std::max(observed_max_.y, c.y)};
+    if (observed_max_.x < observed_min_.x) {  // first observed cell
+      observed_min_ = observed_max_ = c;
+    } else {
+      observed_min_ = {std::min(observed_min_.x, c.x), std::min(observed_min_.y, c.y)};
+      observed_max_ = {std::max(observed_max_.x, c.x), std::max(observed_max_.y, c.y)};
+    }
   }
   const bool now_occupied = IsOccupied(i);
   if (was_occupied && !now_occupied) {

@@ -7,12 +7,15 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <string>
 
 #include "core/carmen_log.h"
 #include "core/map_io.h"
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
+#include "core/g2o_io.h"
+#include "frontends/pose_graph_slam.h"
 #include "frontends/scan_matching_slam.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
@@ -45,6 +48,16 @@ DEFINE_double(matching_voxel, 0.20, "Thin the points used for scan matching to o
               "so near walls do not outvote far structure (0 = use every point). The map gets every point.");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
+DEFINE_bool(no_loop_closure, false, "Run the scan-matching front end alone against one global map (no submaps, no "
+            "pose graph): the walking-skeleton path, kept for comparison.");
+DEFINE_int32(scans_per_submap, 40, "Scans per submap of the loop-closing pipeline (a new submap starts every half of it).");
+DEFINE_double(loop_min_score, 0.55, "Minimum mean likelihood of a loop-closure match to accept it.");
+DEFINE_double(loop_linear_window, 2.0, "Loop-closure search window, ± metres around the graph's estimate (paper: 2 m).");
+DEFINE_double(loop_angular_window_deg, 45.0, "Loop-closure search window, ± degrees (paper: 45°).");
+DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
+              "g2o file.");
+DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
+              "record it; PARAM laser_*_fov in the log overrides it).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
 DEFINE_int32(progress_every, 100, "Print progress every N scans (0 = never).");
 
@@ -56,7 +69,8 @@ bool Fail(const std::string& message) {
   return false;
 }
 
-bool OptionsFromFlags(ScanMatchingSlamOptions* options, std::string* error) {
+bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
+  ScanMatchingSlamOptions* options = &graph_options->local;
   if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file)"), false;
   if (FLAGS_out.empty()) return (*error = "--out is required (an output folder)"), false;
   options->grid.resolution_meters = FLAGS_resolution;
@@ -80,21 +94,28 @@ bool OptionsFromFlags(ScanMatchingSlamOptions* options, std::string* error) {
              "'); use --use_odometry for odometry";
     return false;
   }
+  graph_options->scans_per_submap = FLAGS_scans_per_submap;
+  graph_options->loop_min_score = FLAGS_loop_min_score;
+  graph_options->loop_matcher.linear_search_window_meters = FLAGS_loop_linear_window;
+  graph_options->loop_matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
+  graph_options->loop_closure = !FLAGS_no_loop_closure;
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
-  if (!options->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
+  if (!graph_options->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
   return true;
 }
 
 int Run() {
-  ScanMatchingSlamOptions options;
+  PoseGraphSlamOptions options;
   std::string error;
   if (!OptionsFromFlags(&options, &error)) return Fail(error + " (see --help)"), 2;
 
   CarmenReadOptions read_options;
   read_options.lenient = FLAGS_lenient;
   read_options.flaser_max_range_meters = FLAGS_flaser_max_range;
+  read_options.flaser_fov_radians = FLAGS_flaser_fov_deg * M_PI / 180.0;
+  if (!(FLAGS_flaser_fov_deg > 0 && FLAGS_flaser_fov_deg <= 360)) return Fail("--flaser_fov_deg must be in (0, 360]"), 2;
   CarmenLog log;
   const Status read = ReadCarmenLog(FLAGS_log, read_options, &log);
   if (!read.ok()) return Fail(read.message()), 1;
@@ -122,50 +143,97 @@ int Run() {
   const size_t num_scans = FLAGS_max_scans > 0 ? std::min<size_t>(FLAGS_max_scans, log.lasers.size()) : log.lasers.size();
   std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log
             << (FLAGS_use_odometry ? " (odometry prediction)" : " (no odometry)") << "\n";
-  ScanMatchingSlam slam(options);
+  // Either pipeline fills these.
+  std::vector<StampedPose2> trajectory;
+  std::unique_ptr<LaserMap> rendered_map;
+  const LaserMap* map = nullptr;
+  std::string stats_line;
   std::vector<double> scores;
+  std::unique_ptr<ScanMatchingSlam> front_end;
+  std::unique_ptr<PoseGraphSlam> graph_slam;
+  if (FLAGS_no_loop_closure) {
+    front_end = std::make_unique<ScanMatchingSlam>(options.local);
+  } else {
+    graph_slam = std::make_unique<PoseGraphSlam>(options);
+  }
   const auto start = std::chrono::steady_clock::now();
   for (size_t i = 0; i < num_scans; ++i) {
     const LaserReading& reading = log.lasers[i];
-    const ScanResult result =
-        slam.AddScan(reading.scan, reading.has_odometry_pose ? std::optional<Pose2>(reading.odometry_pose) : std::nullopt);
-    if (result.match.converged) scores.push_back(result.match.score);
+    const std::optional<Pose2> odometry =
+        reading.has_odometry_pose ? std::optional<Pose2>(reading.odometry_pose) : std::nullopt;
+    if (front_end != nullptr) {
+      const ScanResult result = front_end->AddScan(reading.scan, odometry);
+      if (result.match.converged) scores.push_back(result.match.score);
+    } else {
+      graph_slam->AddScan(reading.scan, odometry);
+    }
     if (FLAGS_progress_every > 0 && (i + 1) % FLAGS_progress_every == 0) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::fprintf(stderr, "  %zu/%zu scans, %.1f s, %.0f scans/s\n", i + 1, num_scans, elapsed, (i + 1) / elapsed);
+      std::fprintf(stderr, "  %zu/%zu scans, %.1f s, %.0f scans/s", i + 1, num_scans, elapsed, (i + 1) / elapsed);
+      if (graph_slam != nullptr) {
+        std::fprintf(stderr, ", %d submaps, %d loop closures", graph_slam->stats().submaps,
+                     graph_slam->stats().loop_closures_accepted);
+      }
+      std::fprintf(stderr, "\n");
     }
+  }
+  char line[512];
+  if (front_end != nullptr) {
+    trajectory = front_end->trajectory();
+    map = &front_end->map();
+    const ScanMatchingSlamStats& stats = front_end->stats();
+    std::snprintf(line, sizeof(line),
+                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n",
+                  stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards);
+    stats_line = line;
+  } else {
+    graph_slam->Finish();
+    trajectory = graph_slam->trajectory();
+    rendered_map = graph_slam->RenderMap();
+    map = rendered_map.get();
+    const PoseGraphSlamStats& stats = graph_slam->stats();
+    std::snprintf(line, sizeof(line),
+                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n"
+                  "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted, %d removed as "
+                  "inconsistent, %d solves (%.2f s), loop search %.2f s\n",
+                  stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
+                  stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
+                  stats.loop_closures_rejected_after_solve, stats.solves, stats.solve_seconds, stats.loop_search_seconds);
+    stats_line = line;
   }
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   const std::string base = (std::filesystem::path(FLAGS_out) / "map").string();
   const std::string trajectory_path = (std::filesystem::path(FLAGS_out) / "trajectory.txt").string();
   std::vector<Pose2> path;
-  for (const StampedPose2& p : slam.trajectory()) path.push_back(p.pose);
+  for (const StampedPose2& p : trajectory) path.push_back(p.pose);
   std::vector<std::vector<Pose2>> paths = {path};
-  for (const Status& status : {WriteMapPgmYaml(slam.map().grid(), base),
-                               WriteMapPng(slam.map().grid(), paths, base + ".png"),
-                               WriteTrajectory(trajectory_path, slam.trajectory())}) {
+  for (const Status& status : {WriteMapPgmYaml(map->grid(), base), WriteMapPng(map->grid(), paths, base + ".png"),
+                               WriteTrajectory(trajectory_path, trajectory)}) {
+    if (!status.ok()) return Fail(status.message()), 1;
+  }
+  if (!FLAGS_g2o_out.empty()) {
+    if (graph_slam == nullptr) return Fail("--g2o_out needs the loop-closing pipeline (drop --no_loop_closure)"), 2;
+    const Status status = WriteG2oPoseGraph2d(FLAGS_g2o_out, graph_slam->ExportGraph());
     if (!status.ok()) return Fail(status.message()), 1;
   }
 
-  const ScanMatchingSlamStats& stats = slam.stats();
   double first = log.lasers.front().scan.stamp_seconds, last = first;
   for (size_t i = 0; i < num_scans; ++i) {
     first = std::min(first, log.lasers[i].scan.stamp_seconds);
     last = std::max(last, log.lasers[i].scan.stamp_seconds);
   }
   const double duration = last - first;
-  std::printf("scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n",
-              stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards);
+  std::printf("%s", stats_line.c_str());
   if (!scores.empty()) {
     std::sort(scores.begin(), scores.end());
     std::printf("match score (mean likelihood at the matched pose): p10 %.3f, median %.3f, p90 %.3f\n",
                 scores[scores.size() / 10], scores[scores.size() / 2], scores[scores.size() * 9 / 10]);
   }
   std::printf("time: %.2f s wall, %.1f scans/s, data duration %.1f s, real-time factor %.1fx\n", wall_seconds,
-              stats.scans / wall_seconds, duration, duration / wall_seconds);
+              num_scans / wall_seconds, duration, duration / wall_seconds);
   if (!truth.empty()) {
-    const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(slam.trajectory(), truth);
+    const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, truth);
     std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
                 FLAGS_truth.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
                 ate.rotation_rmse_degrees, ate.rotation_max_degrees);

@@ -42,24 +42,38 @@ ScanMatchingSlam::ScanMatchingSlam(const ScanMatchingSlamOptions& options)
   CHECK(options_.IsValid(&error)) << "invalid ScanMatchingSlamOptions: " << error;
 }
 
-Pose2 ScanMatchingSlam::Predict(const std::optional<Pose2>& odometry_pose) const {
-  if (trajectory_.empty()) return Pose2::Identity();
-  const Pose2& last = trajectory_.back().pose;
-  switch (options_.prediction) {
+Pose2 PredictNextPose(const ScanMatchingSlamOptions& options, const std::vector<StampedPose2>& trajectory,
+                      const std::optional<Pose2>& last_odometry, const std::optional<Pose2>& odometry) {
+  if (trajectory.empty()) return Pose2::Identity();
+  const Pose2& last = trajectory.back().pose;
+  switch (options.prediction) {
     case MotionPrediction::kStationary:
       return last;
     case MotionPrediction::kConstantVelocity: {
-      if (trajectory_.size() < 2) return last;
-      const Pose2 delta = Between(trajectory_[trajectory_.size() - 2].pose, last);
-      return last * Pose2(options_.velocity_fraction * delta.translation(),
-                          options_.angular_velocity_fraction * delta.theta());
+      if (trajectory.size() < 2) return last;
+      const Pose2 delta = Between(trajectory[trajectory.size() - 2].pose, last);
+      return last * Pose2(options.velocity_fraction * delta.translation(),
+                          options.angular_velocity_fraction * delta.theta());
     }
     case MotionPrediction::kOdometry:
-      CHECK(odometry_pose.has_value()) << "odometry prediction needs an odometry pose with every scan";
-      if (!last_odometry_.has_value()) return last;
-      return last * Between(*last_odometry_, *odometry_pose);
+      CHECK(odometry.has_value()) << "odometry prediction needs an odometry pose with every scan";
+      if (!last_odometry.has_value()) return last;
+      return last * Between(*last_odometry, *odometry);
   }
   return last;
+}
+
+ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan) {
+  ScanPoints points;
+  const float max_range = static_cast<float>(options.max_point_range_meters);
+  for (const ProjectedPoint& p : ProjectScan(scan, BodyAttitude())) {
+    if (p.p_robot.norm() <= max_range) points.all.push_back(p.p_robot);
+  }
+  points.matching = options.matching_voxel_meters > 0
+                        ? VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters))
+                        : points.all;
+  points.sensor_robot = scan.robot_T_sensor.translation().head<2>();
+  return points;
 }
 
 ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose) {
@@ -68,30 +82,22 @@ ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<
   ++stats_.scans;
   if (!trajectory_.empty() && scan.stamp_seconds < trajectory_.back().stamp_seconds) ++stats_.timestamps_backwards;
 
-  std::vector<Eigen::Vector2f> points;
-  const float max_range = static_cast<float>(options_.max_point_range_meters);
-  for (const ProjectedPoint& p : ProjectScan(scan, BodyAttitude())) {
-    if (p.p_robot.norm() <= max_range) points.push_back(p.p_robot);
-  }
-  result.predicted = Predict(odometry_pose);
+  const ScanPoints points = PrepareScanPoints(options_, scan);
+  result.predicted = PredictNextPose(options_, trajectory_, last_odometry_, odometry_pose);
   result.pose = result.predicted;
-  if (static_cast<int>(points.size()) < options_.min_points) {
+  if (static_cast<int>(points.all.size()) < options_.min_points) {
     ++stats_.skipped_too_few_points;
     return result;
   }
   if (map_.num_scans_inserted() > 0) {
-    const std::vector<Eigen::Vector2f> matching_points =
-        options_.matching_voxel_meters > 0 ? VoxelFilter(points, static_cast<float>(options_.matching_voxel_meters))
-                                           : points;
-    result.match = matcher_.Match(map_, result.predicted, matching_points);
+    result.match = matcher_.Match(map_, result.predicted, points.matching);
     if (result.match.converged) {
       result.pose = result.match.pose;
     } else {
       ++stats_.match_failures;
     }
   }
-  const Eigen::Vector3d sensor = scan.robot_T_sensor.translation();
-  map_.InsertScan(result.pose, sensor.head<2>(), points);
+  map_.InsertScan(result.pose, points.sensor_robot, points.all);
   result.inserted = true;
   trajectory_.push_back({scan.stamp_seconds, result.pose});
   if (odometry_pose.has_value()) last_odometry_ = odometry_pose;

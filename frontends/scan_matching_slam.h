@@ -52,6 +52,21 @@ struct ScanMatchingSlamOptions {
   bool IsValid(std::string* error) const;
 };
 
+// The next pose predicted from the trajectory so far (and the odometry increment when the
+// prediction is kOdometry: `last_odometry` at the last pose, `odometry` now). Identity for an
+// empty trajectory.
+Pose2 PredictNextPose(const ScanMatchingSlamOptions& options, const std::vector<StampedPose2>& trajectory,
+                      const std::optional<Pose2>& last_odometry, const std::optional<Pose2>& odometry);
+
+// The scan's valid end points in the robot frame within max_point_range_meters (for the
+// map), and their voxel-thinned subset (for matching).
+struct ScanPoints {
+  std::vector<Eigen::Vector2f> all;
+  std::vector<Eigen::Vector2f> matching;
+  Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();  // sensor origin, robot frame
+};
+ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan);
+
 struct ScanMatchingSlamStats {
   int scans = 0;
   int skipped_too_few_points = 0;
@@ -81,8 +96,6 @@ class ScanMatchingSlam {
   const ScanMatchingSlamOptions& options() const { return options_; }
 
  private:
-  Pose2 Predict(const std::optional<Pose2>& odometry_pose) const;
-
   ScanMatchingSlamOptions options_;
   ScanMatcher matcher_;
   LaserMap map_;

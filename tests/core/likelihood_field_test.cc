@@ -36,6 +36,12 @@ TEST(LikelihoodFieldTest, OneWallByHand) {
   EXPECT_NEAR(std::exp(-d_front / 0.05), map.field().Value(front), 1e-5);
   // Outside the window: zero.
   EXPECT_EQ(0.f, map.field().Value(CellIndex{wall_cell.x - 8, wall_cell.y}));
+  // The observed box spans exactly the sensor cell to the wall cells.
+  const CellIndex sensor_cell = g.WorldToCell({0.0, 0.0});
+  EXPECT_EQ(sensor_cell.x, map.grid().observed_min().x);
+  EXPECT_EQ(wall_cell.x, map.grid().observed_max().x);
+  EXPECT_EQ(g.WorldToCell({0.5125, -0.225}).y, map.grid().observed_min().y);
+  EXPECT_EQ(g.WorldToCell({0.5125, 0.275}).y, map.grid().observed_max().y);
 }
 
 // Seeded random insertions (including cells that turn free again) keep the incremental table

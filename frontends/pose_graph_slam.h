@@ -1,0 +1,158 @@
+// Single-robot SLAM with submaps, loop closure and an incrementally solved Ceres pose graph
+// (paper §III-A "loop closure ... by scan-matching" within a bounded window, DESIGN.md item 7).
+//
+// Front end. Scans are matched (frontends/scan_matcher.h) against the older of the (up to)
+// two active submaps, in the front end's own drifting "local" frame, and inserted into both.
+// A submap is a LaserMap in its own frame, that of the local pose of its first scan; a new one
+// starts every scans_per_submap / 2 scans, and a submap is finished (frozen) after
+// scans_per_submap scans.
+//
+// Graph. Variables: world_T_submap_s for every submap and world_T_node_i for every inserted
+// scan (node), [x, y, yaw] blocks with the Se2Manifold. Constraints (factors/relative_pose_cost.h):
+//   intra-submap  s_T_i = local_T_s^-1 * local_T_i   for each submap s that node i entered
+//                 (no robust loss: the backbone);
+//   loop closure  s_T_i measured by matching node i's scan against finished submap s inside
+//                 ±loop window around the graph's current estimate; accepted above a score,
+//                 added with a Cauchy loss, and removed again if, after the solve, the graph
+//                 disagrees with it by more than the consistency bounds.
+// Gauge: the first submap is held constant (the world frame is the start pose).
+//
+// Solving: after every `solve_every_n_loop_closures` accepted closures (and at Finish()), a
+// warm-started Ceres solve with bounded iterations, single-threaded: the same input gives
+// the same output. New nodes enter the graph through the latest world_T_local correction.
+#ifndef HETSLAM_FRONTENDS_POSE_GRAPH_SLAM_H_
+#define HETSLAM_FRONTENDS_POSE_GRAPH_SLAM_H_
+
+#include <array>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/g2o_io.h"
+#include "core/laser_map.h"
+#include "core/laser_scan.h"
+#include "core/se2.h"
+#include "core/trajectory_io.h"
+#include "frontends/scan_matcher.h"
+#include "frontends/scan_matching_slam.h"
+
+namespace ceres {
+class Problem;
+class Manifold;
+class ResidualBlock;
+}  // namespace ceres
+
+namespace hetslam {
+
+struct PoseGraphSlamOptions {
+  // Front end (matching against the active submap): grid, field, matcher, prediction, points.
+  ScanMatchingSlamOptions local;
+  int scans_per_submap = 40;
+  // Loop closure search: window around the graph's estimate of the node in the submap.
+  ScanMatcherOptions loop_matcher = DefaultLoopMatcherOptions();
+  double loop_min_score = 0.55;             // mean likelihood at the refined pose
+  double loop_search_min_travel_meters = 0.3;  // search again only after moving this far
+  double loop_search_min_turn_radians = 0.35;  // ... or turning this much
+  // Constraint uncertainties (1 sigma) and the loop closure loss scale (in sigmas).
+  double intra_translation_sigma_meters = 0.02;
+  double intra_rotation_sigma_radians = 0.005;
+  double loop_translation_sigma_meters = 0.05;
+  double loop_rotation_sigma_radians = 0.01;
+  double loop_loss_scale = 1.0;
+  // After a solve, a loop closure the graph disagrees with by more than this is removed.
+  double loop_consistency_translation_meters = 0.3;
+  double loop_consistency_rotation_radians = 0.06;
+  int solve_every_n_loop_closures = 3;
+  int max_iterations_per_solve = 10;
+  int max_iterations_final = 50;
+  bool loop_closure = true;
+
+  static ScanMatcherOptions DefaultLoopMatcherOptions();
+  bool IsValid(std::string* error) const;
+};
+
+struct PoseGraphSlamStats {
+  int scans = 0;
+  int nodes = 0;
+  int submaps = 0;
+  int skipped_too_few_points = 0;
+  int match_failures = 0;
+  int timestamps_backwards = 0;
+  int loop_searches = 0;          // (node, submap) matches attempted
+  int loop_closures_accepted = 0;
+  int loop_closures_rejected_after_solve = 0;
+  int solves = 0;
+  double solve_seconds = 0.0;
+  double loop_search_seconds = 0.0;
+};
+
+// One accepted loop closure, for precision reports: the measured submap_T_node and what the
+// final graph says.
+struct LoopClosureReport {
+  int submap = 0;
+  int node = 0;
+  double score = 0.0;
+  Pose2 measured_submap_T_node;
+  Pose2 final_submap_T_node;
+  bool removed = false;
+};
+
+class PoseGraphSlam {
+ public:
+  explicit PoseGraphSlam(const PoseGraphSlamOptions& options);
+  ~PoseGraphSlam();
+  PoseGraphSlam(const PoseGraphSlam&) = delete;
+  PoseGraphSlam& operator=(const PoseGraphSlam&) = delete;
+
+  // Processes one scan; `odometry_pose` as in ScanMatchingSlam::AddScan.
+  void AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose = std::nullopt);
+
+  // Final solve; then trajectory() holds the optimised poses. Idempotent.
+  void Finish();
+
+  // Optimised world poses of all nodes (after Finish(): final; before: current estimate).
+  std::vector<StampedPose2> trajectory() const;
+  // The front end's (drifting, never corrected) poses.
+  std::vector<StampedPose2> local_trajectory() const;
+  // A map of every scan inserted at its optimised pose (built on demand).
+  std::unique_ptr<LaserMap> RenderMap() const;
+  // The pose graph (submaps then nodes as vertices; intra then loop edges), for g2o export.
+  PoseGraph2d ExportGraph() const;
+  std::vector<LoopClosureReport> LoopClosures() const;
+
+  const PoseGraphSlamStats& stats() const { return stats_; }
+  const PoseGraphSlamOptions& options() const { return options_; }
+
+ private:
+  struct Node;
+  struct Submap;
+  struct Constraint;
+
+  void AddNodeToGraph(Node* node, const std::vector<int>& submap_indices);
+  void SearchLoopClosures(int node_index);
+  void Solve(int max_iterations);
+  void UpdateWorldFromLocal();
+
+  PoseGraphSlamOptions options_;
+  ScanMatcher local_matcher_;
+  ScanMatcher loop_matcher_;
+  std::deque<Node> nodes_;
+  std::deque<Submap> submaps_;
+  std::deque<Constraint> constraints_;
+  std::vector<int> active_submaps_;   // indices, oldest first
+  std::unique_ptr<ceres::Manifold> manifold_;
+  std::unique_ptr<ceres::Problem> problem_;
+  Pose2 world_T_local_;
+  std::vector<StampedPose2> local_trajectory_;
+  std::optional<Pose2> last_odometry_;
+  std::optional<Pose2> last_search_pose_;
+  int loop_closures_since_solve_ = 0;
+  bool finished_ = false;
+  PoseGraphSlamStats stats_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FRONTENDS_POSE_GRAPH_SLAM_H_
