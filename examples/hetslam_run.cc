@@ -42,7 +42,7 @@ DEFINE_double(min_score, 0.10, "Minimum correlative score (mean p_hit) for a mat
               "inserted at the prediction and counted as a failure.");
 DEFINE_double(free_space_penalty, 0.5, "Score penalty for each scan point that lands in known free space away from any "
               "hit (disambiguates corridors); 0 disables.");
-DEFINE_double(translation_penalty, 0.0, "Weak motion prior: score penalty per square metre of distance from the prediction.");
+DEFINE_double(translation_penalty, 0.05, "Weak motion prior: score penalty per square metre of distance from the prediction.");
 DEFINE_double(rotation_penalty, 0.0, "Weak motion prior: score penalty per square radian of heading change from the prediction.");
 DEFINE_double(matching_voxel, 0.20, "Thin the points used for scan matching to one per voxel of this size in metres, "
               "so near walls do not outvote far structure (0 = use every point). The map gets every point.");
@@ -194,11 +194,11 @@ int Run() {
     const PoseGraphSlamStats& stats = graph_slam->stats();
     std::snprintf(line, sizeof(line),
                   "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n"
-                  "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted, %d removed as "
-                  "inconsistent, %d solves (%.2f s), loop search %.2f s\n",
+                  "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d "
+                  "removed as inconsistent, %d solves (%.2f s), loop search %.2f s\n",
                   stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
                   stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
-                  stats.loop_closures_rejected_after_solve, stats.solves, stats.solve_seconds, stats.loop_search_seconds);
+                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solve_seconds, stats.loop_search_seconds);
     stats_line = line;
   }
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

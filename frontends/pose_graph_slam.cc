@@ -70,6 +70,9 @@ bool PoseGraphSlamOptions::IsValid(std::string* error) const {
                        loop_rotation_sigma_radians, loop_loss_scale}) {
     if (!(sigma > 0)) msg << "constraint sigmas and loop_loss_scale must be > 0; ";
   }
+  if (!(loop_gate_base_meters >= 0 && loop_gate_meters_per_meter >= 0 && loop_gate_base_radians >= 0 &&
+        loop_gate_radians_per_meter >= 0))
+    msg << "loop gate parameters must be >= 0; ";
   if (!(loop_consistency_translation_meters > 0 && loop_consistency_rotation_radians > 0))
     msg << "loop consistency bounds must be > 0; ";
   if (solve_every_n_loop_closures < 1) msg << "solve_every_n_loop_closures must be >= 1; ";
@@ -116,6 +119,9 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
     }
   }
   if (odometry_pose.has_value()) last_odometry_ = odometry_pose;
+  if (!local_trajectory_.empty()) {
+    travel_since_closure_meters_ += (local_pose.translation() - local_trajectory_.back().pose.translation()).norm();
+  }
   local_trajectory_.push_back({scan.stamp_seconds, local_pose});
 
   // Submap bookkeeping: start a new submap every scans_per_submap / 2 scans.
@@ -197,9 +203,6 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
   last_search_pose_ = node.local_pose;
   const auto start = std::chrono::steady_clock::now();
   const Pose2 world_T_node = ToPose(node.world_pose);
-  const Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(
-      options_.loop_translation_sigma_meters, options_.loop_translation_sigma_meters,
-      options_.loop_rotation_sigma_radians);
   const double margin = options_.loop_matcher.linear_search_window_meters;
   for (int s = 0; s < static_cast<int>(submaps_.size()); ++s) {
     Submap& submap = submaps_[s];
@@ -214,20 +217,44 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
     ++stats_.loop_searches;
     const ScanMatchResult match = loop_matcher_.Match(*submap.map, predicted, node.matching_points);
     if (!match.converged || match.score < options_.loop_min_score) continue;
-    Constraint c;
-    c.submap = s;
-    c.node = node_index;
-    c.submap_T_node = match.pose;
-    c.loop = true;
-    c.score = match.score;
-    c.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(c.submap_T_node, sqrt_information),
-                                            new ceres::CauchyLoss(options_.loop_loss_scale), submap.world_pose.data(),
-                                            nodes_[node_index].world_pose.data());
-    constraints_.push_back(c);
-    ++stats_.loop_closures_accepted;
-    ++loop_closures_since_solve_;
+    const Pose2 correction = Between(predicted, match.pose);
+    const double travel = travel_since_closure_meters_;
+    if (correction.translation().norm() > options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel ||
+        std::abs(correction.theta()) > options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel) {
+      ++stats_.loop_closures_rejected_by_gate;
+      continue;
+    }
+    AddLoopConstraint(s, node_index, match.pose, match.score);
   }
   stats_.loop_search_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void PoseGraphSlam::AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score) {
+  const Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(
+      options_.loop_translation_sigma_meters, options_.loop_translation_sigma_meters,
+      options_.loop_rotation_sigma_radians);
+  Constraint c;
+  c.submap = submap;
+  c.node = node;
+  c.submap_T_node = submap_T_node;
+  c.loop = true;
+  c.score = score;
+  c.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(submap_T_node, sqrt_information),
+                                          new ceres::HuberLoss(options_.loop_loss_scale),
+                                          submaps_[submap].world_pose.data(), nodes_[node].world_pose.data());
+  constraints_.push_back(c);
+  ++stats_.loop_closures_accepted;
+  ++loop_closures_since_solve_;
+  travel_since_closure_meters_ = 0.0;
+}
+
+int PoseGraphSlam::num_nodes() const { return static_cast<int>(nodes_.size()); }
+int PoseGraphSlam::num_submaps() const { return static_cast<int>(submaps_.size()); }
+
+bool PoseGraphSlam::AddLoopClosure(int submap, int node, const Pose2& submap_T_node, double score) {
+  if (submap < 0 || submap >= num_submaps() || node < 0 || node >= num_nodes()) return false;
+  AddLoopConstraint(submap, node, submap_T_node, score);
+  return true;
 }
 
 void PoseGraphSlam::Solve(int max_iterations) {

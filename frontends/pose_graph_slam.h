@@ -13,7 +13,7 @@
 //                 (no robust loss: the backbone);
 //   loop closure  s_T_i measured by matching node i's scan against finished submap s inside
 //                 ±loop window around the graph's current estimate; accepted above a score,
-//                 added with a Cauchy loss, and removed again if, after the solve, the graph
+//                 added with a Huber loss, and removed again if, after the solve, the graph
 //                 disagrees with it by more than the consistency bounds.
 // Gauge: the first submap is held constant (the world frame is the start pose).
 //
@@ -60,10 +60,19 @@ struct PoseGraphSlamOptions {
   double intra_rotation_sigma_radians = 0.005;
   double loop_translation_sigma_meters = 0.05;
   double loop_rotation_sigma_radians = 0.01;
-  double loop_loss_scale = 1.0;
+  // Huber: quadratic within this many sigmas, linear beyond, so a closure far from the current
+  // estimate still pulls (drift correction) but with bounded force.
+  double loop_loss_scale = 3.0;
   // After a solve, a loop closure the graph disagrees with by more than this is removed.
   double loop_consistency_translation_meters = 0.3;
   double loop_consistency_rotation_radians = 0.06;
+  // Gate against aliasing (corridors, repeated rooms): a closure is accepted only if it
+  // moves the node by at most base + rate * (distance travelled since the last accepted
+  // closure) from the graph's estimate: drift grows with travel, aliases need not.
+  double loop_gate_base_meters = 0.3;
+  double loop_gate_meters_per_meter = 0.1;
+  double loop_gate_base_radians = 0.1;
+  double loop_gate_radians_per_meter = 0.02;
   int solve_every_n_loop_closures = 3;
   int max_iterations_per_solve = 10;
   int max_iterations_final = 50;
@@ -83,6 +92,7 @@ struct PoseGraphSlamStats {
   int loop_searches = 0;          // (node, submap) matches attempted
   int loop_closures_accepted = 0;
   int loop_closures_rejected_after_solve = 0;
+  int loop_closures_rejected_by_gate = 0;
   int solves = 0;
   double solve_seconds = 0.0;
   double loop_search_seconds = 0.0;
@@ -109,6 +119,16 @@ class PoseGraphSlam {
   // Processes one scan; `odometry_pose` as in ScanMatchingSlam::AddScan.
   void AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose = std::nullopt);
 
+  // Adds a loop-closure constraint from outside the loop-closure search (a place recognised
+  // by other means, a fiducial): `submap_T_node` is node `node`'s pose in submap `submap`'s
+  // frame. It is treated like a found closure: robust loss, consistency check after solves.
+  // Returns false (and adds nothing) for an unknown submap or node.
+  bool AddLoopClosure(int submap, int node, const Pose2& submap_T_node, double score);
+  // Solves now (bounded iterations as for incremental solves).
+  void SolveNow() { Solve(options_.max_iterations_per_solve); }
+  int num_nodes() const;
+  int num_submaps() const;
+
   // Final solve; then trajectory() holds the optimised poses. Idempotent.
   void Finish();
 
@@ -132,6 +152,7 @@ class PoseGraphSlam {
 
   void AddNodeToGraph(Node* node, const std::vector<int>& submap_indices);
   void SearchLoopClosures(int node_index);
+  void AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score);
   void Solve(int max_iterations);
   void UpdateWorldFromLocal();
 
@@ -149,6 +170,7 @@ class PoseGraphSlam {
   std::optional<Pose2> last_odometry_;
   std::optional<Pose2> last_search_pose_;
   int loop_closures_since_solve_ = 0;
+  double travel_since_closure_meters_ = 0.0;
   bool finished_ = false;
   PoseGraphSlamStats stats_;
 };

@@ -35,7 +35,7 @@ struct ScanMatcherOptions {
   // hit: scans shifted along a corridor put their end-wall points into free space.
   double free_space_penalty = 0.5;
   // Weak motion prior: score -= a * |t - t_pred|^2 + b * (yaw - yaw_pred)^2.
-  double translation_penalty_per_square_meter = 0.0;
+  double translation_penalty_per_square_meter = 0.05;
   double rotation_penalty_per_square_radian = 0.0;
   bool refine_with_ceres = true;
   int max_ceres_iterations = 20;
