@@ -21,6 +21,8 @@
 #   wall s     wall time of the whole hetslam_run process (read log, map, write outputs), one thread
 #   RTF        real-time factor = data s / wall s
 #   RSS MiB    peak resident memory of the process (/usr/bin/time -v; else VmHWM polled from /proc)
+#   fails      scans whose match failed (hetslam_run inserts them at the prediction)
+#   loops      loop closures accepted ("-" when hetslam_run prints none, e.g. --no_loop_closure)
 #   accuracy   intel: the ground-truth relations metric (Kümmerle et al. 2009) via hetslam_eval
 #              --clock_offset=976052857.337284 --match_tolerance=0.006 (matched relations, mean ± sample
 #              std of translation m and rotation deg). Every log with a <name>.gmapping.txt: AGREEMENT
@@ -130,6 +132,7 @@ for name in "${logs[@]}"; do
   scans=$(sed -n 's/^scans: \([0-9]*\) processed.*/\1/p' "$out/run.log")
   duration=$(sed -n 's/.*data duration \([0-9.]*\) s.*/\1/p' "$out/run.log")
   failures=$(sed -n 's/.* \([0-9]*\) match failures.*/\1/p' "$out/run.log")
+  loops=$(sed -n 's/.* \([0-9]*\) loop closures accepted.*/\1/p' "$out/run.log")
   rss_kib=$(awk '$1 == "peak_rss_kib" {print $2}' "$out/time.txt")
   wall=$(awk -v a="$start" -v b="$end" 'BEGIN {printf "%.2f", b - a}')
   rtf=$(awk -v d="$duration" -v w="$wall" 'BEGIN {printf "%.1f", (w > 0 ? d / w : 0)}')
@@ -170,13 +173,14 @@ for name in "${logs[@]}"; do
     fi
     accuracy=${accuracy:+$accuracy; }$agreement
   fi
-  rows+=("$(printf '%-10s %6s %9s %8s %7s %8s %5s  %s' "$name" "$scans" "$duration" "$wall" "${rtf}x" "$rss_mib" \
-    "$failures" "$accuracy")")
+  rows+=("$(printf '%-10s %6s %9s %8s %7s %8s %5s %5s  %s' "$name" "$scans" "$duration" "$wall" "${rtf}x" "$rss_mib" \
+    "$failures" "${loops:--}" "$accuracy")")
 done
 
 echo
-printf '%-10s %6s %9s %8s %7s %8s %5s  %s\n' log scans "data s" "wall s" RTF "RSS MiB" fails accuracy
+printf '%-10s %6s %9s %8s %7s %8s %5s %5s  %s\n' log scans "data s" "wall s" RTF "RSS MiB" fails loops accuracy
 for row in "${rows[@]}"; do echo "$row"; done
 echo
-echo "fails = scans whose match failed (inserted at the prediction). Full outputs: $out_root/<log>/"
+echo "fails = scans whose match failed (inserted at the prediction); loops = loop closures accepted (- without"
+echo "the loop-closing pipeline). Full outputs: $out_root/<log>/"
 exit $status
