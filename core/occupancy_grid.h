@@ -33,7 +33,7 @@ struct OccupancyGridOptions {
   double border_margin_meters = 1.0;
   // When growing, the grid adds this much extra room beyond what is needed, so that growth
   // (a copy) stays rare.
-  double growth_step_meters = 10.0;
+  double growth_step_meters = 2.0;
 
   bool IsValid(std::string* error) const;
 };

@@ -38,6 +38,9 @@ DEFINE_double(sigma, 0.10, "Likelihood field p_hit ~ exp(-d / sigma): sigma in m
 DEFINE_double(field_max_distance, 0.3, "Likelihood field window radius in metres (beyond it p_hit = 0).");
 DEFINE_double(linear_window, 1.2, "Scan matcher search window, ± metres around the prediction in x and y.");
 DEFINE_double(angular_window_deg, 40.0, "Scan matcher search window, ± degrees around the predicted heading.");
+DEFINE_double(fallback_angular_window_deg, 92.0, "A match that fails or scores below --fallback_below_score is "
+              "searched again over ± this many degrees and ±2 m (sharp turns between sparse scans).");
+DEFINE_double(fallback_below_score, 0.35, "Score below which the wider fallback search runs (0 disables it).");
 DEFINE_double(min_score, 0.10, "Minimum correlative score (mean p_hit) for a match to count; else the scan is "
               "inserted at the prediction and counted as a failure.");
 DEFINE_double(free_space_penalty, 0.5, "Score penalty for each scan point that lands in known free space away from any "
@@ -79,6 +82,8 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   options->matcher.linear_search_window_meters = FLAGS_linear_window;
   options->matcher.angular_search_window_radians = FLAGS_angular_window_deg * M_PI / 180.0;
   options->matcher.min_correlative_score = FLAGS_min_score;
+  options->matcher.fallback_angular_search_window_radians = FLAGS_fallback_angular_window_deg * M_PI / 180.0;
+  options->matcher.fallback_below_score = FLAGS_fallback_below_score;
   options->matcher.free_space_penalty = FLAGS_free_space_penalty;
   options->matcher.translation_penalty_per_square_meter = FLAGS_translation_penalty;
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;

@@ -54,6 +54,9 @@ ScanMatcherOptions PoseGraphSlamOptions::DefaultLoopMatcherOptions() {
   options.angular_search_window_radians = 45.0 * M_PI / 180.0;  // paper §III-A: ±45°
   options.min_correlative_score = 0.35;
   options.branch_and_bound_depth = 5;
+  // The window is the whole loop-closure search: no wider retry.
+  options.fallback_linear_search_window_meters = 0.0;
+  options.fallback_angular_search_window_radians = 0.0;
   return options;
 }
 
@@ -84,7 +87,6 @@ bool PoseGraphSlamOptions::IsValid(std::string* error) const {
 PoseGraphSlam::PoseGraphSlam(const PoseGraphSlamOptions& options)
     : options_(options),
       local_matcher_(options.local.matcher),
-      loop_matcher_(options.loop_matcher),
       manifold_(CreateSe2Manifold()) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid PoseGraphSlamOptions: " << error;
@@ -203,6 +205,15 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
   last_search_pose_ = node.local_pose;
   const auto start = std::chrono::steady_clock::now();
   const Pose2 world_T_node = ToPose(node.world_pose);
+  // The gate below rejects any closure farther from the estimate than the drift since the
+  // last closure allows, so the search window need not reach beyond it (same result, less work).
+  const double travel = travel_since_closure_meters_;
+  ScanMatcherOptions window = options_.loop_matcher;
+  window.linear_search_window_meters =
+      std::min(window.linear_search_window_meters, options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel);
+  window.angular_search_window_radians =
+      std::min(window.angular_search_window_radians, options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel);
+  const ScanMatcher matcher(window);
   const double margin = options_.loop_matcher.linear_search_window_meters;
   for (int s = 0; s < static_cast<int>(submaps_.size()); ++s) {
     Submap& submap = submaps_[s];
@@ -215,10 +226,9 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
       continue;
     }
     ++stats_.loop_searches;
-    const ScanMatchResult match = loop_matcher_.Match(*submap.map, predicted, node.matching_points);
+    const ScanMatchResult match = matcher.Match(*submap.map, predicted, node.matching_points);
     if (!match.converged || match.score < options_.loop_min_score) continue;
     const Pose2 correction = Between(predicted, match.pose);
-    const double travel = travel_since_closure_meters_;
     if (correction.translation().norm() > options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel ||
         std::abs(correction.theta()) > options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel) {
       ++stats_.loop_closures_rejected_by_gate;

@@ -73,7 +73,7 @@ struct PoseGraphSlamOptions {
   double loop_gate_meters_per_meter = 0.1;
   double loop_gate_base_radians = 0.1;
   double loop_gate_radians_per_meter = 0.02;
-  int solve_every_n_loop_closures = 3;
+  int solve_every_n_loop_closures = 10;
   int max_iterations_per_solve = 10;
   int max_iterations_final = 50;
   bool loop_closure = true;
@@ -158,7 +158,6 @@ class PoseGraphSlam {
 
   PoseGraphSlamOptions options_;
   ScanMatcher local_matcher_;
-  ScanMatcher loop_matcher_;
   std::deque<Node> nodes_;
   std::deque<Submap> submaps_;
   std::deque<Constraint> constraints_;

@@ -215,6 +215,9 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   if (!(min_correlative_score >= 0 && min_correlative_score < 1)) msg << "min_correlative_score must be in [0, 1); ";
   if (max_ceres_iterations < 0) msg << "max_ceres_iterations must be >= 0; ";
   if (!(free_space_penalty >= 0)) msg << "free_space_penalty must be >= 0; ";
+  if (!(fallback_below_score >= 0 && fallback_linear_search_window_meters >= 0 &&
+        fallback_angular_search_window_radians >= 0 && fallback_angular_search_window_radians <= M_PI))
+    msg << "fallback score and windows must be >= 0 (angular <= pi); ";
   if (!(translation_penalty_per_square_meter >= 0 && rotation_penalty_per_square_radian >= 0))
     msg << "motion penalties must be >= 0; ";
   if (error != nullptr) *error = msg.str();
@@ -256,6 +259,32 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
 ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                    const std::vector<Eigen::Vector2f>& points_robot,
                                    const std::vector<float>& weights) const {
+  ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, options_.linear_search_window_meters,
+                                     options_.angular_search_window_radians);
+  const bool wider = options_.fallback_linear_search_window_meters > options_.linear_search_window_meters ||
+                     options_.fallback_angular_search_window_radians > options_.angular_search_window_radians;
+  // A best pose on the border of the window may be the clipped side of a peak outside it.
+  const Pose2 offset = Between(predicted, result.pose);
+  const bool on_border =
+      std::abs(offset.theta()) >= options_.angular_search_window_radians - 2 * options_.max_angular_step_radians ||
+      std::abs(result.pose.x() - predicted.x()) >= options_.linear_search_window_meters - 0.1 ||
+      std::abs(result.pose.y() - predicted.y()) >= options_.linear_search_window_meters - 0.1;
+  if (wider && !points_robot.empty() &&
+      (!result.converged || result.score < options_.fallback_below_score || on_border)) {
+    ScanMatchResult fallback =
+        MatchOnce(map, predicted, points_robot, weights,
+                  std::max(options_.linear_search_window_meters, options_.fallback_linear_search_window_meters),
+                  std::max(options_.angular_search_window_radians, options_.fallback_angular_search_window_radians));
+    fallback.candidates_scored += result.candidates_scored;
+    if (fallback.converged && (!result.converged || fallback.score > result.score)) return fallback;
+  }
+  return result;
+}
+
+ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predicted,
+                                       const std::vector<Eigen::Vector2f>& points_robot,
+                                       const std::vector<float>& weights, double linear_window_meters,
+                                       double angular_window_radians) const {
   CHECK(weights.empty() || weights.size() == points_robot.size())
       << weights.size() << " weights for " << points_robot.size() << " points";
   const LikelihoodField& field = map.field();
@@ -271,7 +300,10 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
   }
   const int depth = options_.branch_and_bound_depth;
   const int block = 1 << depth;
-  const DiscretizedSearch s = Discretize(options_, field.geometry(), predicted, points_robot, block);
+  ScanMatcherOptions windows = options_;
+  windows.linear_search_window_meters = linear_window_meters;
+  windows.angular_search_window_radians = angular_window_radians;
+  const DiscretizedSearch s = Discretize(windows, field.geometry(), predicted, points_robot, block);
   const std::vector<std::vector<float>> levels = BuildPyramid(map, s, depth, options_.free_space_penalty);
   const SearchContext context = MakeContext(options_, map, s, levels, weights);
 
@@ -288,8 +320,8 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
   BranchAndBound(context, std::move(top), depth, &best, &result.candidates_scored);
   if (best.yaw_index < 0) {
     std::ostringstream msg;
-    msg << "no candidate within ±" << options_.linear_search_window_meters << " m, ±"
-        << options_.angular_search_window_radians << " rad scores >= " << options_.min_correlative_score;
+    msg << "no candidate within ±" << linear_window_meters << " m, ±" << angular_window_radians
+        << " rad scores >= " << options_.min_correlative_score;
     result.message = msg.str();
     return result;
   }

@@ -37,6 +37,12 @@ struct ScanMatcherOptions {
   // Weak motion prior: score -= a * |t - t_pred|^2 + b * (yaw - yaw_pred)^2.
   double translation_penalty_per_square_meter = 0.05;
   double rotation_penalty_per_square_radian = 0.0;
+  // A match that fails, scores below `fallback_below_score` or lands on the border of the
+  // window is searched again over these wider windows (sharp turns of sparse logs without
+  // odometry); the better-scoring result is kept.
+  double fallback_below_score = 0.35;
+  double fallback_linear_search_window_meters = 2.0;
+  double fallback_angular_search_window_radians = 1.6;  // ≈ 92°
   bool refine_with_ceres = true;
   int max_ceres_iterations = 20;
 
@@ -75,6 +81,10 @@ class ScanMatcher {
   const ScanMatcherOptions& options() const { return options_; }
 
  private:
+  ScanMatchResult MatchOnce(const LaserMap& map, const Pose2& predicted,
+                            const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights,
+                            double linear_window_meters, double angular_window_radians) const;
+
   ScanMatcherOptions options_;
 };
 

@@ -132,6 +132,8 @@ TEST_F(ScanMatcherTest, BranchAndBoundMatchesBruteForceOnRandomPoses) {
   options.linear_search_window_meters = 0.4;
   options.angular_search_window_radians = 0.1;
   options.min_correlative_score = 0.0;
+  options.fallback_linear_search_window_meters = 0.0;  // compare one search with one search
+  options.fallback_angular_search_window_radians = 0.0;
   for (int trial = 0; trial < 12; ++trial) {
     // Half of the trials with a motion prior, whose bound must stay exact too.
     options.translation_penalty_per_square_meter = trial % 2 ? 0.3 : 0.0;
