@@ -22,6 +22,12 @@ class LaserMap {
   void InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                   const std::vector<Eigen::Vector2f>& points_robot);
 
+  // Keeps only what matching needs (cell states, likelihood values); no more insertion.
+  void Freeze() {
+    grid_.Freeze();
+    field_.Freeze();
+  }
+
   const OccupancyGrid& grid() const { return grid_; }
   const LikelihoodField& field() const { return field_; }
   int num_scans_inserted() const { return num_scans_inserted_; }

@@ -26,7 +26,13 @@ LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options) : option
   CHECK(options_.IsValid(&error)) << "invalid LikelihoodFieldOptions: " << error;
 }
 
+void LikelihoodField::Freeze() {
+  frozen_ = true;
+  std::vector<Eigen::Vector2f>().swap(published_);
+}
+
 void LikelihoodField::Resize(const GridGeometry& g) {
+  CHECK(!frozen_) << "Resize on a frozen likelihood field";
   const double r = g.resolution_meters();
   radius_cells_ = static_cast<int>(std::ceil(options_.max_distance_meters / r - 1e-9));
   std::vector<float> values(g.num_cells(), 0.f);
@@ -72,6 +78,7 @@ float LikelihoodField::RecomputeCell(const CellIndex& c) const {
 }
 
 void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<int>& changed_cells) {
+  CHECK(!frozen_) << "ApplyChanges on a frozen likelihood field";
   if (geometry_.num_cells() != grid.geometry().num_cells() ||
       geometry_.origin() != grid.geometry().origin()) {
     Resize(grid.geometry());
@@ -109,6 +116,7 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
 }
 
 void LikelihoodField::RebuildAll() {
+  CHECK(!frozen_) << "RebuildAll on a frozen likelihood field";
   for (int y = 0; y < geometry_.height(); ++y) {
     for (int x = 0; x < geometry_.width(); ++x) values_[y * geometry_.width() + x] = RecomputeCell({x, y});
   }

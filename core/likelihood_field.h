@@ -54,6 +54,10 @@ class LikelihoodField {
   // Publishes every occupied cell's current hit point and rebuilds.
   void RebuildFrom(const OccupancyGrid& grid);
 
+  // Frees the published hit points (half the memory); values stay readable, ApplyChanges,
+  // Resize and the rebuilds CHECK-fail afterwards.
+  void Freeze();
+
   // Value at a cell (0 outside the grid).
   float Value(const CellIndex& c) const {
     return geometry_.Contains(c) ? values_[geometry_.LinearIndex(c)] : 0.f;
@@ -70,6 +74,7 @@ class LikelihoodField {
   LikelihoodFieldOptions options_;
   GridGeometry geometry_;
   int radius_cells_ = 0;
+  bool frozen_ = false;
   std::vector<float> values_;
   // Published hit point per cell relative to the cell's own minimum corner (metres), NaN
   // when the cell does not contribute. Relative storage makes values independent of growth.

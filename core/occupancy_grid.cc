@@ -30,6 +30,7 @@ OccupancyGrid::OccupancyGrid(const OccupancyGridOptions& options) : options_(opt
 
 bool OccupancyGrid::EnsureContains(const Eigen::Vector2d& min_world,
                                    const Eigen::Vector2d& max_world) {
+  CHECK(!frozen_) << "EnsureContains on a frozen grid";
   CHECK(min_world.allFinite() && max_world.allFinite()) << "non-finite box";
   const double r = options_.resolution_meters;
   const double margin = options_.border_margin_meters;
@@ -191,7 +192,15 @@ CellState OccupancyGrid::State(int i) const {
   return IsOccupied(i) ? CellState::kOccupied : CellState::kFree;
 }
 
+void OccupancyGrid::Freeze() {
+  frozen_ = true;
+  std::vector<Eigen::Vector2f>().swap(hit_sum_);
+  std::vector<uint32_t>().swap(hit_count_);
+  std::vector<uint32_t>().swap(last_update_);
+}
+
 Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
+  CHECK(!frozen_) << "HitPoint on a frozen grid";
   const CellIndex c = geometry_.FromLinearIndex(i);
   if (hit_count_[i] == 0) return geometry_.CellCenter(c);
   return geometry_.CellMinCorner(c) + (hit_sum_[i] / static_cast<float>(hit_count_[i])).cast<double>();

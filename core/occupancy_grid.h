@@ -69,7 +69,7 @@ class OccupancyGrid {
   }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
-  int HitCount(int linear_index) const { return hit_count_[linear_index]; }
+  int HitCount(int linear_index) const { return frozen_ ? 0 : hit_count_[linear_index]; }
 
   // Bounding box (cells) of all observed cells; empty (max < min) before any insertion.
   CellIndex observed_min() const { return observed_min_; }
@@ -77,6 +77,12 @@ class OccupancyGrid {
 
   // Occupancy probability in [0, 1], 0.5 for unknown.
   float Probability(int linear_index) const;
+
+  // Frees what only insertion needs (hit points, per-scan stamps): about 60% of the memory.
+  // Afterwards State/LogOdds/Probability still work; InsertScan, EnsureContains and HitPoint
+  // CHECK-fail. For finished submaps that are only matched against.
+  void Freeze();
+  bool frozen() const { return frozen_; }
 
  private:
   void Resize(const GridGeometry& new_geometry);
@@ -93,6 +99,7 @@ class OccupancyGrid {
   // Scan counter stamps so that a cell is updated at most once per scan.
   std::vector<uint32_t> last_update_;
   uint32_t scan_counter_ = 0;
+  bool frozen_ = false;
   CellIndex observed_min_{1, 1};
   CellIndex observed_max_{0, 0};
 };

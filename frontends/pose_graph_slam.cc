@@ -167,6 +167,7 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   AddNodeToGraph(&nodes_.back(), active_submaps_);
   if (submaps_[active_submaps_.front()].num_scans >= options_.scans_per_submap) {
     submaps_[active_submaps_.front()].finished = true;
+    submaps_[active_submaps_.front()].map->Freeze();  // matched against only from now on
     active_submaps_.erase(active_submaps_.begin());
   }
 

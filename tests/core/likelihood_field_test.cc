@@ -84,5 +84,21 @@ TEST(LikelihoodFieldTest, IncrementalMatchesBruteForceOnRandomUpdates) {
   EXPECT_GT(turned_free, 50);
 }
 
+// Freezing a finished map keeps what matching reads: cell states and likelihood values.
+TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  std::vector<Eigen::Vector2f> wall;
+  for (int i = -20; i <= 20; ++i) wall.emplace_back(1.0f, i * 0.05f);
+  map.InsertScan(Pose2(0.1, 0.2, 0.3), Eigen::Vector2d::Zero(), wall);
+  const std::vector<float> values = map.field().values();
+  std::vector<CellState> states;
+  for (int i = 0; i < map.grid().geometry().num_cells(); ++i) states.push_back(map.grid().State(i));
+  map.Freeze();
+  EXPECT_TRUE(map.grid().frozen());
+  EXPECT_EQ(values, map.field().values());
+  for (int i = 0; i < map.grid().geometry().num_cells(); ++i) ASSERT_EQ(states[i], map.grid().State(i));
+  EXPECT_DEATH(map.InsertScan(Pose2(), Eigen::Vector2d::Zero(), wall), "frozen");
+}
+
 }  // namespace
 }  // namespace hetslam
