@@ -51,7 +51,7 @@ MargSimulation SimulateMarg(uint32_t seed, double duration_seconds, const MargNo
   std::mt19937 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
-  const auto gaussian3 = [&](double sigma) {
+  const auto gaussian3 = [&](double sigma) -> Eigen::Vector3d {  // a value: no dangling expression
     return Eigen::Vector3d(normal(rng), normal(rng), normal(rng)) * sigma;
   };
   const double phases[4] = {phase(rng), phase(rng), phase(rng), phase(rng)};
