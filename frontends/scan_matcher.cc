@@ -21,21 +21,26 @@ struct Candidate {
 };
 
 // The scan rotated by every yaw of the search, as absolute cells of the field at zero
-// translation offset, and the box of cells any candidate can touch.
+// translation offset, and the box of cells any candidate can touch. Points that no candidate
+// can bring near the map's non-zero cells (observed cells plus the likelihood window) are
+// left out: they would score 0 everywhere. They still count in the mean (inv_weight_sum is
+// over all points), so scores are unchanged while the region shrinks to the map's extent.
 struct DiscretizedSearch {
   std::vector<double> yaws;
   std::vector<double> yaw_offsets;  // yaw - predicted yaw
-  std::vector<std::vector<CellIndex>> cells;  // [yaw][point]
+  std::vector<std::vector<CellIndex>> cells;       // [yaw][kept point]
+  std::vector<std::vector<float>> cell_weights;    // [yaw][kept point]; empty without weights
   int window_cells = 0;
   CellIndex region_min{0, 0};
   int region_width = 0;
   int region_height = 0;
 };
 
-DiscretizedSearch Discretize(const ScanMatcherOptions& options, const GridGeometry& geometry,
-                             const Pose2& predicted, const std::vector<Eigen::Vector2f>& points,
+DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Pose2& predicted,
+                             const std::vector<Eigen::Vector2f>& points, const std::vector<float>& weights,
                              int block_cells) {
   DiscretizedSearch search;
+  const GridGeometry& geometry = map.field().geometry();
   const double r = geometry.resolution_meters();
   double step = options.angular_step_radians;
   if (step <= 0.0) {
@@ -49,23 +54,33 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const GridGeomet
   }
   const int num_steps = static_cast<int>(std::ceil(options.angular_search_window_radians / step));
   search.window_cells = static_cast<int>(std::ceil(options.linear_search_window_meters / r));
+  const int w = search.window_cells;
+  // Box of cells that can hold a non-zero table value, grown by the window.
+  const int reach = map.field().window_radius_cells() + w + 1;
+  CellIndex keep_min = map.grid().observed_min(), keep_max = map.grid().observed_max();
+  keep_min = {keep_min.x - reach, keep_min.y - reach};
+  keep_max = {keep_max.x + reach, keep_max.y + reach};
   CellIndex lo{INT32_MAX, INT32_MAX}, hi{INT32_MIN, INT32_MIN};
   for (int k = -num_steps; k <= num_steps; ++k) {
     const double yaw = predicted.theta() + k * step;
     const Pose2 world_T_robot(predicted.translation(), yaw);
     std::vector<CellIndex> cells;
+    std::vector<float> cell_weights;
     cells.reserve(points.size());
-    for (const auto& p : points) {
-      const CellIndex c = geometry.WorldToCell(world_T_robot * p.cast<double>());
+    for (size_t i = 0; i < points.size(); ++i) {
+      const CellIndex c = geometry.WorldToCell(world_T_robot * points[i].cast<double>());
+      if (c.x < keep_min.x || c.y < keep_min.y || c.x > keep_max.x || c.y > keep_max.y) continue;
       cells.push_back(c);
+      if (!weights.empty()) cell_weights.push_back(weights[i]);
       lo = {std::min(lo.x, c.x), std::min(lo.y, c.y)};
       hi = {std::max(hi.x, c.x), std::max(hi.y, c.y)};
     }
     search.yaws.push_back(yaw);
     search.yaw_offsets.push_back(k * step);
     search.cells.push_back(std::move(cells));
+    search.cell_weights.push_back(std::move(cell_weights));
   }
-  const int w = search.window_cells;
+  if (lo.x == INT32_MAX) lo = hi = keep_min;  // no point can reach the map: all scores 0
   search.region_min = {lo.x - w, lo.y - w};
   search.region_width = hi.x - lo.x + 2 * w + block_cells + 1;
   search.region_height = hi.y - lo.y + 2 * w + block_cells + 1;
@@ -137,8 +152,9 @@ struct SearchContext {
     if (weights->empty()) {
       for (const CellIndex& c : cells) sum += table[static_cast<size_t>(c.y + oy) * s.region_width + c.x + ox];
     } else {
+      const std::vector<float>& cell_weights = s.cell_weights[yaw_index];
       for (size_t i = 0; i < cells.size(); ++i) {
-        sum += (*weights)[i] * table[static_cast<size_t>(cells[i].y + oy) * s.region_width + cells[i].x + ox];
+        sum += cell_weights[i] * table[static_cast<size_t>(cells[i].y + oy) * s.region_width + cells[i].x + ox];
       }
     }
     const int size = 1 << level;
@@ -194,8 +210,9 @@ double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std:
 }
 
 SearchContext MakeContext(const ScanMatcherOptions& options, const LaserMap& map, const DiscretizedSearch& s,
-                          const std::vector<std::vector<float>>& levels, const std::vector<float>& weights) {
-  return SearchContext{&s, &levels, &weights, InverseWeightSum(weights, s.cells.front().size()),
+                          const std::vector<std::vector<float>>& levels, const std::vector<float>& weights,
+                          size_t num_points) {
+  return SearchContext{&s, &levels, &weights, InverseWeightSum(weights, num_points),
                        map.field().geometry().resolution_meters(),
                        options.translation_penalty_per_square_meter, options.rotation_penalty_per_square_radian};
 }
@@ -236,9 +253,9 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
   result.pose = predicted;
   const LikelihoodField& field = map.field();
   if (points_robot.empty() || field.geometry().num_cells() == 0) return result;
-  const DiscretizedSearch s = Discretize(options_, field.geometry(), predicted, points_robot, 1);
+  const DiscretizedSearch s = Discretize(options_, map, predicted, points_robot, weights, 1);
   const std::vector<std::vector<float>> levels = BuildPyramid(map, s, 0, options_.free_space_penalty);
-  const SearchContext context = MakeContext(options_, map, s, levels, weights);
+  const SearchContext context = MakeContext(options_, map, s, levels, weights, points_robot.size());
   Candidate best{0, 0, 0, -std::numeric_limits<float>::infinity()};
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
     for (int dy = -s.window_cells; dy <= s.window_cells; ++dy) {
@@ -303,9 +320,9 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   ScanMatcherOptions windows = options_;
   windows.linear_search_window_meters = linear_window_meters;
   windows.angular_search_window_radians = angular_window_radians;
-  const DiscretizedSearch s = Discretize(windows, field.geometry(), predicted, points_robot, block);
+  const DiscretizedSearch s = Discretize(windows, map, predicted, points_robot, weights, block);
   const std::vector<std::vector<float>> levels = BuildPyramid(map, s, depth, options_.free_space_penalty);
-  const SearchContext context = MakeContext(options_, map, s, levels, weights);
+  const SearchContext context = MakeContext(options_, map, s, levels, weights, points_robot.size());
 
   std::vector<Candidate> top;
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
