@@ -10,7 +10,7 @@
 #include <numeric>
 #include <sstream>
 
-#include "core/text_fields.h"
+#include "core/numeric_table.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -76,46 +76,19 @@ int NearestPose(const std::vector<StampedPose2>& trajectory, const std::vector<i
 Status ReadRelations(const std::string& path, std::vector<Relation>* relations) {
   CHECK(relations != nullptr) << "ReadRelations: relations is null";
   relations->clear();
-  struct stat info;
-  if (stat(path.c_str(), &info) != 0) {
-    return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
-  }
-  if (S_ISDIR(info.st_mode)) return Status::Error("cannot open '" + path + "': Is a directory");
-  std::ifstream in(path);
-  if (!in) return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
-
-  static const char* const kNames[8] = {"t1", "t2", "x", "y", "z", "roll", "pitch", "yaw"};
-  std::string line;
-  std::vector<std::string> fields;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    text_fields::Split(line, &fields);
-    if (fields.empty() || fields[0][0] == '#') continue;
-    const std::string where = path + ":" + std::to_string(line_number) + ": ";
-    if (fields.size() != 8) {
-      relations->clear();
-      return Status::Error(where + "expected 8 fields 't1 t2 x y z roll pitch yaw', found " +
-                           std::to_string(fields.size()));
-    }
-    double v[8];
-    for (int k = 0; k < 8; ++k) {
-      if (!text_fields::ParseFiniteDouble(fields[k], &v[k])) {
-        relations->clear();
-        return Status::Error(where + kNames[k] + " ('" + fields[k] +
-                             "') is not a finite number");
-      }
-    }
+  std::vector<NumericRow> rows;
+  const Status status =
+      ReadNumericTable(path, {"t1", "t2", "x", "y", "z", "roll", "pitch", "yaw"}, &rows);
+  if (!status.ok()) return status;
+  relations->reserve(rows.size());
+  for (const NumericRow& row : rows) {
+    const std::vector<double>& v = row.values;
     Relation r;
     r.t1_seconds = v[0];
     r.t2_seconds = v[1];
-    r.delta = Pose2(v[2], v[3], v[7]);
-    r.line_number = line_number;
+    r.delta = Pose2(v[2], v[3], v[7]);  // planar part of the 6D relation
+    r.line_number = row.line_number;
     relations->push_back(r);
-  }
-  if (in.bad()) {
-    relations->clear();
-    return Status::Error("error reading '" + path + "': " + std::strerror(errno));
   }
   return Status::Ok();
 }

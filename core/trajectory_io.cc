@@ -8,7 +8,7 @@
 #include <cstring>
 #include <fstream>
 
-#include "core/text_fields.h"
+#include "core/numeric_table.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -42,44 +42,13 @@ Status WriteTrajectory(const std::string& path, const std::vector<StampedPose2>&
 Status ReadTrajectory(const std::string& path, std::vector<StampedPose2>* trajectory) {
   CHECK(trajectory != nullptr) << "ReadTrajectory: trajectory is null";
   trajectory->clear();
-  struct stat info;
-  if (stat(path.c_str(), &info) != 0) {
-    return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
-  }
-  if (S_ISDIR(info.st_mode)) return Status::Error("cannot open '" + path + "': Is a directory");
-  std::ifstream in(path);
-  if (!in) return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
-
-  static const char* const kNames[4] = {"timestamp", "x", "y", "theta"};
-  std::string line;
-  std::vector<std::string> fields;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    text_fields::Split(line, &fields);
-    if (fields.empty() || fields[0][0] == '#') continue;
-    const std::string where = path + ":" + std::to_string(line_number) + ": ";
-    if (fields.size() != 4) {
-      trajectory->clear();
-      return Status::Error(where + "expected 4 fields 'timestamp x y theta', found " +
-                           std::to_string(fields.size()));
-    }
-    double v[4];
-    for (int k = 0; k < 4; ++k) {
-      if (!text_fields::ParseFiniteDouble(fields[k], &v[k])) {
-        trajectory->clear();
-        return Status::Error(where + kNames[k] + " ('" + fields[k] +
-                             "') is not a finite number");
-      }
-    }
-    StampedPose2 p;
-    p.stamp_seconds = v[0];
-    p.pose = Pose2(v[1], v[2], v[3]);
-    trajectory->push_back(p);
-  }
-  if (in.bad()) {
-    trajectory->clear();
-    return Status::Error("error reading '" + path + "': " + std::strerror(errno));
+  std::vector<NumericRow> rows;
+  const Status status = ReadNumericTable(path, {"timestamp", "x", "y", "theta"}, &rows);
+  if (!status.ok()) return status;
+  trajectory->reserve(rows.size());
+  for (const NumericRow& row : rows) {
+    const std::vector<double>& v = row.values;
+    trajectory->push_back({v[0], Pose2(v[1], v[2], v[3])});
   }
   return Status::Ok();
 }
