@@ -3,50 +3,31 @@
 #include <random>
 
 #include "core/laser_map.h"
+#include "datasets/sim/world.h"
 #include "gtest/gtest.h"
 
 namespace hetslam {
 namespace {
 
 // A 6 m x 4 m room ([-3, 3] x [-2, 2]) with a 0.6 m square pillar centred at (1.2, 0.7):
-// no symmetry within the search window. Returns the 2D ranges of a 360-beam scan from `pose`.
-struct Segment {
-  Eigen::Vector2d a, b;
-};
-
-std::vector<Segment> RoomWithPillar() {
-  std::vector<Segment> walls;
-  auto box = [&walls](double x0, double y0, double x1, double y1) {
-    walls.push_back({{x0, y0}, {x1, y0}});
-    walls.push_back({{x1, y0}, {x1, y1}});
-    walls.push_back({{x1, y1}, {x0, y1}});
-    walls.push_back({{x0, y1}, {x0, y0}});
-  };
-  box(-3, -2, 3, 2);
-  box(0.9, 0.4, 1.5, 1.0);
-  return walls;
+// no symmetry within the search window. Scans are ray-cast by the simulator's world.
+sim::World RoomWithPillar() {
+  sim::World world;
+  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 4.0), 0.0);
+  world.AddBox(Eigen::Vector2d(1.2, 0.7), Eigen::Vector2d(0.6, 0.6), 0.0);
+  return world;
 }
 
-std::vector<Eigen::Vector2f> SimulateScan(const std::vector<Segment>& walls, const Pose2& world_T_robot,
-                                          double noise_std, std::mt19937* rng) {
+// A 360-beam scan (1° steps) from `world_T_robot`, robot frame, with Gaussian range noise.
+std::vector<Eigen::Vector2f> SimulateScan(const sim::World& world, const Pose2& world_T_robot, double noise_std,
+                                          std::mt19937* rng) {
   std::normal_distribution<double> noise(0.0, noise_std);
   std::vector<Eigen::Vector2f> points;
   for (int i = 0; i < 360; ++i) {
     const double angle = -M_PI + i * M_PI / 180.0;
-    const Eigen::Vector2d origin = world_T_robot.translation();
-    const Eigen::Vector2d dir(std::cos(world_T_robot.theta() + angle), std::sin(world_T_robot.theta() + angle));
-    double best = 1e9;
-    for (const Segment& s : walls) {
-      const Eigen::Vector2d e = s.b - s.a;
-      const double denom = dir.x() * e.y() - dir.y() * e.x();
-      if (std::abs(denom) < 1e-12) continue;
-      const Eigen::Vector2d w = s.a - origin;
-      const double t = (w.x() * e.y() - w.y() * e.x()) / denom;
-      const double u = (w.x() * dir.y() - w.y() * dir.x()) / denom;
-      if (t > 0 && u >= 0 && u <= 1) best = std::min(best, t);
-    }
-    if (best > 20) continue;
-    const double r = best + (noise_std > 0 ? noise(*rng) : 0.0);
+    double range = 0.0;
+    if (!world.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, 20.0, &range)) continue;
+    const double r = range + (noise_std > 0 ? noise(*rng) : 0.0);
     points.emplace_back(static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle)));
   }
   return points;
@@ -57,14 +38,14 @@ class ScanMatcherTest : public ::testing::Test {
   void SetUp() override {
     std::mt19937 rng(1);
     for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0)}) {
-      map_.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(walls_, pose, 0.01, &rng));
+      map_.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world_, pose, 0.01, &rng));
     }
   }
 
   // Matching a scan taken at `truth` from `truth ∘ offset` lands within 2 cm / 0.5°.
   void ExpectConvergesFrom(const Pose2& truth, const Pose2& offset) {
     std::mt19937 rng(2);
-    const std::vector<Eigen::Vector2f> scan = SimulateScan(walls_, truth, 0.01, &rng);
+    const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
     const ScanMatchResult result = matcher_.Match(map_, truth * offset, scan);
     ASSERT_TRUE(result.converged) << result.message;
     EXPECT_NEAR(truth.x(), result.pose.x(), 0.02) << "from offset " << offset;
@@ -74,7 +55,7 @@ class ScanMatcherTest : public ::testing::Test {
     EXPECT_GT(result.information.trace(), 0.0);
   }
 
-  std::vector<Segment> walls_ = RoomWithPillar();
+  sim::World world_ = RoomWithPillar();
   LaserMap map_{OccupancyGridOptions(), LikelihoodFieldOptions()};
   ScanMatcher matcher_{ScanMatcherOptions()};
 };
@@ -109,7 +90,7 @@ TEST_F(ScanMatcherTest, ZeroWeightPointsAreIgnored) {
   // Clutter points weighted 0 (floor obstacles) must not move the answer.
   std::mt19937 rng(3);
   const Pose2 truth(0.2, 0.1, -0.2);
-  std::vector<Eigen::Vector2f> scan = SimulateScan(walls_, truth, 0.01, &rng);
+  std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
   std::vector<float> weights(scan.size(), 1.f);
   std::uniform_real_distribution<float> clutter(-1.f, 1.f);
   for (int i = 0; i < 200; ++i) {
@@ -140,7 +121,7 @@ TEST_F(ScanMatcherTest, BranchAndBoundMatchesBruteForceOnRandomPoses) {
     options.rotation_penalty_per_square_radian = trial % 2 ? 0.5 : 0.0;
     const ScanMatcher matcher(options);
     const Pose2 truth(xy(rng), xy(rng), th(rng));
-    const std::vector<Eigen::Vector2f> scan = SimulateScan(walls_, truth, 0.02, &rng);
+    const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.02, &rng);
     const Pose2 predicted = truth * Pose2(off(rng), off(rng), off_th(rng));
     const ScanMatchResult fast = matcher.Match(map_, predicted, scan);
     const ScanMatchResult brute = matcher.BruteForceSearch(map_, predicted, scan);
