@@ -3,12 +3,15 @@
 // with the scan-to-likelihood-field cost (factors/scan_cost.h).
 //
 // Correlative search. Candidate poses are (yaw_k, t + (dx, dy) * r) for yaw steps k and whole
-// cell offsets (dx, dy) within the windows; a candidate's score is the weighted mean of the
-// field L at the cells its points fall in. Branch and bound over a pyramid of max-pooled
-// tables M_h(c) = max_{0 <= a, b < 2^h} L(c + (a, b)) finds the best-scoring candidate exactly
-// (the mean over M_h bounds every candidate of a 2^h × 2^h block), visiting a small fraction
-// of the candidates. The search is exact with respect to that discretisation; Ceres then
-// removes the discretisation error.
+// cell offsets (dx, dy) within the windows; a candidate's score is the weighted mean over its
+// points of T(c), where T = L (the likelihood field) except that cells of known free space
+// with L = 0 hold -free_space_penalty, minus a weak motion prior
+// a |t - t_pred|^2 + b (yaw - yaw_pred)^2. Branch and bound over a pyramid of max-pooled
+// tables M_h(c) = max_{0 <= a, b < 2^h} T(c + (a, b)) finds the best-scoring candidate exactly
+// (the mean over M_h, less the prior of the block's offset nearest the prediction, bounds
+// every candidate of a 2^h × 2^h block), visiting a small fraction of the candidates. The
+// search is exact with respect to that discretisation; Ceres then removes the discretisation
+// error. A failed, weak or window-border result is searched again over wider windows.
 #ifndef HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 #define HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 
