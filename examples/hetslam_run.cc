@@ -208,6 +208,11 @@ int Run() {
   }
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
+  if (trajectory.empty()) {
+    std::cerr << stats_line;
+    return Fail("no scan of '" + FLAGS_log + "' had enough valid beams to map (at least " +
+                std::to_string(options.local.min_points) + " within --max_range); nothing written"), 1;
+  }
   const std::string base = (std::filesystem::path(FLAGS_out) / "map").string();
   const std::string trajectory_path = (std::filesystem::path(FLAGS_out) / "trajectory.txt").string();
   std::vector<Pose2> path;
