@@ -1,0 +1,220 @@
+// The hetslam multi-sensor robot log and team manifest (the simulator's output format; any
+// robot can be logged into it). Full description with examples in datasets/README.md.
+//
+// A dataset is a directory with a team manifest `team.txt` and one directory per robot holding
+// `log.txt` and its camera images. Everything is text, one message per line, fields separated
+// by white space, '#' lines and blank lines are comments, numbers in C locale.
+//
+// Frames and units (SI, radians):
+//  - world: the simulator's frame, z up. Only TRUTH and manifest `tag` lines use it; a robot
+//    never knows it (its SLAM starts at its own origin).
+//  - body: x forward, y left, z up. Wheeled robots and humanoids: origin on the floor under the
+//    robot (z = 0 when standing on the floor); UAVs: the airframe centre.
+//  - laser: x along the beam of angle 0, z up (the LaserScan sensor frame).
+//  - camera: OpenCV optical frame (x right, y down, z forward), rigidly mounted on the laser
+//    (a humanoid's camera and laser both sit in its head).
+//  - tag: origin at the tag centre, x right and y up as seen when facing the tag, z out of the
+//    tag towards the viewer.
+//  - Euler angles (roll, pitch, yaw) are Z-Y-X as everywhere in hetslam:
+//    R = R_z(yaw) R_y(pitch) R_x(roll), pitch positive nose down (see frontends/marg_filter.h).
+//    A pose "x y z roll pitch yaw" is the transform a_T_b with translation (x, y, z) and that
+//    rotation.
+//
+// Messages of a robot log (the time stamp t, seconds, always comes second):
+//   HSLOG version                       first non-comment line; version 1
+//   PARAM name value                    robot_name, robot_kind (wheeled | uav | humanoid),
+//                                       camera_fx/_fy/_cx/_cy/_width/_height (pixels),
+//                                       laser_T_camera "x y z roll pitch yaw", anything else
+//   LASER t n angle_min angle_increment range_min range_max r_1 .. r_n
+//                                       a 2D scan in the laser frame; a range that is not
+//                                       finite ("nan"), <= range_min or >= range_max is "no
+//                                       return" and stays in the scan as read (LaserScan drops it)
+//   MOUNT t x y z roll pitch yaw        body_T_laser from the robot's kinematics, holds until
+//                                       the next MOUNT (humanoid head joint: at every scan;
+//                                       fixed mounts: once, before the first LASER)
+//   MARG t gx gy gz ax ay az mx my mz   raw MARG sample in the body frame: gyro rad/s,
+//                                       specific force m/s², magnetic field µT
+//   ATTITUDE t roll pitch yaw           the body attitude the MARG unit's own filter reports
+//                                       (yaw relative to magnetic north, i.e. world x)
+//   ALTITUDE t z                        body height above the floor from a rangefinder (UAV)
+//   ODOM t x y theta                    wheel odometry pose (odometry frame), wheeled robots
+//   COMMAND t vx vy yaw_rate            controller command, body frame, m/s and rad/s
+//   IMAGE t path                        a camera image (8-bit grey PNG), path relative to the
+//                                       log's directory
+//   TRUTH t x y z roll pitch yaw        ground truth world_T_body (simulated data only), at
+//                                       every LASER and IMAGE stamp
+//
+// Team manifest (`team.txt`):
+//   HSTEAM version                      first non-comment line; version 1
+//   robot name kind directory           one per robot; directory relative to the manifest
+//   tag id family size x y z roll pitch yaw
+//                                       ground truth of a fiducial: world_T_tag, size = edge of
+//                                       the black square in metres (evaluation only)
+//
+// Errors, as for CARMEN logs (core/carmen_log.h): every message names file and line
+// ("uav/log.txt:120: MARG needs 10 numbers after the stamp, found 7"). A malformed line (unknown
+// message, wrong field count, a non-numeric or non-finite number where one is required, a beam
+// count that is negative, over 100000 or larger than the fields present) is an error unless
+// `lenient` is set, in which case it is skipped and counted. Time stamps going backwards
+// within one message type are counted and the first few reported in `warnings`, never
+// reordered. A missing or wrong HSLOG/HSTEAM header is an error even when lenient.
+#ifndef HETSLAM_CORE_ROBOT_LOG_H_
+#define HETSLAM_CORE_ROBOT_LOG_H_
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "Eigen/Core"
+#include "Eigen/Geometry"
+#include "core/laser_scan.h"
+#include "core/se2.h"
+#include "core/status.h"
+
+namespace hetslam {
+
+// (roll, pitch, yaw) Z-Y-X <-> rotation, the convention above.
+Eigen::Matrix3d RotationFromRollPitchYaw(double roll_radians, double pitch_radians,
+                                         double yaw_radians);
+Eigen::Vector3d RollPitchYawFromRotation(const Eigen::Matrix3d& rotation);
+
+struct StampedPose3 {
+  double stamp_seconds = 0.0;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  int line_number = 0;  // 0 when not read from a file
+};
+
+struct RobotLaserReading {
+  // scan.robot_T_sensor is the latest MOUNT at or before the scan (identity if none).
+  LaserScan scan;
+  int line_number = 0;
+};
+
+struct MargReading {
+  double stamp_seconds = 0.0;
+  Eigen::Vector3d gyro_radps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_mps2 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d magnetometer_microtesla = Eigen::Vector3d::Zero();
+  int line_number = 0;
+};
+
+struct AttitudeReading {
+  double stamp_seconds = 0.0;
+  double roll_radians = 0.0;
+  double pitch_radians = 0.0;
+  double yaw_radians = 0.0;
+  int line_number = 0;
+};
+
+struct AltitudeReading {
+  double stamp_seconds = 0.0;
+  double height_meters = 0.0;
+  int line_number = 0;
+};
+
+struct OdometryPose2Reading {
+  double stamp_seconds = 0.0;
+  Pose2 pose;
+  int line_number = 0;
+};
+
+struct CommandReading {
+  double stamp_seconds = 0.0;
+  double vx_mps = 0.0;
+  double vy_mps = 0.0;
+  double yaw_rate_radps = 0.0;
+  int line_number = 0;
+};
+
+struct ImageReference {
+  double stamp_seconds = 0.0;
+  std::string path;  // as written in the log (relative to the log's directory)
+  int line_number = 0;
+};
+
+struct CameraIntrinsics {
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // pixels
+  int width = 0, height = 0;
+};
+
+struct RobotLogReadOptions {
+  bool lenient = false;        // skip malformed lines with a count instead of failing
+  int max_warnings_kept = 10;  // how many warning messages to keep verbatim
+};
+
+struct RobotLogStats {
+  int lines = 0;
+  int comment_lines = 0;
+  int malformed_lines_skipped = 0;            // only in lenient mode
+  int non_finite_ranges = 0;                  // "nan"/"inf" ranges (kept as no return)
+  std::map<std::string, int> timestamps_backwards;  // per message type
+  std::map<std::string, int> message_counts;        // per message type
+};
+
+struct RobotLog {
+  std::string path;       // the file read
+  std::string directory;  // its directory, for resolving IMAGE paths
+  int version = 0;
+  std::map<std::string, std::string> params;
+  std::vector<RobotLaserReading> lasers;
+  std::vector<StampedPose3> mounts;  // body_T_laser
+  std::vector<MargReading> marg;
+  std::vector<AttitudeReading> attitudes;
+  std::vector<AltitudeReading> altitudes;
+  std::vector<OdometryPose2Reading> odometry;
+  std::vector<CommandReading> commands;
+  std::vector<ImageReference> images;
+  std::vector<StampedPose3> truth;  // world_T_body
+  RobotLogStats stats;
+  std::vector<std::string> warnings;  // first few, "file:line: message"
+
+  // Camera intrinsics and laser_T_camera from the PARAMs; an error naming the missing or
+  // malformed parameter when the log has none or bad ones.
+  Status CameraModel(CameraIntrinsics* intrinsics, Eigen::Isometry3d* laser_T_camera) const;
+  // `directory`/`image.path`.
+  std::string ImagePath(const ImageReference& image) const;
+};
+
+Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options, RobotLog* log);
+
+// Writes every message of `log` merged by time stamp (at equal stamps in the order MOUNT,
+// ODOM, MARG, ATTITUDE, ALTITUDE, COMMAND, TRUTH, LASER, IMAGE; within a type in vector
+// order), after the HSLOG line, `comment_lines` as '#' lines and the PARAMs (sorted by name).
+// Numbers are printed so that reading gives back the same doubles (max_digits10); the same
+// log gives the same bytes. Laser scans must have evenly spaced angles (else an error).
+Status WriteRobotLog(const std::string& path, const RobotLog& log,
+                     const std::vector<std::string>& comment_lines);
+
+struct TeamRobot {
+  std::string name;
+  std::string kind;       // wheeled | uav | humanoid
+  std::string directory;  // as written (relative to the manifest)
+  int line_number = 0;
+};
+
+struct TagTruth {
+  int id = 0;
+  std::string family;  // e.g. tag36h11
+  double size_meters = 0.0;
+  Eigen::Isometry3d world_T_tag = Eigen::Isometry3d::Identity();
+  int line_number = 0;
+};
+
+struct TeamManifest {
+  std::string path;
+  std::string directory;
+  std::vector<TeamRobot> robots;
+  std::vector<TagTruth> tags;
+
+  // `directory`/robot.directory/log.txt
+  std::string RobotLogPath(const TeamRobot& robot) const;
+};
+
+// Errors name file and line; robot names must be unique and kinds known; tag sizes > 0.
+Status ReadTeamManifest(const std::string& path, TeamManifest* manifest);
+Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
+                         const std::vector<std::string>& comment_lines);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_ROBOT_LOG_H_
