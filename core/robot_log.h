@@ -52,9 +52,10 @@
 //                                       the black square in metres (evaluation only)
 //
 // Errors, as for CARMEN logs (core/carmen_log.h): every message names file and line
-// ("uav/log.txt:120: MARG needs 10 numbers after the stamp, found 7"). A malformed line (unknown
-// message, wrong field count, a non-numeric or non-finite number where one is required, a beam
-// count that is negative, over 100000 or larger than the fields present) is an error unless
+// ("uav/log.txt:120: MARG needs 9 numbers after the stamp (gx .. mz), found 7"). A malformed
+// line (unknown message, wrong field count, a non-numeric or non-finite number where one is
+// required, a beam count that is negative, over 100000 or not the number of ranges present,
+// LASER range limits not 0 <= range_min < range_max) is an error unless
 // `lenient` is set, in which case it is skipped and counted. Time stamps going backwards
 // within one message type are counted and the first few reported in `warnings`, never
 // reordered. A missing or wrong HSLOG/HSTEAM header is an error even when lenient.
@@ -85,7 +86,8 @@ struct StampedPose3 {
 };
 
 struct RobotLaserReading {
-  // scan.robot_T_sensor is the latest MOUNT at or before the scan (identity if none).
+  // scan.robot_T_sensor is the latest MOUNT at or before the scan, i.e. the last MOUNT line
+  // above it in the file (identity if none).
   LaserScan scan;
   int line_number = 0;
 };
@@ -180,8 +182,13 @@ Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options,
 // Writes every message of `log` merged by time stamp (at equal stamps in the order MOUNT,
 // ODOM, MARG, ATTITUDE, ALTITUDE, COMMAND, TRUTH, LASER, IMAGE; within a type in vector
 // order), after the HSLOG line, `comment_lines` as '#' lines and the PARAMs (sorted by name).
-// Numbers are printed so that reading gives back the same doubles (max_digits10); the same
-// log gives the same bytes. Laser scans must have evenly spaced angles (else an error).
+// Numbers are printed so that reading gives back the same doubles (the shortest such text,
+// std::to_chars: locale independent); the same
+// log gives the same bytes. Laser scans must have evenly spaced angles (else an error), and
+// each scan's robot_T_sensor must be the MOUNT in force at its stamp (identity before the
+// first MOUNT), else an error: the log stores mounts only as MOUNT messages. Poses are stored
+// as roll/pitch/yaw, so rotations read back equal to rounding (~1e-16), not bit for bit;
+// non-finite ranges are written as "nan".
 Status WriteRobotLog(const std::string& path, const RobotLog& log,
                      const std::vector<std::string>& comment_lines);
 
