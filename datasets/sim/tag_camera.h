@@ -1,11 +1,18 @@
 // A simulated grey-scale camera that sees AprilTags (tag36h11) on a plain background.
 //
 // Each visible tag is drawn from the apriltag library's own family bitmap (tag36h11_create(),
-// apriltag_to_image(): the 10 x 10 cell pattern including its white border) by an OpenCV
-// perspective warp of the bitmap onto the four projected corners of the full pattern, then the
-// whole image gets Gaussian blur and Gaussian pixel noise. Occlusion between tags and by walls
-// is the caller's business (pass only the tags it can see); tags behind the camera or partly
-// outside the image are drawn clipped, as a real camera would see them.
+// apriltag_to_image(): the 10 x 10 cell pattern including its white border) by exact area
+// coverage: every cell is projected (a perspective quad, clipped to the part in front of the
+// camera) and each pixel gets the area-weighted mean of the cells and background it overlaps,
+// i.e. a perspective warp of the bitmap box-filtered over the pixel, with no sampling bias on
+// edges (a point-sampled warp, even supersampled, shifts edges by up to half a sample, which
+// tilts the pose of a frontal tag by degrees). Then the whole image gets Gaussian blur
+// (cv::GaussianBlur, replicated border) and Gaussian pixel noise, and is rounded to 8 bits.
+// Pixel centres are at integer coordinates (pixel (row i, column j) covers [j - 0.5, j + 0.5] x
+// [i - 0.5, i + 0.5]), the convention of CameraIntrinsics. Occlusion between tags and by walls
+// is the caller's business (pass only the tags it can see); nearer tags are drawn over farther
+// ones; tags behind the camera or partly outside the image are drawn clipped, as a real camera
+// would see them; a tag seen from its back (camera on its -z side) is not drawn.
 //
 // Frames (see core/robot_log.h): world_T_camera is the OpenCV optical frame (z forward, x right,
 // y down); world_T_tag has x right, y up as seen when facing the tag, z out of the tag. The tag
