@@ -1,12 +1,15 @@
-// hetslam_sim: simulates a wheeled robot with a 2D laser and wheel odometry driving a
-// scenario's waypoint route, and writes a dataset with ground truth.
+// hetslam_sim: simulates robots in a scenario world and writes a dataset with ground truth.
 //
 //   hetslam_sim --out=/tmp/sim --seed=7
-//   hetslam_sim --scenario=my_floor.scenario --out=/tmp/my_floor --seed=1
+//   hetslam_sim --scenario=datasets/scenarios/team_two.scenario --out=/tmp/team --seed=1
 //
-// Writes DIR/log.clf (CARMEN FLASER + ODOM), DIR/truth.txt (timestamp x y theta at every
-// scan), DIR/commands.txt (body-frame velocity commands) and DIR/world.png, then prints a
-// summary. The same --scenario and --seed always give the same files, byte for byte.
+// A scenario without robot blocks (the 2D path, e.g. the office loop) gives one wheeled robot
+// with a 2D laser and wheel odometry: DIR/log.clf (CARMEN FLASER + ODOM), DIR/truth.txt
+// (timestamp x y theta at every scan), DIR/commands.txt (body-frame velocity commands) and
+// DIR/world.png. A scenario with robot_begin .. robot_end blocks gives a team dataset:
+// DIR/team.txt (HSTEAM manifest with tag truth), DIR/<robot>/log.txt (HSLOG),
+// DIR/<robot>/images/NNNNNN.png and DIR/world.png (datasets/README.md). Then a summary is
+// printed. The same --scenario and --seed always give the same files, byte for byte.
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -16,6 +19,7 @@
 #include <system_error>
 
 #include "datasets/sim/simulator.h"
+#include "datasets/sim/team_simulator.h"
 #include "datasets/sim/world.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
@@ -25,18 +29,28 @@
 #endif
 
 DEFINE_string(scenario, HETSLAM_DEFAULT_SCENARIO,
-              "Scenario file (walls, boxes, waypoints, robot, laser and odometry settings; format "
-              "in datasets/README.md). Default: the shipped office loop.");
-DEFINE_string(out, "", "Output folder, created if missing. Receives log.clf, truth.txt, "
-              "commands.txt and world.png. Required.");
-DEFINE_uint64(seed, 1, "Seed of the one std::mt19937_64 behind every random number (laser noise, "
-              "dropouts, odometry noise). Same seed, same bytes.");
-DEFINE_double(start_stamp, 0.0, "Time stamp of the first scan, seconds (>= 0).");
-DEFINE_double(control_rate_hz, 50.0, "Controller update rate, Hz (commands are recorded at this rate).");
-DEFINE_double(waypoint_radius, 0.35, "A waypoint counts as reached within this distance, metres.");
-DEFINE_double(goal_radius, 0.1, "The last waypoint counts as reached within this distance, metres.");
-DEFINE_bool(allow_incomplete, false, "Exit with status 0 even when the robot did not reach its last "
-            "waypoint before the scenario's duration limit (the files are written either way).");
+              "Scenario file (world, and either single-robot settings or robot blocks; format in "
+              "datasets/README.md). Default: the shipped office loop.");
+DEFINE_string(out, "", "Output folder, created if missing. Single robot: receives log.clf, "
+              "truth.txt, commands.txt and world.png. Team: team.txt, <robot>/log.txt, "
+              "<robot>/images/*.png and world.png. Required.");
+DEFINE_uint64(seed, 1, "Seed of the one std::mt19937_64 behind every random number (sensor "
+              "noise, dropouts, odometry noise, random obstacles, image noise). Same seed, same "
+              "bytes.");
+DEFINE_double(start_stamp, 0.0, "Single robot only: time stamp of the first scan, seconds (>= 0).");
+DEFINE_double(control_rate_hz, 0.0, "Controller update rate, Hz (commands are recorded at this "
+              "rate; teams also integrate the truth at it). 0: 50 Hz for a single robot, 100 Hz "
+              "for a team.");
+DEFINE_double(waypoint_radius, 0.35, "Single robot only: a waypoint counts as reached within "
+              "this distance, metres.");
+DEFINE_double(goal_radius, 0.1, "Single robot only: the last waypoint counts as reached within "
+              "this distance, metres.");
+DEFINE_double(max_duration, 0.0, "Teams only: stop after this many simulated seconds if earlier "
+              "than the scenario's duration_limit_s (0: the scenario's limit).");
+DEFINE_bool(images, true, "Teams only: render and write the camera images (--noimages keeps the "
+            "IMAGE lines but writes no PNG files; faster).");
+DEFINE_bool(allow_incomplete, false, "Exit with status 0 even when a robot did not finish its "
+            "route before the duration limit (the files are written either way).");
 
 namespace hetslam {
 namespace {
@@ -51,7 +65,7 @@ bool OptionsFromFlags(sim::SimulatorOptions* options, std::string* error) {
     return false;
   }
   options->start_stamp_seconds = FLAGS_start_stamp;
-  options->control_rate_hz = FLAGS_control_rate_hz;
+  options->control_rate_hz = FLAGS_control_rate_hz > 0.0 ? FLAGS_control_rate_hz : 50.0;
   options->waypoint_reached_radius_meters = FLAGS_waypoint_radius;
   options->goal_reached_radius_meters = FLAGS_goal_radius;
   std::string why;
@@ -62,11 +76,82 @@ bool OptionsFromFlags(sim::SimulatorOptions* options, std::string* error) {
   return true;
 }
 
-int Run() {
-  sim::SimulatorOptions options;
+bool TeamOptionsFromFlags(sim::TeamSimulatorOptions* options, std::string* error) {
+  options->control_rate_hz = FLAGS_control_rate_hz > 0.0 ? FLAGS_control_rate_hz : 100.0;
+  options->max_duration_seconds = FLAGS_max_duration;
+  options->render_images = FLAGS_images;
+  std::string why;
+  if (!options->IsValid(&why)) {
+    *error = "bad flag value: " + why;
+    return false;
+  }
+  return true;
+}
+
+int RunTeam(const sim::Scenario& scenario) {
+  sim::TeamSimulatorOptions options;
   std::string error;
-  if (!OptionsFromFlags(&options, &error)) {
+  if (!TeamOptionsFromFlags(&options, &error)) {
     std::cerr << "hetslam_sim: " << error << " (see --help)\n";
+    return 2;
+  }
+  std::mt19937_64 rng(FLAGS_seed);
+  sim::TeamSimulationResult result;
+  Status status = sim::SimulateTeam(scenario, options, &rng, &result);
+  if (!status.ok()) {
+    std::cerr << "hetslam_sim: " << status.message() << "\n";
+    return 1;
+  }
+  sim::TeamDatasetFiles files;
+  status = sim::WriteTeamDataset(FLAGS_out, scenario, result, options,
+                                 {"seed " + std::to_string(FLAGS_seed)}, &files);
+  if (!status.ok()) {
+    std::cerr << "hetslam_sim: " << status.message() << "\n";
+    return 1;
+  }
+  std::cout << "wrote " << files.manifest_path << " (" << result.robots.size() << " robots, "
+            << scenario.tags.size() << " tags)\n";
+  bool all_completed = true;
+  for (size_t i = 0; i < result.robots.size(); ++i) {
+    const sim::RobotSimulation& robot = result.robots[i];
+    std::cout << "wrote " << files.robot_log_paths[i] << " (" << robot.log.lasers.size()
+              << " LASER, " << robot.log.marg.size() << " MARG, " << robot.log.images.size()
+              << " IMAGE)\n";
+  }
+  std::cout << "wrote " << files.images_written << " images\n"
+            << "wrote " << files.world_image_path << "\n"
+            << "scenario " << scenario.source_name << ", seed " << FLAGS_seed << "\n";
+  for (const sim::RobotSimulation& robot : result.robots) {
+    int frames_with_tags = 0;
+    for (const sim::CameraFrame& frame : robot.frames) {
+      if (!frame.visible_tags.empty()) ++frames_with_tags;
+    }
+    long long beams = 0;
+    for (const auto& [surface, count] : robot.beams_by_surface) beams += count;
+    std::cout << robot.name << " (" << sim::RobotKindName(robot.kind) << "): "
+              << robot.duration_seconds << " s, path " << robot.path_length_meters << " m, "
+              << (robot.completed ? "route completed" : "route NOT completed") << ", "
+              << frames_with_tags << " of " << robot.frames.size() << " frames see a tag; beams:";
+    for (const auto& [surface, count] : robot.beams_by_surface) {
+      std::cout << " " << sim::SurfaceName(surface) << " " << count;
+    }
+    std::cout << ", no return " << robot.num_no_return_beams << "\n";
+    all_completed = all_completed && robot.completed;
+  }
+  if (!all_completed) {
+    std::cerr << "hetslam_sim: a robot did not finish its route within the duration limit\n";
+    if (!FLAGS_allow_incomplete) return 3;
+  }
+  return 0;
+}
+
+int Run() {
+  if (FLAGS_out.empty()) {
+    std::cerr << "hetslam_sim: --out is required (an output folder) (see --help)\n";
+    return 2;
+  }
+  if (FLAGS_scenario.empty()) {
+    std::cerr << "hetslam_sim: --scenario must name a scenario file (see --help)\n";
     return 2;
   }
   sim::Scenario scenario;
@@ -74,6 +159,13 @@ int Run() {
   if (!status.ok()) {
     std::cerr << "hetslam_sim: " << status.message() << "\n";
     return 1;
+  }
+  if (scenario.IsTeam()) return RunTeam(scenario);
+  sim::SimulatorOptions options;
+  std::string error;
+  if (!OptionsFromFlags(&options, &error)) {
+    std::cerr << "hetslam_sim: " << error << " (see --help)\n";
+    return 2;
   }
   std::error_code ec;
   std::filesystem::create_directories(FLAGS_out, ec);
@@ -136,9 +228,11 @@ int Run() {
 
 int main(int argc, char** argv) {
   gflags::SetUsageMessage(
-      "simulate a wheeled robot with a 2D laser and odometry in a scenario world\n"
+      "simulate robots in a scenario world and write a dataset with ground truth\n"
       "  hetslam_sim --out=DIR [--scenario=FILE] [--seed=N]\n"
-      "writes DIR/log.clf, DIR/truth.txt, DIR/commands.txt, DIR/world.png");
+      "single-robot scenarios write DIR/log.clf, DIR/truth.txt, DIR/commands.txt, DIR/world.png;\n"
+      "scenarios with robot blocks write DIR/team.txt, DIR/<robot>/log.txt,\n"
+      "DIR/<robot>/images/NNNNNN.png and DIR/world.png (format: datasets/README.md)");
   gflags::ParseCommandLineFlags(&argc, &argv, true);
   google::InitGoogleLogging(argv[0]);
   return hetslam::Run();

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "datasets/sim/sim_random.h"
 #include "glog/logging.h"
 #include "opencv2/core.hpp"
 #include "opencv2/imgcodecs.hpp"
@@ -17,19 +18,6 @@ namespace sim {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
-
-// Uniform in [0, 1) from the top 53 bits of one draw (exact, library independent).
-double Uniform01(std::mt19937_64* rng) {
-  return static_cast<double>((*rng)() >> 11) * (1.0 / 9007199254740992.0);  // 2^-53
-}
-
-// Standard normal by Box-Muller from two draws (no cached second value, so the number of
-// draws per call is always two).
-double StandardGaussian(std::mt19937_64* rng) {
-  const double u1 = 1.0 - Uniform01(rng);  // (0, 1]: log is finite
-  const double u2 = Uniform01(rng);
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
-}
 
 // Moves `pose` for `dt` seconds at body-frame speed v and yaw rate w (exact unicycle arc).
 Pose2 IntegrateUnicycle(const Pose2& pose, double v, double w, double dt) {
@@ -48,8 +36,16 @@ double MoveTowards(double current, double target, double max_step) {
   return current + std::clamp(target - current, -max_step, max_step);
 }
 
-// Applies one noisy odometry increment (see OdometryOptions in world.h): the true motion
-// from `previous_truth` to `truth`, corrupted, is chained onto `odom`.
+std::string Fixed(double value, int digits) {
+  std::ostringstream os;
+  os.setf(std::ios::fixed);
+  os.precision(digits);
+  os << value;
+  return os.str();
+}
+
+}  // namespace
+
 Pose2 StepOdometry(const OdometryOptions& options, const Pose2& previous_truth,
                    const Pose2& truth, const Pose2& odom, std::mt19937_64* rng) {
   // The increment in the body frame at the previous sample, computed from differences so
@@ -69,16 +65,6 @@ Pose2 StepOdometry(const OdometryOptions& options, const Pose2& previous_truth,
   const double n_r = rot_std * StandardGaussian(rng);
   return odom * Pose2(step_body.x() + n_t, step_body.y(), step_theta + n_r);
 }
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream os;
-  os.setf(std::ios::fixed);
-  os.precision(digits);
-  os << value;
-  return os.str();
-}
-
-}  // namespace
 
 bool SimulatorOptions::IsValid(std::string* error) const {
   std::ostringstream why;

@@ -97,6 +97,12 @@ Status Simulate(const Scenario& scenario, const SimulatorOptions& options, std::
 LaserScan SimulateScan(const World& world, const LaserOptions& laser, const Pose2& world_T_sensor,
                        double stamp_seconds, std::mt19937_64* rng, int* num_no_return = nullptr);
 
+// One noisy odometry increment (see OdometryOptions in world.h): the true planar motion from
+// `previous_truth` to `truth` (both world_T_robot), corrupted with two Gaussian draws from
+// `rng`, chained onto `odom`. Returns the new odometry pose.
+Pose2 StepOdometry(const OdometryOptions& options, const Pose2& previous_truth,
+                   const Pose2& truth, const Pose2& odom, std::mt19937_64* rng);
+
 // Draws a picture of the world: walls (black), waypoints (red dots), the true trajectory
 // (blue) and, if not empty, the odometry trajectory (orange), north up, at
 // `pixels_per_meter`, with a 1 m grid. Writes it with cv::imwrite (format from the extension).
