@@ -1,11 +1,14 @@
 // Simulator speed: one 361-beam scan in the office loop by brute-force CastRay per beam vs
-// CastRays (angular culling), and the whole office loop (simulation only, no file output).
+// CastRays (angular culling), and the whole office loop (simulation only, no file output);
+// the team scenarios (simulation only: no images rendered, no files).
+#include <algorithm>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "benchmark/benchmark.h"
 #include "datasets/sim/simulator.h"
+#include "datasets/sim/team_simulator.h"
 #include "datasets/sim/world.h"
 #include "glog/logging.h"
 
@@ -86,6 +89,31 @@ void BM_SimulateOfficeLoop(benchmark::State& state) {
   state.counters["simulated_s"] = simulated_seconds;
 }
 BENCHMARK(BM_SimulateOfficeLoop)->Unit(benchmark::kMillisecond);
+
+// One shipped team scenario, simulated (3D laser, MARG, camera visibility), no files written.
+void BM_SimulateTeamScenario(benchmark::State& state, const std::string& name) {
+  Scenario scenario;
+  const Status read = ReadScenarioFile(
+      std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/" + name + ".scenario", &scenario);
+  CHECK(read.ok()) << read.message();
+  double simulated_seconds = 0.0;
+  for (auto _ : state) {
+    std::mt19937_64 rng(1);
+    TeamSimulationResult result;
+    const Status status = SimulateTeam(scenario, TeamSimulatorOptions(), &rng, &result);
+    CHECK(status.ok()) << status.message();
+    simulated_seconds = 0.0;
+    for (const RobotSimulation& robot : result.robots) {
+      simulated_seconds = std::max(simulated_seconds, robot.duration_seconds);
+    }
+    benchmark::DoNotOptimize(result.robots.data());
+  }
+  state.counters["simulated_s"] = simulated_seconds;
+}
+BENCHMARK_CAPTURE(BM_SimulateTeamScenario, humanoid_static_tilt, "humanoid_static_tilt")
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_SimulateTeamScenario, uav_flight, "uav_flight")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_SimulateTeamScenario, team_three, "team_three")->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace sim
