@@ -57,6 +57,8 @@ DEFINE_int32(scans_per_submap, 40, "Scans per submap of the loop-closing pipelin
 DEFINE_double(loop_min_score, 0.55, "Minimum mean likelihood of a loop-closure match to accept it.");
 DEFINE_double(loop_linear_window, 2.0, "Loop-closure search window, ± metres around the graph's estimate (paper: 2 m).");
 DEFINE_double(loop_angular_window_deg, 45.0, "Loop-closure search window, ± degrees (paper: 45°).");
+DEFINE_int32(solve_every_n_loop_closures, 10, "Re-optimise the pose graph after this many accepted loop closures ...");
+DEFINE_int32(solve_min_new_nodes, 0, "... but not before this many scans were added since the last solve.");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
@@ -101,6 +103,8 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   }
   graph_options->scans_per_submap = FLAGS_scans_per_submap;
   graph_options->loop_min_score = FLAGS_loop_min_score;
+  graph_options->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
+  graph_options->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
   graph_options->loop_matcher.linear_search_window_meters = FLAGS_loop_linear_window;
   graph_options->loop_matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
   graph_options->loop_closure = !FLAGS_no_loop_closure;
@@ -200,10 +204,10 @@ int Run() {
     std::snprintf(line, sizeof(line),
                   "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n"
                   "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d "
-                  "removed as inconsistent, %d solves (%.2f s), loop search %.2f s\n",
+                  "removed as inconsistent, %d solves (%d iterations, %.2f s), loop search %.2f s\n",
                   stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
                   stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
-                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solve_seconds, stats.loop_search_seconds);
+                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solver_iterations, stats.solve_seconds, stats.loop_search_seconds);
     stats_line = line;
   }
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

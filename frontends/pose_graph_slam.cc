@@ -79,6 +79,7 @@ bool PoseGraphSlamOptions::IsValid(std::string* error) const {
   if (!(loop_consistency_translation_meters > 0 && loop_consistency_rotation_radians > 0))
     msg << "loop consistency bounds must be > 0; ";
   if (solve_every_n_loop_closures < 1) msg << "solve_every_n_loop_closures must be >= 1; ";
+  if (solve_min_new_nodes < 0) msg << "solve_min_new_nodes must be >= 0; ";
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
@@ -87,6 +88,7 @@ bool PoseGraphSlamOptions::IsValid(std::string* error) const {
 PoseGraphSlam::PoseGraphSlam(const PoseGraphSlamOptions& options)
     : options_(options),
       local_matcher_(options.local.matcher),
+      loop_matcher_(options.loop_matcher),
       manifold_(CreateSe2Manifold()) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid PoseGraphSlamOptions: " << error;
@@ -122,7 +124,7 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   }
   if (odometry_pose.has_value()) last_odometry_ = odometry_pose;
   if (!local_trajectory_.empty()) {
-    travel_since_closure_meters_ += (local_pose.translation() - local_trajectory_.back().pose.translation()).norm();
+    travel_since_solve_meters_ += (local_pose.translation() - local_trajectory_.back().pose.translation()).norm();
   }
   local_trajectory_.push_back({scan.stamp_seconds, local_pose});
 
@@ -172,7 +174,9 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   }
 
   if (options_.loop_closure) SearchLoopClosures(node_index);
-  if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures) {
+  ++nodes_since_solve_;
+  if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures &&
+      nodes_since_solve_ >= options_.solve_min_new_nodes) {
     Solve(options_.max_iterations_per_solve);
   }
 }
@@ -208,13 +212,11 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
   const Pose2 world_T_node = ToPose(node.world_pose);
   // The gate below rejects any closure farther from the estimate than the drift since the
   // last closure allows, so the search window need not reach beyond it (same result, less work).
-  const double travel = travel_since_closure_meters_;
-  ScanMatcherOptions window = options_.loop_matcher;
-  window.linear_search_window_meters =
-      std::min(window.linear_search_window_meters, options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel);
-  window.angular_search_window_radians =
-      std::min(window.angular_search_window_radians, options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel);
-  const ScanMatcher matcher(window);
+  const double travel = travel_since_solve_meters_;
+  const double linear_window = std::min(options_.loop_matcher.linear_search_window_meters,
+                                        options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel);
+  const double angular_window = std::min(options_.loop_matcher.angular_search_window_radians,
+                                         options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel);
   const double margin = options_.loop_matcher.linear_search_window_meters;
   for (int s = 0; s < static_cast<int>(submaps_.size()); ++s) {
     Submap& submap = submaps_[s];
@@ -227,7 +229,8 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
       continue;
     }
     ++stats_.loop_searches;
-    const ScanMatchResult match = matcher.Match(*submap.map, predicted, node.matching_points);
+    const ScanMatchResult match =
+        loop_matcher_.MatchWithinWindow(*submap.map, predicted, node.matching_points, linear_window, angular_window);
     if (!match.converged || match.score < options_.loop_min_score) continue;
     const Pose2 correction = Between(predicted, match.pose);
     if (correction.translation().norm() > options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel ||
@@ -256,7 +259,6 @@ void PoseGraphSlam::AddLoopConstraint(int submap, int node, const Pose2& submap_
   constraints_.push_back(c);
   ++stats_.loop_closures_accepted;
   ++loop_closures_since_solve_;
-  travel_since_closure_meters_ = 0.0;
 }
 
 int PoseGraphSlam::num_nodes() const { return static_cast<int>(nodes_.size()); }
@@ -270,11 +272,21 @@ bool PoseGraphSlam::AddLoopClosure(int submap, int node, const Pose2& submap_T_n
 
 void PoseGraphSlam::Solve(int max_iterations) {
   loop_closures_since_solve_ = 0;
+  nodes_since_solve_ = 0;
+  // The estimate of new nodes is corrected from here on: drift is counted afresh. (Closures
+  // accepted but not yet solved do not correct it, so the gate keeps growing until a solve.)
+  travel_since_solve_meters_ = 0.0;
   if (nodes_.empty()) return;
   const auto start = std::chrono::steady_clock::now();
   ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  // Every constraint joins a submap and a node, so the graph is bipartite like a bundle
+  // adjustment: eliminating the (many) nodes leaves a small sparse system over the submaps.
+  solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (Node& node : nodes_) ordering->AddElementToGroup(node.world_pose.data(), 0);
+  for (Submap& submap : submaps_) ordering->AddElementToGroup(submap.world_pose.data(), 1);
+  solver_options.linear_solver_ordering = ordering;
   solver_options.max_num_iterations = max_iterations;
   solver_options.num_threads = 1;
   solver_options.logging_type = ceres::SILENT;
@@ -282,6 +294,7 @@ void PoseGraphSlam::Solve(int max_iterations) {
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, problem_.get(), &summary);
     ++stats_.solves;
+    stats_.solver_iterations += static_cast<int>(summary.iterations.size()) - 1;
     // Consistency check (issue: loop closures verified by consistency with the graph):
     // remove closures the optimised graph disagrees with, then solve once more.
     int removed = 0;

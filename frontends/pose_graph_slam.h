@@ -67,13 +67,16 @@ struct PoseGraphSlamOptions {
   double loop_consistency_translation_meters = 0.3;
   double loop_consistency_rotation_radians = 0.06;
   // Gate against aliasing (corridors, repeated rooms): a closure is accepted only if it
-  // moves the node by at most base + rate * (distance travelled since the last accepted
-  // closure) from the graph's estimate: drift grows with travel, aliases need not.
+  // moves the node by at most base + rate * (distance travelled since the graph was last
+  // optimised) from the graph's estimate: drift grows with travel, aliases need not.
   double loop_gate_base_meters = 0.3;
   double loop_gate_meters_per_meter = 0.1;
   double loop_gate_base_radians = 0.1;
   double loop_gate_radians_per_meter = 0.02;
   int solve_every_n_loop_closures = 10;
+  // ... but not before this many nodes were added since the last solve (bounds the solves of
+  // dense logs, where closures arrive at almost every scan).
+  int solve_min_new_nodes = 0;
   int max_iterations_per_solve = 10;
   int max_iterations_final = 50;
   bool loop_closure = true;
@@ -94,6 +97,7 @@ struct PoseGraphSlamStats {
   int loop_closures_rejected_after_solve = 0;
   int loop_closures_rejected_by_gate = 0;
   int solves = 0;
+  int solver_iterations = 0;      // summed over all solves
   double solve_seconds = 0.0;
   double loop_search_seconds = 0.0;
 };
@@ -158,6 +162,7 @@ class PoseGraphSlam {
 
   PoseGraphSlamOptions options_;
   ScanMatcher local_matcher_;
+  ScanMatcher loop_matcher_;
   std::deque<Node> nodes_;
   std::deque<Submap> submaps_;
   std::deque<Constraint> constraints_;
@@ -169,7 +174,8 @@ class PoseGraphSlam {
   std::optional<Pose2> last_odometry_;
   std::optional<Pose2> last_search_pose_;
   int loop_closures_since_solve_ = 0;
-  double travel_since_closure_meters_ = 0.0;
+  int nodes_since_solve_ = 0;
+  double travel_since_solve_meters_ = 0.0;
   bool finished_ = false;
   PoseGraphSlamStats stats_;
 };

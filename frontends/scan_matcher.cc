@@ -89,39 +89,59 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
 
 // Max-pooled copies of the field over the search region: levels[h](c) is the max of the
 // field over the 2^h × 2^h block whose minimum corner is c (cells outside the field are 0).
-std::vector<std::vector<float>> BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth,
-                                             float free_space_penalty) {
+// `levels` is reused between calls (its buffers keep their capacity).
+void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, float free_space_penalty,
+                  std::vector<std::vector<float>>* levels) {
   const int w = s.region_width, h = s.region_height;
-  std::vector<std::vector<float>> levels(depth + 1, std::vector<float>(static_cast<size_t>(w) * h, 0.f));
+  const size_t size = static_cast<size_t>(w) * h;
+  levels->resize(depth + 1);
+  for (std::vector<float>& level : *levels) level.resize(size);
   const LikelihoodField& field = map.field();
+  const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
+  const float* values = field.values().data();
+  const float* log_odds = grid.log_odds().data();
+  const uint8_t* observed = grid.observed().data();
+  const float occupied_threshold = grid.occupied_threshold_log_odds();
+  const int n = std::max(0, x_end - x_begin);
   for (int y = 0; y < h; ++y) {
+    float* dst = (*levels)[0].data() + static_cast<size_t>(y) * w;
     const int gy = s.region_min.y + y;
-    if (gy < 0 || gy >= g.height() || x_begin >= x_end) continue;
-    const size_t row = static_cast<size_t>(gy) * g.width() + s.region_min.x;
-    float* dst = levels[0].data() + static_cast<size_t>(y) * w;
-    for (int x = x_begin; x < x_end; ++x) {
-      const float value = field.Value(static_cast<int>(row + x));
-      // A point in known free space, away from any hit, is evidence against the pose.
-      dst[x] = (value == 0.f && free_space_penalty > 0.f && map.grid().State(static_cast<int>(row + x)) == CellState::kFree)
-                   ? -free_space_penalty
-                   : value;
+    if (gy < 0 || gy >= g.height() || n == 0) {
+      std::fill(dst, dst + w, 0.f);
+      continue;
+    }
+    std::fill(dst, dst + x_begin, 0.f);
+    std::fill(dst + x_end, dst + w, 0.f);
+    const int row = gy * g.width() + s.region_min.x + x_begin;
+    Eigen::Map<const Eigen::ArrayXf> value(values + row, n);
+    Eigen::Map<Eigen::ArrayXf> out(dst + x_begin, n);
+    if (free_space_penalty > 0.f) {
+      // A point in known free space (observed, not occupied), away from any hit, is evidence
+      // against the pose.
+      Eigen::Map<const Eigen::ArrayXf> odds(log_odds + row, n);
+      Eigen::Map<const Eigen::Array<uint8_t, Eigen::Dynamic, 1>> seen(observed + row, n);
+      out = (value == 0.f && odds <= occupied_threshold && seen.cast<float>() > 0.f).select(-free_space_penalty, value);
+    } else {
+      out = value;
     }
   }
   for (int level = 1; level <= depth; ++level) {
     const int half = 1 << (level - 1);
-    const std::vector<float>& in = levels[level - 1];
-    std::vector<float>& out = levels[level];
+    const std::vector<float>& in = (*levels)[level - 1];
+    std::vector<float>& out = (*levels)[level];
+    const int x_split = std::max(0, w - half);  // x + half stays inside the row below this
     for (int y = 0; y < h; ++y) {
-      const int y2 = std::min(y + half, h - 1);
-      for (int x = 0; x < w; ++x) {
-        const int x2 = std::min(x + half, w - 1);
-        out[y * w + x] = std::max(std::max(in[y * w + x], in[y * w + x2]), std::max(in[y2 * w + x], in[y2 * w + x2]));
-      }
+      const float* a = in.data() + static_cast<size_t>(y) * w;
+      const float* b = in.data() + static_cast<size_t>(std::min(y + half, h - 1)) * w;
+      float* o = out.data() + static_cast<size_t>(y) * w;
+      using Row = Eigen::Map<const Eigen::ArrayXf>;
+      Eigen::Map<Eigen::ArrayXf>(o, x_split) =
+          Row(a, x_split).max(Row(a + half, x_split)).max(Row(b, x_split).max(Row(b + half, x_split)));
+      for (int x = x_split; x < w; ++x) o[x] = std::max(std::max(a[x], a[w - 1]), std::max(b[x], b[w - 1]));
     }
   }
-  return levels;
 }
 
 double InverseWeightSum(const std::vector<float>& weights, size_t n) {
@@ -254,7 +274,8 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
   const LikelihoodField& field = map.field();
   if (points_robot.empty() || field.geometry().num_cells() == 0) return result;
   const DiscretizedSearch s = Discretize(options_, map, predicted, points_robot, weights, 1);
-  const std::vector<std::vector<float>> levels = BuildPyramid(map, s, 0, options_.free_space_penalty);
+  std::vector<std::vector<float>> levels;
+  BuildPyramid(map, s, 0, options_.free_space_penalty, &levels);
   const SearchContext context = MakeContext(options_, map, s, levels, weights, points_robot.size());
   Candidate best{0, 0, 0, -std::numeric_limits<float>::infinity()};
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
@@ -298,6 +319,15 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
   return result;
 }
 
+ScanMatchResult ScanMatcher::MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
+                                               const std::vector<Eigen::Vector2f>& points_robot,
+                                               double linear_window_meters, double angular_window_radians,
+                                               const std::vector<float>& weights) const {
+  CHECK(linear_window_meters >= 0 && angular_window_radians >= 0 && angular_window_radians <= M_PI)
+      << "bad window " << linear_window_meters << " m, " << angular_window_radians << " rad";
+  return MatchOnce(map, predicted, points_robot, weights, linear_window_meters, angular_window_radians);
+}
+
 ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predicted,
                                        const std::vector<Eigen::Vector2f>& points_robot,
                                        const std::vector<float>& weights, double linear_window_meters,
@@ -321,7 +351,8 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   windows.linear_search_window_meters = linear_window_meters;
   windows.angular_search_window_radians = angular_window_radians;
   const DiscretizedSearch s = Discretize(windows, map, predicted, points_robot, weights, block);
-  const std::vector<std::vector<float>> levels = BuildPyramid(map, s, depth, options_.free_space_penalty);
+  std::vector<std::vector<float>>& levels = levels_scratch_;
+  BuildPyramid(map, s, depth, options_.free_space_penalty, &levels);
   const SearchContext context = MakeContext(options_, map, s, levels, weights, points_robot.size());
 
   std::vector<Candidate> top;

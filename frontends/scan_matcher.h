@@ -64,6 +64,7 @@ struct ScanMatchResult {
   std::string message;           // why it did not converge
 };
 
+// Not thread-safe: searches reuse internal buffers, so use one ScanMatcher per thread.
 class ScanMatcher {
  public:
   explicit ScanMatcher(const ScanMatcherOptions& options);
@@ -74,6 +75,13 @@ class ScanMatcher {
   ScanMatchResult Match(const LaserMap& map, const Pose2& predicted,
                         const std::vector<Eigen::Vector2f>& points_robot,
                         const std::vector<float>& weights = {}) const;
+
+  // One search within the given windows (instead of the options' windows), without the wider
+  // fallback search.
+  ScanMatchResult MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
+                                    const std::vector<Eigen::Vector2f>& points_robot,
+                                    double linear_window_meters, double angular_window_radians,
+                                    const std::vector<float>& weights = {}) const;
 
   // Exhaustive evaluation of every discrete candidate (for tests of the branch and bound);
   // returns the best as `pose` with its correlative score.
@@ -89,6 +97,9 @@ class ScanMatcher {
                             double linear_window_meters, double angular_window_radians) const;
 
   ScanMatcherOptions options_;
+  // Table buffers reused by every search (they are large: a few MB). This makes Match not
+  // reentrant: use one ScanMatcher per thread.
+  mutable std::vector<std::vector<float>> levels_scratch_;
 };
 
 }  // namespace hetslam
