@@ -55,6 +55,8 @@ struct PoseGraphSlamOptions {
   double loop_min_score = 0.55;             // mean likelihood at the refined pose
   double loop_search_min_travel_meters = 0.3;  // search again only after moving this far
   double loop_search_min_turn_radians = 0.35;  // ... or turning this much
+  // Submaps whose last scan is fewer than this many nodes old are not searched.
+  int loop_min_node_separation = 40;
   // Constraint uncertainties (1 sigma) and the loop closure loss scale (in sigmas).
   double intra_translation_sigma_meters = 0.02;
   double intra_rotation_sigma_radians = 0.005;
@@ -76,7 +78,7 @@ struct PoseGraphSlamOptions {
   int solve_every_n_loop_closures = 10;
   // ... but not before this many nodes were added since the last solve (bounds the solves of
   // dense logs, where closures arrive at almost every scan).
-  int solve_min_new_nodes = 0;
+  int solve_min_new_nodes = 20;
   int max_iterations_per_solve = 10;
   int max_iterations_final = 50;
   bool loop_closure = true;
@@ -154,8 +156,15 @@ class PoseGraphSlam {
   struct Submap;
   struct Constraint;
 
+  // A new [x, y, yaw] block, at an address above all earlier ones (see the .cc).
+  double* AllocatePoseBlock(const Pose2& pose);
   void AddNodeToGraph(Node* node, const std::vector<int>& submap_indices);
   void SearchLoopClosures(int node_index);
+  // Matches node `node_index` against every finished, old-enough submap whose box (grown by
+  // `margin_meters`) holds its estimate; adds closures scoring >= min_score within the gate.
+  // Returns how many were added.
+  int SearchSubmaps(int node_index, double linear_window, double angular_window, double gate_meters,
+                    double gate_radians, double min_score, double margin_meters);
   void AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score);
   void Solve(int max_iterations);
   void UpdateWorldFromLocal();
@@ -163,6 +172,8 @@ class PoseGraphSlam {
   PoseGraphSlamOptions options_;
   ScanMatcher local_matcher_;
   ScanMatcher loop_matcher_;
+  std::vector<std::unique_ptr<double[]>> pose_block_chunks_;
+  size_t pose_blocks_used_in_chunk_ = 0;
   std::deque<Node> nodes_;
   std::deque<Submap> submaps_;
   std::deque<Constraint> constraints_;

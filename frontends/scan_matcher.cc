@@ -29,6 +29,9 @@ struct DiscretizedSearch {
   std::vector<double> yaws;
   std::vector<double> yaw_offsets;  // yaw - predicted yaw
   std::vector<std::vector<CellIndex>> cells;       // [yaw][kept point]
+  // The same cells as linear indices into the region's tables (row-major, region_width wide):
+  // a candidate offset (dx, dy) adds dy * region_width + dx.
+  std::vector<std::vector<int32_t>> offsets;       // [yaw][kept point]
   std::vector<std::vector<float>> cell_weights;    // [yaw][kept point]; empty without weights
   int window_cells = 0;
   CellIndex region_min{0, 0};
@@ -84,6 +87,13 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
   search.region_min = {lo.x - w, lo.y - w};
   search.region_width = hi.x - lo.x + 2 * w + block_cells + 1;
   search.region_height = hi.y - lo.y + 2 * w + block_cells + 1;
+  search.offsets.resize(search.cells.size());
+  for (size_t k = 0; k < search.cells.size(); ++k) {
+    search.offsets[k].reserve(search.cells[k].size());
+    for (const CellIndex& c : search.cells[k]) {
+      search.offsets[k].push_back((c.y - search.region_min.y) * search.region_width + (c.x - search.region_min.x));
+    }
+  }
   return search;
 }
 
@@ -166,16 +176,15 @@ struct SearchContext {
   float Score(int level, int yaw_index, int dx, int dy) const {
     const DiscretizedSearch& s = *search;
     const std::vector<float>& table = (*levels)[level];
-    const std::vector<CellIndex>& cells = s.cells[yaw_index];
-    const int ox = dx - s.region_min.x, oy = dy - s.region_min.y;
+    const std::vector<int32_t>& offsets = s.offsets[yaw_index];
+    const float* data = table.data();
+    const ptrdiff_t base = static_cast<ptrdiff_t>(dy) * s.region_width + dx;
     double sum = 0.0;
     if (weights->empty()) {
-      for (const CellIndex& c : cells) sum += table[static_cast<size_t>(c.y + oy) * s.region_width + c.x + ox];
+      for (const int32_t offset : offsets) sum += data[base + offset];
     } else {
       const std::vector<float>& cell_weights = s.cell_weights[yaw_index];
-      for (size_t i = 0; i < cells.size(); ++i) {
-        sum += cell_weights[i] * table[static_cast<size_t>(cells[i].y + oy) * s.region_width + cells[i].x + ox];
-      }
+      for (size_t i = 0; i < offsets.size(); ++i) sum += cell_weights[i] * data[base + offsets[i]];
     }
     const int size = 1 << level;
     auto nearest_to_zero = [size](int begin) { return begin > 0 ? begin : (begin + size - 1 < 0 ? begin + size - 1 : 0); };
@@ -255,6 +264,9 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   if (!(fallback_below_score >= 0 && fallback_linear_search_window_meters >= 0 &&
         fallback_angular_search_window_radians >= 0 && fallback_angular_search_window_radians <= M_PI))
     msg << "fallback score and windows must be >= 0 (angular <= pi); ";
+  if (!(narrow_linear_search_window_meters >= 0 && narrow_angular_search_window_radians >= 0 &&
+        narrow_angular_search_window_radians <= M_PI && narrow_accept_score >= 0))
+    msg << "narrow windows and narrow_accept_score must be >= 0 (angular <= pi); ";
   if (!(translation_penalty_per_square_meter >= 0 && rotation_penalty_per_square_radian >= 0))
     msg << "motion penalties must be >= 0; ";
   if (error != nullptr) *error = msg.str();
@@ -294,19 +306,37 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
   return result;
 }
 
+bool ScanMatcher::OnWindowBorder(const Pose2& predicted, const Pose2& pose, double linear_window_meters,
+                                 double angular_window_radians) const {
+  const Pose2 offset = Between(predicted, pose);
+  return std::abs(offset.theta()) >= angular_window_radians - 2 * options_.max_angular_step_radians ||
+         std::abs(pose.x() - predicted.x()) >= linear_window_meters - 0.1 ||
+         std::abs(pose.y() - predicted.y()) >= linear_window_meters - 0.1;
+}
+
 ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                    const std::vector<Eigen::Vector2f>& points_robot,
-                                   const std::vector<float>& weights) const {
+                                   const std::vector<float>& weights, bool try_narrow_first) const {
+  int narrow_candidates = 0;
+  if (try_narrow_first && options_.narrow_linear_search_window_meters > 0.0 &&
+      options_.narrow_angular_search_window_radians > 0.0) {
+    ScanMatchResult narrow = MatchOnce(map, predicted, points_robot, weights, options_.narrow_linear_search_window_meters,
+                                       options_.narrow_angular_search_window_radians);
+    if (narrow.converged && narrow.score >= options_.narrow_accept_score &&
+        !OnWindowBorder(predicted, narrow.pose, options_.narrow_linear_search_window_meters,
+                        options_.narrow_angular_search_window_radians)) {
+      return narrow;
+    }
+    narrow_candidates = narrow.candidates_scored;
+  }
   ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, options_.linear_search_window_meters,
                                      options_.angular_search_window_radians);
+  result.candidates_scored += narrow_candidates;
   const bool wider = options_.fallback_linear_search_window_meters > options_.linear_search_window_meters ||
                      options_.fallback_angular_search_window_radians > options_.angular_search_window_radians;
   // A best pose on the border of the window may be the clipped side of a peak outside it.
-  const Pose2 offset = Between(predicted, result.pose);
-  const bool on_border =
-      std::abs(offset.theta()) >= options_.angular_search_window_radians - 2 * options_.max_angular_step_radians ||
-      std::abs(result.pose.x() - predicted.x()) >= options_.linear_search_window_meters - 0.1 ||
-      std::abs(result.pose.y() - predicted.y()) >= options_.linear_search_window_meters - 0.1;
+  const bool on_border = OnWindowBorder(predicted, result.pose, options_.linear_search_window_meters,
+                                        options_.angular_search_window_radians);
   if (wider && !points_robot.empty() &&
       (!result.converged || result.score < options_.fallback_below_score || on_border)) {
     ScanMatchResult fallback =
