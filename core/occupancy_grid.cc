@@ -187,11 +187,6 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
   }
 }
 
-CellState OccupancyGrid::State(int i) const {
-  if (!observed_[i]) return CellState::kUnknown;
-  return IsOccupied(i) ? CellState::kOccupied : CellState::kFree;
-}
-
 void OccupancyGrid::Freeze() {
   frozen_ = true;
   std::vector<Eigen::Vector2f>().swap(hit_sum_);

@@ -61,12 +61,20 @@ class OccupancyGrid {
                   const std::vector<Eigen::Vector2d>& points_world,
                   std::vector<int>* changed_cells);
 
-  CellState State(int linear_index) const;
+  CellState State(int linear_index) const {
+    if (!observed_[linear_index]) return CellState::kUnknown;
+    return IsOccupied(linear_index) ? CellState::kOccupied : CellState::kFree;
+  }
   CellState State(const CellIndex& c) const { return State(geometry_.LinearIndex(c)); }
   float LogOdds(int linear_index) const { return log_odds_[linear_index]; }
   bool IsOccupied(int linear_index) const {
     return log_odds_[linear_index] > options_.occupied_threshold_log_odds;
   }
+  // Raw per-cell arrays (linear index order) for vectorised readers: a cell is free when
+  // observed() != 0 and log_odds() <= occupied_threshold_log_odds().
+  const std::vector<float>& log_odds() const { return log_odds_; }
+  const std::vector<uint8_t>& observed() const { return observed_; }
+  float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
   int HitCount(int linear_index) const { return frozen_ ? 0 : hit_count_[linear_index]; }

@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -120,14 +121,31 @@ RelationsMetricResult EvaluateRelations(const std::vector<StampedPose2>& traject
     return trajectory[a].stamp_seconds < trajectory[b].stamp_seconds;
   });
 
+  // Nearest poses of both ends, and for every pose the distinct relation stamps it matched.
+  std::vector<std::array<int, 2>> ends(relations.size());
+  std::vector<std::vector<double>> stamps_of_pose(trajectory.size());
+  for (size_t r = 0; r < relations.size(); ++r) {
+    const double t[2] = {relations[r].t1_seconds, relations[r].t2_seconds};
+    for (int e = 0; e < 2; ++e) {
+      ends[r][e] = NearestPose(trajectory, order, t[e] - options.clock_offset_seconds, options.match_tolerance_seconds);
+      if (ends[r][e] >= 0) stamps_of_pose[ends[r][e]].push_back(t[e]);
+    }
+  }
+  std::vector<bool> ambiguous_pose(trajectory.size(), false);
+  for (size_t i = 0; i < trajectory.size(); ++i) {
+    const auto [lo, hi] = std::minmax_element(stamps_of_pose[i].begin(), stamps_of_pose[i].end());
+    ambiguous_pose[i] = lo != stamps_of_pose[i].end() && *lo != *hi;
+  }
+
   std::vector<double> trans, rot, trans_sq, rot_sq;
   for (size_t r = 0; r < relations.size(); ++r) {
     const Relation& relation = relations[r];
-    const int i1 = NearestPose(trajectory, order, relation.t1_seconds - options.clock_offset_seconds,
-                               options.match_tolerance_seconds);
-    const int i2 = NearestPose(trajectory, order, relation.t2_seconds - options.clock_offset_seconds,
-                               options.match_tolerance_seconds);
+    const int i1 = ends[r][0], i2 = ends[r][1];
     if (i1 < 0 || i2 < 0) continue;
+    if (ambiguous_pose[i1] || ambiguous_pose[i2]) {
+      ++result.ambiguous;
+      continue;
+    }
     const Pose2 estimate = Between(trajectory[i1].pose, trajectory[i2].pose);
     RelationError e;
     e.relation_index = static_cast<int>(r);

@@ -9,7 +9,16 @@
 // The metric: for relation (t1, t2, delta) and an estimated trajectory, each end is matched to
 // the trajectory pose with the nearest timestamp after shifting the relation time into the
 // trajectory clock, t_trajectory = t_relation - clock_offset_seconds; a relation counts only
-// when both ends match within match_tolerance_seconds. With est = Between(pose(t1), pose(t2)):
+// when both ends match within match_tolerance_seconds and neither end is ambiguous. An end is
+// ambiguous when its pose is also the nearest match of another, different relation time stamp
+// in the file: the pose then stands for two readings of the original recording and cannot be
+// told apart. (The shared Intel log keeps one scan per 10 ms stamp bucket of the original, which
+// had pairs of readings 5 ms and up to 0.36 m apart; relations between such a pair would
+// otherwise score the identity, and relations to either reading of a pair would score the
+// wrong one.) Ambiguous relations are counted in `ambiguous`, not scored; the decision depends
+// on time stamps only, never on the trajectory's poses, so every system is scored on the same
+// relations.
+// With est = Between(pose(t1), pose(t2)):
 //   translational error  e_t = |t(est) - t(delta)|                 (metres)
 //   rotational error     e_r = |WrapAngle(theta(est) - theta(delta))| (reported in degrees)
 // The result gives mean and standard deviation of e_t, e_r and of their squares over the
@@ -60,7 +69,8 @@ struct RelationError {
 
 struct RelationsMetricResult {
   int total = 0;    // relations given
-  int matched = 0;  // relations with both ends matched
+  int matched = 0;    // relations with both ends matched and unambiguous (scored)
+  int ambiguous = 0;  // relations with both ends matched but one ambiguous (not scored)
   // Statistics over the matched relations; all 0 when matched == 0. Standard deviations are
   // sample standard deviations (N - 1).
   double trans_mean_m = 0.0;

@@ -26,7 +26,7 @@ DEFINE_double(clock_offset, 0.0,
               "trajectory time t - clock_offset. Intel: 976052857.337284.");
 DEFINE_double(match_tolerance, 0.006,
               "A relation end matches the trajectory pose nearest in time only within this many "
-              "seconds (>= 0); relations with an unmatched end are not scored.");
+              "seconds (>= 0); relations with an unmatched end, or with an ambiguous end (core/relations.h), are not scored.");
 DEFINE_string(errors_out, "",
               "Optional file receiving one line per scored relation: `t1 t2 trans_error_m "
               "rot_error_deg`.");
@@ -79,6 +79,10 @@ int Run() {
   std::printf("clock offset %.6f s, match tolerance %.6f s\n", options.clock_offset_seconds,
               options.match_tolerance_seconds);
   std::printf("matched: %d / %d relations\n", result.matched, result.total);
+  if (result.ambiguous > 0) {
+    std::printf("not scored: %d relations with an ambiguous end (a pose that is the nearest match "
+                "of two different relation time stamps; see core/relations.h)\n", result.ambiguous);
+  }
   if (result.matched == 0) {
     auto [min_pose, max_pose] = std::minmax_element(
         trajectory.begin(), trajectory.end(),

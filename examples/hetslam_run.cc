@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -21,7 +22,7 @@
 #include "glog/logging.h"
 
 DEFINE_string(log, "", "CARMEN log (.clf) to map: FLASER/ROBOTLASER1/RAWLASER1 scans, ODOM optional. Required.");
-DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm, map.yaml, map.png, trajectory.txt. Required.");
+DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm, map.yaml, map.png, trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
@@ -57,6 +58,20 @@ DEFINE_int32(scans_per_submap, 40, "Scans per submap of the loop-closing pipelin
 DEFINE_double(loop_min_score, 0.55, "Minimum mean likelihood of a loop-closure match to accept it.");
 DEFINE_double(loop_linear_window, 2.0, "Loop-closure search window, ± metres around the graph's estimate (paper: 2 m).");
 DEFINE_double(loop_angular_window_deg, 45.0, "Loop-closure search window, ± degrees (paper: 45°).");
+DEFINE_int32(solve_every_n_loop_closures, 10, "Re-optimise the pose graph once this many loop closures were accepted "
+             "since the last solve and --solve_min_new_nodes scans were added.");
+DEFINE_int32(solve_min_new_nodes, 20, "Scans added since the last solve before the graph is re-optimised again "
+             "(bounds the solves of dense logs, where closures arrive at almost every scan).");
+DEFINE_int32(loop_min_node_separation, 40, "Do not search for loop closures in submaps whose last scan is fewer than "
+             "this many scans old (the front end built them moments ago).");
+DEFINE_double(narrow_linear_window, 0.4, "Front end: first search ± this many metres and ± --narrow_angular_window_deg "
+              "around the prediction; keep that result when it scores >= --narrow_accept_score away from the "
+              "narrow window's border, else search the full windows. 0 = always search the full windows.");
+DEFINE_double(narrow_angular_window_deg, 10.0, "Front end narrow first try: ± degrees (see --narrow_linear_window).");
+DEFINE_double(narrow_accept_score, 0.4, "Front end narrow first try: minimum score to keep its result (see --narrow_linear_window).");
+DEFINE_double(loop_search_min_travel, 0.3, "Search for loop closures again only after the robot moved this many metres "
+              "(or turned --loop_search_min_turn_deg) since the last search.");
+DEFINE_double(loop_search_min_turn_deg, 20.0, "See --loop_search_min_travel.");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
@@ -86,6 +101,9 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   options->matcher.fallback_below_score = FLAGS_fallback_below_score;
   options->matcher.free_space_penalty = FLAGS_free_space_penalty;
   options->matcher.translation_penalty_per_square_meter = FLAGS_translation_penalty;
+  options->matcher.narrow_linear_search_window_meters = FLAGS_narrow_linear_window;
+  options->matcher.narrow_angular_search_window_radians = FLAGS_narrow_angular_window_deg * M_PI / 180.0;
+  options->matcher.narrow_accept_score = FLAGS_narrow_accept_score;
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
   options->max_point_range_meters = FLAGS_max_range;
   options->matching_voxel_meters = FLAGS_matching_voxel;
@@ -101,6 +119,11 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   }
   graph_options->scans_per_submap = FLAGS_scans_per_submap;
   graph_options->loop_min_score = FLAGS_loop_min_score;
+  graph_options->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
+  graph_options->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
+  graph_options->loop_min_node_separation = FLAGS_loop_min_node_separation;
+  graph_options->loop_search_min_travel_meters = FLAGS_loop_search_min_travel;
+  graph_options->loop_search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;
   graph_options->loop_matcher.linear_search_window_meters = FLAGS_loop_linear_window;
   graph_options->loop_matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
   graph_options->loop_closure = !FLAGS_no_loop_closure;
@@ -200,11 +223,23 @@ int Run() {
     std::snprintf(line, sizeof(line),
                   "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n"
                   "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d "
-                  "removed as inconsistent, %d solves (%.2f s), loop search %.2f s\n",
+                  "removed as inconsistent, %d solves (%d iterations, %.2f s), loop search %.2f s\n",
                   stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
                   stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
-                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solve_seconds, stats.loop_search_seconds);
+                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solver_iterations, stats.solve_seconds, stats.loop_search_seconds);
     stats_line = line;
+    // Loop-closure precision as Cartographer reports it: the share of kept closures that the
+    // final graph agrees with to 20 cm and 1°.
+    int kept = 0, agree = 0;
+    for (const LoopClosureReport& loop : graph_slam->LoopClosures()) {
+      if (loop.removed) continue;
+      ++kept;
+      const Pose2 error = Between(loop.measured_submap_T_node, loop.final_submap_T_node);
+      if (error.translation().norm() <= 0.2 && std::abs(error.theta()) <= M_PI / 180.0) ++agree;
+    }
+    std::snprintf(line, sizeof(line), "loop closure precision: %d of %d kept closures (%.1f%%) agree with the final "
+                  "graph to 20 cm / 1 deg\n", agree, kept, kept > 0 ? 100.0 * agree / kept : 0.0);
+    stats_line += line;
   }
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -220,6 +255,24 @@ int Run() {
   std::vector<std::vector<Pose2>> paths = {path};
   for (const Status& status : {WriteMapPgmYaml(map->grid(), base), WriteMapPng(map->grid(), paths, base + ".png"),
                                WriteTrajectory(trajectory_path, trajectory)}) {
+    if (!status.ok()) return Fail(status.message()), 1;
+  }
+  if (graph_slam != nullptr) {
+    const std::string loops_path = (std::filesystem::path(FLAGS_out) / "loop_closures.txt").string();
+    std::ofstream loops(loops_path);
+    loops << "# submap node score measured_x measured_y measured_theta final_x final_y final_theta removed\n"
+             "# submap_T_node as matched and as in the final graph (metres, radians); removed = 1 when the\n"
+             "# consistency check took the closure out\n";
+    loops.precision(9);
+    for (const LoopClosureReport& loop : graph_slam->LoopClosures()) {
+      const Pose2& m = loop.measured_submap_T_node;
+      const Pose2& f = loop.final_submap_T_node;
+      loops << loop.submap << ' ' << loop.node << ' ' << loop.score << ' ' << m.x() << ' ' << m.y() << ' '
+            << m.theta() << ' ' << f.x() << ' ' << f.y() << ' ' << f.theta() << ' ' << (loop.removed ? 1 : 0) << '\n';
+    }
+    if (!loops) return Fail("cannot write '" + loops_path + "'"), 1;
+    const Status status = WriteTrajectory((std::filesystem::path(FLAGS_out) / "frontend_trajectory.txt").string(),
+                                          graph_slam->local_trajectory());
     if (!status.ok()) return Fail(status.message()), 1;
   }
   if (!FLAGS_g2o_out.empty()) {

@@ -16,7 +16,7 @@ namespace hetslam {
 struct PoseGraphSlam::Node {
   double stamp_seconds = 0.0;
   Pose2 local_pose;                  // front end frame
-  std::array<double, 3> world_pose;  // optimised block [x, y, yaw]
+  double* world_pose = nullptr;      // optimised block [x, y, yaw], in block_pool_
   std::vector<Eigen::Vector2f> points;           // robot frame, all valid points (rendering)
   std::vector<Eigen::Vector2f> matching_points;  // robot frame, voxel-thinned (loop closure)
   Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();
@@ -24,9 +24,10 @@ struct PoseGraphSlam::Node {
 
 struct PoseGraphSlam::Submap {
   Pose2 local_T_submap;               // front end frame
-  std::array<double, 3> world_pose;   // optimised block world_T_submap
+  double* world_pose = nullptr;       // optimised block world_T_submap, in block_pool_
   std::unique_ptr<LaserMap> map;      // in the submap frame
   int num_scans = 0;
+  int last_node = 0;                  // index of the last node inserted
   bool finished = false;
   Eigen::Vector2d min_submap, max_submap;  // box of node positions, submap frame
 };
@@ -43,8 +44,10 @@ struct PoseGraphSlam::Constraint {
 
 namespace {
 
-Pose2 ToPose(const std::array<double, 3>& block) { return Pose2(block[0], block[1], block[2]); }
-std::array<double, 3> ToBlock(const Pose2& pose) { return {pose.x(), pose.y(), pose.theta()}; }
+Pose2 ToPose(const double* block) { return Pose2(block[0], block[1], block[2]); }
+
+// Pose blocks live in chunks of this many; see AllocatePoseBlock.
+constexpr size_t kPoseBlocksPerChunk = size_t{1} << 20;
 
 }  // namespace
 
@@ -52,7 +55,7 @@ ScanMatcherOptions PoseGraphSlamOptions::DefaultLoopMatcherOptions() {
   ScanMatcherOptions options;
   options.linear_search_window_meters = 2.0;              // paper §III-A: 2 m radius
   options.angular_search_window_radians = 45.0 * M_PI / 180.0;  // paper §III-A: ±45°
-  options.min_correlative_score = 0.35;
+  options.min_correlative_score = 0.5;
   options.branch_and_bound_depth = 5;
   // The window is the whole loop-closure search: no wider retry.
   options.fallback_linear_search_window_meters = 0.0;
@@ -79,6 +82,7 @@ bool PoseGraphSlamOptions::IsValid(std::string* error) const {
   if (!(loop_consistency_translation_meters > 0 && loop_consistency_rotation_radians > 0))
     msg << "loop consistency bounds must be > 0; ";
   if (solve_every_n_loop_closures < 1) msg << "solve_every_n_loop_closures must be >= 1; ";
+  if (solve_min_new_nodes < 0) msg << "solve_min_new_nodes must be >= 0; ";
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
@@ -87,6 +91,7 @@ bool PoseGraphSlamOptions::IsValid(std::string* error) const {
 PoseGraphSlam::PoseGraphSlam(const PoseGraphSlamOptions& options)
     : options_(options),
       local_matcher_(options.local.matcher),
+      loop_matcher_(options.loop_matcher),
       manifold_(CreateSe2Manifold()) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid PoseGraphSlamOptions: " << error;
@@ -113,7 +118,8 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   if (!active_submaps_.empty() && submaps_[active_submaps_.front()].num_scans > 0) {
     const Submap& target = submaps_[active_submaps_.front()];
     const ScanMatchResult match =
-        local_matcher_.Match(*target.map, target.local_T_submap.inverse() * local_pose, points.matching);
+        local_matcher_.Match(*target.map, target.local_T_submap.inverse() * local_pose, points.matching, {},
+                             NarrowSearchTrusted(options_.local, local_trajectory_));
     if (match.converged) {
       local_pose = target.local_T_submap * match.pose;
     } else {
@@ -122,7 +128,7 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   }
   if (odometry_pose.has_value()) last_odometry_ = odometry_pose;
   if (!local_trajectory_.empty()) {
-    travel_since_closure_meters_ += (local_pose.translation() - local_trajectory_.back().pose.translation()).norm();
+    travel_since_solve_meters_ += (local_pose.translation() - local_trajectory_.back().pose.translation()).norm();
   }
   local_trajectory_.push_back({scan.stamp_seconds, local_pose});
 
@@ -131,15 +137,15 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   if (active_submaps_.empty() || submaps_[active_submaps_.back()].num_scans >= half) {
     Submap submap;
     submap.local_T_submap = local_pose;
-    submap.world_pose = ToBlock(world_T_local_ * local_pose);
+    submap.world_pose = AllocatePoseBlock(world_T_local_ * local_pose);
     submap.map = std::make_unique<LaserMap>(options_.local.grid, options_.local.field);
     submap.min_submap = submap.max_submap = Eigen::Vector2d::Zero();
     submaps_.push_back(std::move(submap));
     const int index = static_cast<int>(submaps_.size()) - 1;
-    problem_->AddParameterBlock(submaps_.back().world_pose.data(), 3, manifold_.get());
+    problem_->AddParameterBlock(submaps_.back().world_pose, 3, manifold_.get());
     if (index == 0) {
       // Gauge: the first submap fixes the world frame (the robot's start pose).
-      problem_->SetParameterBlockConstant(submaps_.back().world_pose.data());
+      problem_->SetParameterBlockConstant(submaps_.back().world_pose);
     }
     active_submaps_.push_back(index);
     ++stats_.submaps;
@@ -148,7 +154,7 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   Node node;
   node.stamp_seconds = scan.stamp_seconds;
   node.local_pose = local_pose;
-  node.world_pose = ToBlock(world_T_local_ * local_pose);
+  node.world_pose = AllocatePoseBlock(world_T_local_ * local_pose);
   node.points = points.all;
   node.matching_points = points.matching;
   node.sensor_robot = points.sensor_robot;
@@ -161,6 +167,7 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
     const Pose2 submap_T_node = submap.local_T_submap.inverse() * local_pose;
     submap.map->InsertScan(submap_T_node, points.sensor_robot, points.all);
     ++submap.num_scans;
+    submap.last_node = node_index;
     submap.min_submap = submap.min_submap.cwiseMin(submap_T_node.translation());
     submap.max_submap = submap.max_submap.cwiseMax(submap_T_node.translation());
   }
@@ -172,14 +179,16 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   }
 
   if (options_.loop_closure) SearchLoopClosures(node_index);
-  if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures) {
+  ++nodes_since_solve_;
+  if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures &&
+      nodes_since_solve_ >= options_.solve_min_new_nodes) {
     Solve(options_.max_iterations_per_solve);
   }
 }
 
 void PoseGraphSlam::AddNodeToGraph(Node* node, const std::vector<int>& submap_indices) {
   const int node_index = static_cast<int>(nodes_.size()) - 1;
-  problem_->AddParameterBlock(node->world_pose.data(), 3, manifold_.get());
+  problem_->AddParameterBlock(node->world_pose, 3, manifold_.get());
   const Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(
       options_.intra_translation_sigma_meters, options_.intra_translation_sigma_meters,
       options_.intra_rotation_sigma_radians);
@@ -189,7 +198,7 @@ void PoseGraphSlam::AddNodeToGraph(Node* node, const std::vector<int>& submap_in
     c.node = node_index;
     c.submap_T_node = submaps_[s].local_T_submap.inverse() * node->local_pose;
     c.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(c.submap_T_node, sqrt_information), nullptr,
-                                            submaps_[s].world_pose.data(), node->world_pose.data());
+                                            submaps_[s].world_pose, node->world_pose);
     constraints_.push_back(c);
   }
 }
@@ -205,39 +214,52 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
   }
   last_search_pose_ = node.local_pose;
   const auto start = std::chrono::steady_clock::now();
-  const Pose2 world_T_node = ToPose(node.world_pose);
   // The gate below rejects any closure farther from the estimate than the drift since the
   // last closure allows, so the search window need not reach beyond it (same result, less work).
-  const double travel = travel_since_closure_meters_;
-  ScanMatcherOptions window = options_.loop_matcher;
-  window.linear_search_window_meters =
-      std::min(window.linear_search_window_meters, options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel);
-  window.angular_search_window_radians =
-      std::min(window.angular_search_window_radians, options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel);
-  const ScanMatcher matcher(window);
-  const double margin = options_.loop_matcher.linear_search_window_meters;
+  const double travel = travel_since_solve_meters_;
+  const double linear_window = std::min(options_.loop_matcher.linear_search_window_meters,
+                                        options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel);
+  const double angular_window = std::min(options_.loop_matcher.angular_search_window_radians,
+                                         options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel);
+  SearchSubmaps(node_index, linear_window, angular_window,
+                               options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel,
+                               options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel,
+                               options_.loop_min_score, options_.loop_matcher.linear_search_window_meters);
+  stats_.loop_search_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+int PoseGraphSlam::SearchSubmaps(int node_index, double linear_window, double angular_window, double gate_meters,
+                                 double gate_radians, double min_score, double margin_meters) {
+  const Node& node = nodes_[node_index];
+  const Pose2 world_T_node = ToPose(node.world_pose);
+  int accepted = 0;
   for (int s = 0; s < static_cast<int>(submaps_.size()); ++s) {
     Submap& submap = submaps_[s];
     if (!submap.finished) continue;
+    // The front end built this submap moments ago: the intra-submap chain already ties the
+    // node to it, a closure would add little but cost a search.
+    if (node_index - submap.last_node < options_.loop_min_node_separation) continue;
     // Only submaps the node could be inside: its estimated position within the box of the
     // submap's own trajectory, grown by the search window.
     const Pose2 predicted = ToPose(submap.world_pose).inverse() * world_T_node;
     const Eigen::Vector2d p = predicted.translation();
-    if ((p.array() < submap.min_submap.array() - margin).any() || (p.array() > submap.max_submap.array() + margin).any()) {
+    if ((p.array() < submap.min_submap.array() - margin_meters).any() ||
+        (p.array() > submap.max_submap.array() + margin_meters).any()) {
       continue;
     }
     ++stats_.loop_searches;
-    const ScanMatchResult match = matcher.Match(*submap.map, predicted, node.matching_points);
-    if (!match.converged || match.score < options_.loop_min_score) continue;
+    const ScanMatchResult match =
+        loop_matcher_.MatchWithinWindow(*submap.map, predicted, node.matching_points, linear_window, angular_window);
+    if (!match.converged || match.score < min_score) continue;
     const Pose2 correction = Between(predicted, match.pose);
-    if (correction.translation().norm() > options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel ||
-        std::abs(correction.theta()) > options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel) {
+    if (correction.translation().norm() > gate_meters || std::abs(correction.theta()) > gate_radians) {
       ++stats_.loop_closures_rejected_by_gate;
       continue;
     }
     AddLoopConstraint(s, node_index, match.pose, match.score);
+    ++accepted;
   }
-  stats_.loop_search_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return accepted;
 }
 
 void PoseGraphSlam::AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score) {
@@ -252,11 +274,26 @@ void PoseGraphSlam::AddLoopConstraint(int submap, int node, const Pose2& submap_
   c.score = score;
   c.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(submap_T_node, sqrt_information),
                                           new ceres::HuberLoss(options_.loop_loss_scale),
-                                          submaps_[submap].world_pose.data(), nodes_[node].world_pose.data());
+                                          submaps_[submap].world_pose, nodes_[node].world_pose);
   constraints_.push_back(c);
   ++stats_.loop_closures_accepted;
   ++loop_closures_since_solve_;
-  travel_since_closure_meters_ = 0.0;
+}
+
+double* PoseGraphSlam::AllocatePoseBlock(const Pose2& pose) {
+  // One large chunk first (its untouched pages cost no memory), so that the blocks of any
+  // realistic run (up to 2^20 nodes and submaps) have increasing addresses in creation order.
+  // Beyond it, later chunks may sit anywhere: the solution stays correct, only the
+  // bit-for-bit repeatability across runs is then no longer guaranteed.
+  if (pose_blocks_used_in_chunk_ == kPoseBlocksPerChunk || pose_block_chunks_.empty()) {
+    pose_block_chunks_.emplace_back(new double[3 * kPoseBlocksPerChunk]);
+    pose_blocks_used_in_chunk_ = 0;
+  }
+  double* block = pose_block_chunks_.back().get() + 3 * pose_blocks_used_in_chunk_++;
+  block[0] = pose.x();
+  block[1] = pose.y();
+  block[2] = pose.theta();
+  return block;
 }
 
 int PoseGraphSlam::num_nodes() const { return static_cast<int>(nodes_.size()); }
@@ -270,10 +307,23 @@ bool PoseGraphSlam::AddLoopClosure(int submap, int node, const Pose2& submap_T_n
 
 void PoseGraphSlam::Solve(int max_iterations) {
   loop_closures_since_solve_ = 0;
+  nodes_since_solve_ = 0;
+  // The estimate of new nodes is corrected from here on: drift is counted afresh. (Closures
+  // accepted but not yet solved do not correct it, so the gate keeps growing until a solve.)
+  travel_since_solve_meters_ = 0.0;
   if (nodes_.empty()) return;
   const auto start = std::chrono::steady_clock::now();
   ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  // Every constraint joins a submap and a node, so the graph is bipartite like a bundle
+  // adjustment: eliminating the (many) nodes leaves a small sparse system over the submaps.
+  // Ceres orders the blocks within a group by address; AllocatePoseBlock hands out
+  // addresses in creation order, so the elimination order, and the result, is the same on
+  // every run.
+  solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (const Node& node : nodes_) ordering->AddElementToGroup(node.world_pose, 0);
+  for (const Submap& submap : submaps_) ordering->AddElementToGroup(submap.world_pose, 1);
+  solver_options.linear_solver_ordering = ordering;
   solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   solver_options.max_num_iterations = max_iterations;
   solver_options.num_threads = 1;
@@ -282,6 +332,7 @@ void PoseGraphSlam::Solve(int max_iterations) {
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, problem_.get(), &summary);
     ++stats_.solves;
+    stats_.solver_iterations += static_cast<int>(summary.iterations.size()) - 1;
     // Consistency check (issue: loop closures verified by consistency with the graph):
     // remove closures the optimised graph disagrees with, then solve once more.
     int removed = 0;

@@ -55,6 +55,8 @@ struct PoseGraphSlamOptions {
   double loop_min_score = 0.55;             // mean likelihood at the refined pose
   double loop_search_min_travel_meters = 0.3;  // search again only after moving this far
   double loop_search_min_turn_radians = 0.35;  // ... or turning this much
+  // Submaps whose last scan is fewer than this many nodes old are not searched.
+  int loop_min_node_separation = 40;
   // Constraint uncertainties (1 sigma) and the loop closure loss scale (in sigmas).
   double intra_translation_sigma_meters = 0.02;
   double intra_rotation_sigma_radians = 0.005;
@@ -67,13 +69,16 @@ struct PoseGraphSlamOptions {
   double loop_consistency_translation_meters = 0.3;
   double loop_consistency_rotation_radians = 0.06;
   // Gate against aliasing (corridors, repeated rooms): a closure is accepted only if it
-  // moves the node by at most base + rate * (distance travelled since the last accepted
-  // closure) from the graph's estimate: drift grows with travel, aliases need not.
+  // moves the node by at most base + rate * (distance travelled since the graph was last
+  // optimised) from the graph's estimate: drift grows with travel, aliases need not.
   double loop_gate_base_meters = 0.3;
   double loop_gate_meters_per_meter = 0.1;
   double loop_gate_base_radians = 0.1;
   double loop_gate_radians_per_meter = 0.02;
   int solve_every_n_loop_closures = 10;
+  // ... but not before this many nodes were added since the last solve (bounds the solves of
+  // dense logs, where closures arrive at almost every scan).
+  int solve_min_new_nodes = 20;
   int max_iterations_per_solve = 10;
   int max_iterations_final = 50;
   bool loop_closure = true;
@@ -94,6 +99,7 @@ struct PoseGraphSlamStats {
   int loop_closures_rejected_after_solve = 0;
   int loop_closures_rejected_by_gate = 0;
   int solves = 0;
+  int solver_iterations = 0;      // summed over all solves
   double solve_seconds = 0.0;
   double loop_search_seconds = 0.0;
 };
@@ -150,14 +156,24 @@ class PoseGraphSlam {
   struct Submap;
   struct Constraint;
 
+  // A new [x, y, yaw] block, at an address above all earlier ones (see the .cc).
+  double* AllocatePoseBlock(const Pose2& pose);
   void AddNodeToGraph(Node* node, const std::vector<int>& submap_indices);
   void SearchLoopClosures(int node_index);
+  // Matches node `node_index` against every finished, old-enough submap whose box (grown by
+  // `margin_meters`) holds its estimate; adds closures scoring >= min_score within the gate.
+  // Returns how many were added.
+  int SearchSubmaps(int node_index, double linear_window, double angular_window, double gate_meters,
+                    double gate_radians, double min_score, double margin_meters);
   void AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score);
   void Solve(int max_iterations);
   void UpdateWorldFromLocal();
 
   PoseGraphSlamOptions options_;
   ScanMatcher local_matcher_;
+  ScanMatcher loop_matcher_;
+  std::vector<std::unique_ptr<double[]>> pose_block_chunks_;
+  size_t pose_blocks_used_in_chunk_ = 0;
   std::deque<Node> nodes_;
   std::deque<Submap> submaps_;
   std::deque<Constraint> constraints_;
@@ -169,7 +185,8 @@ class PoseGraphSlam {
   std::optional<Pose2> last_odometry_;
   std::optional<Pose2> last_search_pose_;
   int loop_closures_since_solve_ = 0;
-  double travel_since_closure_meters_ = 0.0;
+  int nodes_since_solve_ = 0;
+  double travel_since_solve_meters_ = 0.0;
   bool finished_ = false;
   PoseGraphSlamStats stats_;
 };

@@ -29,6 +29,9 @@ struct DiscretizedSearch {
   std::vector<double> yaws;
   std::vector<double> yaw_offsets;  // yaw - predicted yaw
   std::vector<std::vector<CellIndex>> cells;       // [yaw][kept point]
+  // The same cells as linear indices into the region's tables (row-major, region_width wide):
+  // a candidate offset (dx, dy) adds dy * region_width + dx.
+  std::vector<std::vector<int32_t>> offsets;       // [yaw][kept point]
   std::vector<std::vector<float>> cell_weights;    // [yaw][kept point]; empty without weights
   int window_cells = 0;
   CellIndex region_min{0, 0};
@@ -84,44 +87,71 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
   search.region_min = {lo.x - w, lo.y - w};
   search.region_width = hi.x - lo.x + 2 * w + block_cells + 1;
   search.region_height = hi.y - lo.y + 2 * w + block_cells + 1;
+  search.offsets.resize(search.cells.size());
+  for (size_t k = 0; k < search.cells.size(); ++k) {
+    search.offsets[k].reserve(search.cells[k].size());
+    for (const CellIndex& c : search.cells[k]) {
+      search.offsets[k].push_back((c.y - search.region_min.y) * search.region_width + (c.x - search.region_min.x));
+    }
+  }
   return search;
 }
 
 // Max-pooled copies of the field over the search region: levels[h](c) is the max of the
 // field over the 2^h × 2^h block whose minimum corner is c (cells outside the field are 0).
-std::vector<std::vector<float>> BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth,
-                                             float free_space_penalty) {
+// `levels` is reused between calls (its buffers keep their capacity).
+void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, float free_space_penalty,
+                  std::vector<std::vector<float>>* levels) {
   const int w = s.region_width, h = s.region_height;
-  std::vector<std::vector<float>> levels(depth + 1, std::vector<float>(static_cast<size_t>(w) * h, 0.f));
+  const size_t size = static_cast<size_t>(w) * h;
+  levels->resize(depth + 1);
+  for (std::vector<float>& level : *levels) level.resize(size);
   const LikelihoodField& field = map.field();
+  const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
+  const float* values = field.values().data();
+  const float* log_odds = grid.log_odds().data();
+  const uint8_t* observed = grid.observed().data();
+  const float occupied_threshold = grid.occupied_threshold_log_odds();
+  const int n = std::max(0, x_end - x_begin);
   for (int y = 0; y < h; ++y) {
+    float* dst = (*levels)[0].data() + static_cast<size_t>(y) * w;
     const int gy = s.region_min.y + y;
-    if (gy < 0 || gy >= g.height() || x_begin >= x_end) continue;
-    const size_t row = static_cast<size_t>(gy) * g.width() + s.region_min.x;
-    float* dst = levels[0].data() + static_cast<size_t>(y) * w;
-    for (int x = x_begin; x < x_end; ++x) {
-      const float value = field.Value(static_cast<int>(row + x));
-      // A point in known free space, away from any hit, is evidence against the pose.
-      dst[x] = (value == 0.f && free_space_penalty > 0.f && map.grid().State(static_cast<int>(row + x)) == CellState::kFree)
-                   ? -free_space_penalty
-                   : value;
+    if (gy < 0 || gy >= g.height() || n == 0) {
+      std::fill(dst, dst + w, 0.f);
+      continue;
+    }
+    std::fill(dst, dst + x_begin, 0.f);
+    std::fill(dst + x_end, dst + w, 0.f);
+    const int row = gy * g.width() + s.region_min.x + x_begin;
+    Eigen::Map<const Eigen::ArrayXf> value(values + row, n);
+    Eigen::Map<Eigen::ArrayXf> out(dst + x_begin, n);
+    if (free_space_penalty > 0.f) {
+      // A point in known free space (observed, not occupied), away from any hit, is evidence
+      // against the pose.
+      Eigen::Map<const Eigen::ArrayXf> odds(log_odds + row, n);
+      Eigen::Map<const Eigen::Array<uint8_t, Eigen::Dynamic, 1>> seen(observed + row, n);
+      out = (value == 0.f && odds <= occupied_threshold && seen.cast<float>() > 0.f).select(-free_space_penalty, value);
+    } else {
+      out = value;
     }
   }
   for (int level = 1; level <= depth; ++level) {
     const int half = 1 << (level - 1);
-    const std::vector<float>& in = levels[level - 1];
-    std::vector<float>& out = levels[level];
+    const std::vector<float>& in = (*levels)[level - 1];
+    std::vector<float>& out = (*levels)[level];
+    const int x_split = std::max(0, w - half);  // x + half stays inside the row below this
     for (int y = 0; y < h; ++y) {
-      const int y2 = std::min(y + half, h - 1);
-      for (int x = 0; x < w; ++x) {
-        const int x2 = std::min(x + half, w - 1);
-        out[y * w + x] = std::max(std::max(in[y * w + x], in[y * w + x2]), std::max(in[y2 * w + x], in[y2 * w + x2]));
-      }
+      const float* a = in.data() + static_cast<size_t>(y) * w;
+      const float* b = in.data() + static_cast<size_t>(std::min(y + half, h - 1)) * w;
+      float* o = out.data() + static_cast<size_t>(y) * w;
+      using Row = Eigen::Map<const Eigen::ArrayXf>;
+      Eigen::Map<Eigen::ArrayXf>(o, x_split) =
+          Row(a, x_split).max(Row(a + half, x_split)).max(Row(b, x_split).max(Row(b + half, x_split)));
+      for (int x = x_split; x < w; ++x) o[x] = std::max(std::max(a[x], a[w - 1]), std::max(b[x], b[w - 1]));
     }
   }
-  return levels;
 }
 
 double InverseWeightSum(const std::vector<float>& weights, size_t n) {
@@ -146,16 +176,15 @@ struct SearchContext {
   float Score(int level, int yaw_index, int dx, int dy) const {
     const DiscretizedSearch& s = *search;
     const std::vector<float>& table = (*levels)[level];
-    const std::vector<CellIndex>& cells = s.cells[yaw_index];
-    const int ox = dx - s.region_min.x, oy = dy - s.region_min.y;
+    const std::vector<int32_t>& offsets = s.offsets[yaw_index];
+    const float* data = table.data();
+    const ptrdiff_t base = static_cast<ptrdiff_t>(dy) * s.region_width + dx;
     double sum = 0.0;
     if (weights->empty()) {
-      for (const CellIndex& c : cells) sum += table[static_cast<size_t>(c.y + oy) * s.region_width + c.x + ox];
+      for (const int32_t offset : offsets) sum += data[base + offset];
     } else {
       const std::vector<float>& cell_weights = s.cell_weights[yaw_index];
-      for (size_t i = 0; i < cells.size(); ++i) {
-        sum += cell_weights[i] * table[static_cast<size_t>(cells[i].y + oy) * s.region_width + cells[i].x + ox];
-      }
+      for (size_t i = 0; i < offsets.size(); ++i) sum += cell_weights[i] * data[base + offsets[i]];
     }
     const int size = 1 << level;
     auto nearest_to_zero = [size](int begin) { return begin > 0 ? begin : (begin + size - 1 < 0 ? begin + size - 1 : 0); };
@@ -235,6 +264,9 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   if (!(fallback_below_score >= 0 && fallback_linear_search_window_meters >= 0 &&
         fallback_angular_search_window_radians >= 0 && fallback_angular_search_window_radians <= M_PI))
     msg << "fallback score and windows must be >= 0 (angular <= pi); ";
+  if (!(narrow_linear_search_window_meters >= 0 && narrow_angular_search_window_radians >= 0 &&
+        narrow_angular_search_window_radians <= M_PI && narrow_accept_score >= 0))
+    msg << "narrow windows and narrow_accept_score must be >= 0 (angular <= pi); ";
   if (!(translation_penalty_per_square_meter >= 0 && rotation_penalty_per_square_radian >= 0))
     msg << "motion penalties must be >= 0; ";
   if (error != nullptr) *error = msg.str();
@@ -254,7 +286,8 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
   const LikelihoodField& field = map.field();
   if (points_robot.empty() || field.geometry().num_cells() == 0) return result;
   const DiscretizedSearch s = Discretize(options_, map, predicted, points_robot, weights, 1);
-  const std::vector<std::vector<float>> levels = BuildPyramid(map, s, 0, options_.free_space_penalty);
+  std::vector<std::vector<float>> levels;
+  BuildPyramid(map, s, 0, options_.free_space_penalty, &levels);
   const SearchContext context = MakeContext(options_, map, s, levels, weights, points_robot.size());
   Candidate best{0, 0, 0, -std::numeric_limits<float>::infinity()};
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
@@ -273,19 +306,37 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
   return result;
 }
 
+bool ScanMatcher::OnWindowBorder(const Pose2& predicted, const Pose2& pose, double linear_window_meters,
+                                 double angular_window_radians) const {
+  const Pose2 offset = Between(predicted, pose);
+  return std::abs(offset.theta()) >= angular_window_radians - 2 * options_.max_angular_step_radians ||
+         std::abs(pose.x() - predicted.x()) >= linear_window_meters - 0.1 ||
+         std::abs(pose.y() - predicted.y()) >= linear_window_meters - 0.1;
+}
+
 ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                    const std::vector<Eigen::Vector2f>& points_robot,
-                                   const std::vector<float>& weights) const {
+                                   const std::vector<float>& weights, bool try_narrow_first) const {
+  int narrow_candidates = 0;
+  if (try_narrow_first && options_.narrow_linear_search_window_meters > 0.0 &&
+      options_.narrow_angular_search_window_radians > 0.0) {
+    ScanMatchResult narrow = MatchOnce(map, predicted, points_robot, weights, options_.narrow_linear_search_window_meters,
+                                       options_.narrow_angular_search_window_radians);
+    if (narrow.converged && narrow.score >= options_.narrow_accept_score &&
+        !OnWindowBorder(predicted, narrow.pose, options_.narrow_linear_search_window_meters,
+                        options_.narrow_angular_search_window_radians)) {
+      return narrow;
+    }
+    narrow_candidates = narrow.candidates_scored;
+  }
   ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, options_.linear_search_window_meters,
                                      options_.angular_search_window_radians);
+  result.candidates_scored += narrow_candidates;
   const bool wider = options_.fallback_linear_search_window_meters > options_.linear_search_window_meters ||
                      options_.fallback_angular_search_window_radians > options_.angular_search_window_radians;
   // A best pose on the border of the window may be the clipped side of a peak outside it.
-  const Pose2 offset = Between(predicted, result.pose);
-  const bool on_border =
-      std::abs(offset.theta()) >= options_.angular_search_window_radians - 2 * options_.max_angular_step_radians ||
-      std::abs(result.pose.x() - predicted.x()) >= options_.linear_search_window_meters - 0.1 ||
-      std::abs(result.pose.y() - predicted.y()) >= options_.linear_search_window_meters - 0.1;
+  const bool on_border = OnWindowBorder(predicted, result.pose, options_.linear_search_window_meters,
+                                        options_.angular_search_window_radians);
   if (wider && !points_robot.empty() &&
       (!result.converged || result.score < options_.fallback_below_score || on_border)) {
     ScanMatchResult fallback =
@@ -296,6 +347,15 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
     if (fallback.converged && (!result.converged || fallback.score > result.score)) return fallback;
   }
   return result;
+}
+
+ScanMatchResult ScanMatcher::MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
+                                               const std::vector<Eigen::Vector2f>& points_robot,
+                                               double linear_window_meters, double angular_window_radians,
+                                               const std::vector<float>& weights) const {
+  CHECK(linear_window_meters >= 0 && angular_window_radians >= 0 && angular_window_radians <= M_PI)
+      << "bad window " << linear_window_meters << " m, " << angular_window_radians << " rad";
+  return MatchOnce(map, predicted, points_robot, weights, linear_window_meters, angular_window_radians);
 }
 
 ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predicted,
@@ -321,7 +381,8 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   windows.linear_search_window_meters = linear_window_meters;
   windows.angular_search_window_radians = angular_window_radians;
   const DiscretizedSearch s = Discretize(windows, map, predicted, points_robot, weights, block);
-  const std::vector<std::vector<float>> levels = BuildPyramid(map, s, depth, options_.free_space_penalty);
+  std::vector<std::vector<float>>& levels = levels_scratch_;
+  BuildPyramid(map, s, depth, options_.free_space_penalty, &levels);
   const SearchContext context = MakeContext(options_, map, s, levels, weights, points_robot.size());
 
   std::vector<Candidate> top;

@@ -46,6 +46,15 @@ struct ScanMatcherOptions {
   double fallback_below_score = 0.35;
   double fallback_linear_search_window_meters = 2.0;
   double fallback_angular_search_window_radians = 1.6;  // ≈ 92°
+  // Narrow first try (0 disables): search these smaller windows first and keep the result
+  // when it scores at least `narrow_accept_score` and lies inside the narrow window (not on
+  // its border); otherwise search the full windows. Dense logs, whose predictions are good,
+  // then skip most of the full search. Pitfall: after a large unpredicted motion (sparse logs)
+  // a wrong pose inside the narrow window can score well, so the caller enables the narrow
+  // try only while recent motion is small (see Match).
+  double narrow_linear_search_window_meters = 0.0;
+  double narrow_angular_search_window_radians = 0.0;
+  double narrow_accept_score = 0.5;
   bool refine_with_ceres = true;
   int max_ceres_iterations = 20;
 
@@ -64,6 +73,7 @@ struct ScanMatchResult {
   std::string message;           // why it did not converge
 };
 
+// Not thread-safe: searches reuse internal buffers, so use one ScanMatcher per thread.
 class ScanMatcher {
  public:
   explicit ScanMatcher(const ScanMatcherOptions& options);
@@ -71,9 +81,18 @@ class ScanMatcher {
   // Matches `points_robot` (robot frame, metres) against the map's likelihood field (and its
   // free space, for the penalty) around `predicted` (world_T_robot). `weights` empty or one
   // per point. The map must not change during the call.
+  // `try_narrow_first`: allow the narrow first try (when its windows are set); callers pass
+  // false when the prediction is not trusted to be that close (large recent motion).
   ScanMatchResult Match(const LaserMap& map, const Pose2& predicted,
                         const std::vector<Eigen::Vector2f>& points_robot,
-                        const std::vector<float>& weights = {}) const;
+                        const std::vector<float>& weights = {}, bool try_narrow_first = true) const;
+
+  // One search within the given windows (instead of the options' windows), without the wider
+  // fallback search.
+  ScanMatchResult MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
+                                    const std::vector<Eigen::Vector2f>& points_robot,
+                                    double linear_window_meters, double angular_window_radians,
+                                    const std::vector<float>& weights = {}) const;
 
   // Exhaustive evaluation of every discrete candidate (for tests of the branch and bound);
   // returns the best as `pose` with its correlative score.
@@ -84,11 +103,18 @@ class ScanMatcher {
   const ScanMatcherOptions& options() const { return options_; }
 
  private:
+  // Whether `pose` lies on the border of a window around `predicted` (within 0.1 m or two
+  // maximum yaw steps of its edge): then the best may be the clipped side of a peak outside.
+  bool OnWindowBorder(const Pose2& predicted, const Pose2& pose, double linear_window_meters,
+                      double angular_window_radians) const;
   ScanMatchResult MatchOnce(const LaserMap& map, const Pose2& predicted,
                             const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights,
                             double linear_window_meters, double angular_window_radians) const;
 
   ScanMatcherOptions options_;
+  // Table buffers reused by every search (they are large: a few MB). This makes Match not
+  // reentrant: use one ScanMatcher per thread.
+  mutable std::vector<std::vector<float>> levels_scratch_;
 };
 
 }  // namespace hetslam

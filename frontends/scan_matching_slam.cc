@@ -19,6 +19,14 @@ bool ParseMotionPrediction(const std::string& name, MotionPrediction* prediction
   return true;
 }
 
+ScanMatcherOptions ScanMatchingSlamOptions::DefaultFrontEndMatcherOptions() {
+  ScanMatcherOptions options;
+  options.narrow_linear_search_window_meters = 0.4;
+  options.narrow_angular_search_window_radians = 10.0 * M_PI / 180.0;
+  options.narrow_accept_score = 0.4;
+  return options;
+}
+
 bool ScanMatchingSlamOptions::IsValid(std::string* error) const {
   std::string sub;
   std::ostringstream msg;
@@ -63,6 +71,16 @@ Pose2 PredictNextPose(const ScanMatchingSlamOptions& options, const std::vector<
   return last;
 }
 
+bool NarrowSearchTrusted(const ScanMatchingSlamOptions& options, const std::vector<StampedPose2>& trajectory) {
+  const ScanMatcherOptions& m = options.matcher;
+  if (m.narrow_linear_search_window_meters <= 0.0 || m.narrow_angular_search_window_radians <= 0.0) return false;
+  if (options.prediction == MotionPrediction::kOdometry) return true;
+  if (trajectory.size() < 2) return false;
+  const Pose2 delta = Between(trajectory[trajectory.size() - 2].pose, trajectory.back().pose);
+  return delta.translation().norm() <= 0.5 * m.narrow_linear_search_window_meters &&
+         std::abs(delta.theta()) <= 0.5 * m.narrow_angular_search_window_radians;
+}
+
 ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan) {
   ScanPoints points;
   const float max_range = static_cast<float>(options.max_point_range_meters);
@@ -90,7 +108,8 @@ ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<
     return result;
   }
   if (map_.num_scans_inserted() > 0) {
-    result.match = matcher_.Match(map_, result.predicted, points.matching);
+    result.match = matcher_.Match(map_, result.predicted, points.matching, {},
+                                  NarrowSearchTrusted(options_, trajectory_));
     if (result.match.converged) {
       result.pose = result.match.pose;
     } else {

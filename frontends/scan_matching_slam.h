@@ -33,7 +33,7 @@ bool ParseMotionPrediction(const std::string& name, MotionPrediction* prediction
 struct ScanMatchingSlamOptions {
   OccupancyGridOptions grid;
   LikelihoodFieldOptions field;
-  ScanMatcherOptions matcher;
+  ScanMatcherOptions matcher = DefaultFrontEndMatcherOptions();
   MotionPrediction prediction = MotionPrediction::kConstantVelocity;
   // Fractions of the last scan-to-scan translation (in the robot frame) and heading change
   // extrapolated by kConstantVelocity (0 = stationary). Heading changes of robots without
@@ -49,6 +49,9 @@ struct ScanMatchingSlamOptions {
   // Scans with fewer valid points are not matched or inserted (counted as skipped).
   int min_points = 20;
 
+  // ScanMatcherOptions with a narrow first try of ±0.4 m, ±10° accepted from a score of 0.4:
+  // scan-to-scan motion is far below the full windows on most logs.
+  static ScanMatcherOptions DefaultFrontEndMatcherOptions();
   bool IsValid(std::string* error) const;
 };
 
@@ -65,6 +68,11 @@ struct ScanPoints {
   std::vector<Eigen::Vector2f> matching;
   Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();  // sensor origin, robot frame
 };
+// Whether the front end may try the matcher's narrow windows first: with odometry always;
+// otherwise when the last scan-to-scan motion was at most half the narrow windows (then the
+// constant-velocity prediction is close). False when the narrow try is off.
+bool NarrowSearchTrusted(const ScanMatchingSlamOptions& options, const std::vector<StampedPose2>& trajectory);
+
 ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan);
 
 struct ScanMatchingSlamStats {
