@@ -11,6 +11,7 @@
 
 #include "apriltag/apriltag.h"
 #include "apriltag/tag36h11.h"
+#include "datasets/sim/sim_random.h"
 
 namespace hetslam {
 namespace sim {
@@ -23,19 +24,6 @@ struct TagCamera::Family {
 };
 
 namespace {
-
-// Uniform in [0, 1) from the top 53 bits of one draw, and a standard normal by Box-Muller
-// from two draws: the simulator's mapping (datasets/sim/simulator.cc), so that the same seed
-// gives the same image bytes with every standard library.
-double Uniform01(std::mt19937_64* rng) {
-  return static_cast<double>((*rng)() >> 11) * (1.0 / 9007199254740992.0);  // 2^-53
-}
-
-double StandardGaussian(std::mt19937_64* rng) {
-  const double u1 = 1.0 - Uniform01(rng);  // (0, 1]: log is finite
-  const double u2 = Uniform01(rng);
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
-}
 
 // Points closer to the camera plane than this are clipped away (metres): a tag crossing the
 // camera plane is drawn as far as it lies in front.
@@ -159,6 +147,10 @@ TagCamera::TagCamera(const TagCameraOptions& options) : options_(options) {
     std::free(image);
   }
   tag36h11_destroy(family);
+  // The noise table: fixed, so that images depend only on the caller's generator.
+  std::mt19937_64 table_rng(0x7a6ca3e7aULL);
+  noise_table_.resize(1 << 16);
+  for (float& sample : noise_table_) sample = static_cast<float>(StandardGaussian(&table_rng));
 }
 
 TagCamera::~TagCamera() { delete family_; }
@@ -278,11 +270,21 @@ cv::Mat TagCamera::Render(const std::vector<SimulatedTag>& visible_tags,
   }
   cv::Mat gray(k.height, k.width, CV_8UC1);
   const bool noisy = options_.noise_std_gray > 0.0;
+  uint64_t bits = 0;
+  int bits_left = 0;  // 16-bit table indices left in `bits`
   for (int i = 0; i < k.height; ++i) {
     for (int j = 0; j < k.width; ++j) {
       double value = image.at<double>(i, j);
-      // Row-major order, two draws per pixel: the image depends on the generator state only.
-      if (noisy) value += options_.noise_std_gray * StandardGaussian(rng);
+      // Row-major order, one draw per four pixels: the image depends on the generator only.
+      if (noisy) {
+        if (bits_left == 0) {
+          bits = (*rng)();
+          bits_left = 4;
+        }
+        value += options_.noise_std_gray * noise_table_[bits & 0xffff];
+        bits >>= 16;
+        --bits_left;
+      }
       gray.at<uint8_t>(i, j) = static_cast<uint8_t>(std::lround(std::clamp(value, 0.0, 255.0)));
     }
   }

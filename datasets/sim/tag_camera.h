@@ -8,6 +8,10 @@
 // edges (a point-sampled warp, even supersampled, shifts edges by up to half a sample, which
 // tilts the pose of a frontal tag by degrees). Then the whole image gets Gaussian blur
 // (cv::GaussianBlur, replicated border) and Gaussian pixel noise, and is rounded to 8 bits.
+// The noise of each pixel is noise_std times an entry of a fixed table of 65536 standard
+// normal samples (drawn once, from a constant seed), picked by 16 bits of the caller's
+// generator: four pixels per draw, no transcendental per pixel (generating per-pixel Box-Muller
+// samples took most of a dataset's generation time).
 // Pixel centres are at integer coordinates (pixel (row i, column j) covers [j - 0.5, j + 0.5] x
 // [i - 0.5, i + 0.5]), the convention of CameraIntrinsics. Occlusion between tags and by walls
 // is the caller's business (pass only the tags it can see); nearer tags are drawn over farther
@@ -73,6 +77,7 @@ class TagCamera {
   TagCameraOptions options_;
   struct Family;
   Family* family_ = nullptr;  // owned: the apriltag family and its bitmaps
+  std::vector<float> noise_table_;  // 65536 standard normal samples
 };
 
 }  // namespace sim
