@@ -301,8 +301,12 @@ Status WriteWorldImage(const std::string& path, const Scenario& scenario,
     cv::circle(image, to_pixel(truth.front().pose.translation()), 2 * dot_radius,
                cv::Scalar(0, 170, 0), 2, cv::LINE_AA, kShift);
   }
+  return WriteImageFile(path, image);
+}
+
+Status WriteImageFile(const std::string& path, const cv::Mat& image, const std::vector<int>& params) {
   try {
-    if (!cv::imwrite(path, image)) return Status::Error(path + ": cannot write image");
+    if (!cv::imwrite(path, image, params)) return Status::Error(path + ": cannot write image");
   } catch (const cv::Exception& e) {
     return Status::Error(path + ": cannot write image: " + e.what());
   }

@@ -43,6 +43,7 @@
 #include "core/status.h"
 #include "core/trajectory_io.h"
 #include "datasets/sim/world.h"
+#include "opencv2/core.hpp"
 
 namespace hetslam {
 namespace sim {
@@ -109,6 +110,9 @@ Pose2 StepOdometry(const OdometryOptions& options, const Pose2& previous_truth,
 Status WriteWorldImage(const std::string& path, const Scenario& scenario,
                        const std::vector<StampedPose2>& truth,
                        const std::vector<StampedPose2>& odometry, double pixels_per_meter = 25.0);
+
+// cv::imwrite with errors (a false return or an OpenCV exception) as a Status naming the file.
+Status WriteImageFile(const std::string& path, const cv::Mat& image, const std::vector<int>& params = {});
 
 // The files WriteSimulationOutputs writes into a directory.
 struct SimulationFiles {

@@ -757,12 +757,7 @@ Status WriteTeamWorldImage(const std::string& path, const Scenario& scenario,
                 to_plain_pixel(start + Eigen::Vector2d(0.25, 0.25)), cv::FONT_HERSHEY_SIMPLEX,
                 0.45, color, 1, cv::LINE_AA);
   }
-  try {
-    if (!cv::imwrite(path, image)) return Status::Error(path + ": cannot write image");
-  } catch (const cv::Exception& e) {
-    return Status::Error(path + ": cannot write image: " + e.what());
-  }
-  return Status::Ok();
+  return WriteImageFile(path, image);
 }
 
 Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
@@ -840,13 +835,8 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
       for (int index : frame.visible_tags) visible.push_back(all_tags[index]);
       const cv::Mat image = camera.Render(visible, frame.world_T_camera, &noise_rng);
       const std::string image_path = (robot_dir / frame.relative_path).string();
-      try {
-        if (!cv::imwrite(image_path, image, png_params)) {
-          return Status::Error(image_path + ": cannot write image");
-        }
-      } catch (const cv::Exception& e) {
-        return Status::Error(image_path + ": cannot write image: " + e.what());
-      }
+      const Status status = WriteImageFile(image_path, image, png_params);
+      if (!status.ok()) return status;
       ++files->images_written;
     }
   }
