@@ -25,6 +25,7 @@
 #include "core/se2.h"
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
+#include "examples/flag_help.h"
 #include "gflags/gflags.h"
 
 DEFINE_string(trajectory, "",
@@ -157,6 +158,7 @@ int main(int argc, char** argv) {
       "agreement of a trajectory with a reference trajectory (not ground truth): ATE after SE(2)\n"
       "alignment and relative pose errors.\n"
       "  hetslam_compare --trajectory=FILE --reference=FILE [--match_tolerance=SECONDS] [--rpe_gap=SECONDS]");
+  hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, /*remove_flags=*/true);
   if (argc > 1) {
     return hetslam::Fail(std::string("unexpected argument '") + argv[1] + "': every input is a --flag; see --help");

@@ -13,6 +13,7 @@
 
 #include "core/relations.h"
 #include "core/trajectory_io.h"
+#include "examples/flag_help.h"
 #include "gflags/gflags.h"
 
 DEFINE_string(trajectory, "",
@@ -132,6 +133,7 @@ int main(int argc, char** argv) {
       "scores a trajectory against ground-truth relations (Kümmerle et al. 2009).\n"
       "  hetslam_eval --trajectory=FILE --relations=FILE [--clock_offset=SECONDS] "
       "[--match_tolerance=SECONDS] [--errors_out=FILE]");
+  hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, /*remove_flags=*/true);
   if (argc > 1) {
     return hetslam::Fail(std::string("unexpected argument '") + argv[1] +

@@ -19,6 +19,7 @@
 #include "ceres/types.h"
 #include "core/g2o_io.h"
 #include "core/synthetic_pose_graph.h"
+#include "examples/flag_help.h"
 #include "factors/pose_graph_2d.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
@@ -192,6 +193,7 @@ int main(int argc, char** argv) {
       "  hetslam_posegraph --g2o=IN.g2o --out=OUT.g2o [--max_iterations=N] [--linear_solver=...] "
       "[--robust_loss=none|huber|cauchy]\n"
       "  hetslam_posegraph --generate_manhattan=G.g2o [--generate_truth_out=T.g2o] [--generate_num_poses=N]");
+  hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, true);
   google::InitGoogleLogging(argv[0]);
   if (argc > 1) return hetslam::Fail(std::string("unexpected argument '") + argv[1] + "'; see --help");

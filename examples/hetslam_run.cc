@@ -12,10 +12,11 @@
 #include <string>
 
 #include "core/carmen_log.h"
+#include "core/g2o_io.h"
 #include "core/map_io.h"
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
-#include "core/g2o_io.h"
+#include "examples/flag_help.h"
 #include "frontends/pose_graph_slam.h"
 #include "frontends/scan_matching_slam.h"
 #include "gflags/gflags.h"
@@ -314,6 +315,7 @@ int main(int argc, char** argv) {
       "  hetslam_run --log=FILE.clf --out=DIR [--truth=truth.txt]\n"
       "Writes DIR/map.pgm + map.yaml (ROS map_server), DIR/map.png (map with trajectory) and\n"
       "DIR/trajectory.txt (`timestamp x y theta`), and prints a summary.");
+  hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, true);
   google::InitGoogleLogging(argv[0]);
   FLAGS_logtostderr = true;

@@ -21,6 +21,7 @@
 #include "datasets/sim/simulator.h"
 #include "datasets/sim/team_simulator.h"
 #include "datasets/sim/world.h"
+#include "examples/flag_help.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
 
@@ -233,6 +234,7 @@ int main(int argc, char** argv) {
       "single-robot scenarios write DIR/log.clf, DIR/truth.txt, DIR/commands.txt, DIR/world.png;\n"
       "scenarios with robot blocks write DIR/team.txt, DIR/<robot>/log.txt,\n"
       "DIR/<robot>/images/NNNNNN.png and DIR/world.png (format: datasets/README.md)");
+  hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, true);
   google::InitGoogleLogging(argv[0]);
   return hetslam::Run();
