@@ -4,6 +4,7 @@
 //   hetslam_run --log=sim/log.clf --truth=sim/truth.txt --out=out/sim
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include "core/carmen_log.h"
 #include "core/g2o_io.h"
 #include "core/map_io.h"
+#include "core/robot_log.h"
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
@@ -22,7 +24,10 @@
 #include "gflags/gflags.h"
 #include "glog/logging.h"
 
-DEFINE_string(log, "", "CARMEN log (.clf) to map: FLASER/ROBOTLASER1/RAWLASER1 scans, ODOM optional. Required.");
+DEFINE_string(log, "", "Log to map: a CARMEN log (.clf: FLASER/ROBOTLASER1/RAWLASER1 scans, ODOM optional), or a "
+              "hetslam robot log (a file whose first line is `HSLOG 1`, e.g. a simulated robot's <dir>/<robot>/log.txt: "
+              "LASER scans with their MOUNT, ODOM optional, TRUTH used as --truth when that is not given; the "
+              "attitude is not used yet, so only level robots map correctly). Required.");
 DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm, map.yaml, map.png, trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
@@ -90,7 +95,7 @@ bool Fail(const std::string& message) {
 
 bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   ScanMatchingSlamOptions* options = &graph_options->local;
-  if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file)"), false;
+  if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file or a hetslam robot log)"), false;
   if (FLAGS_out.empty()) return (*error = "--out is required (an output folder)"), false;
   options->grid.resolution_meters = FLAGS_resolution;
   options->field.sigma_meters = FLAGS_sigma;
@@ -135,6 +140,54 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   return true;
 }
 
+// Whether `path` is a hetslam robot log (first non-blank, non-comment line starts with HSLOG).
+bool IsRobotLog(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    const size_t start = line.find_first_not_of(" \t\r");
+    if (start == std::string::npos || line[start] == '#') continue;
+    return line.compare(start, 5, "HSLOG") == 0;
+  }
+  return false;
+}
+
+// Reads a robot log (core/robot_log.h) into the CARMEN structures this program maps: its LASER
+// scans (with their MOUNT) and, per scan, the ODOM pose within 50 ms if any; its TRUTH as the
+// planar truth (x, y, yaw of world_T_body).
+Status ReadRobotLogAsCarmen(const std::string& path, bool lenient, CarmenLog* log, std::vector<StampedPose2>* truth) {
+  RobotLogReadOptions options;
+  options.lenient = lenient;
+  RobotLog robot_log;
+  const Status status = ReadRobotLog(path, options, &robot_log);
+  if (!status.ok()) return status;
+  log->warnings = robot_log.warnings;
+  log->stats.malformed_lines_skipped = robot_log.stats.malformed_lines_skipped;
+  size_t odometry_index = 0;
+  for (const RobotLaserReading& laser : robot_log.lasers) {
+    LaserReading reading;
+    reading.scan = laser.scan;
+    reading.line_number = laser.line_number;
+    const std::vector<OdometryPose2Reading>& odometry = robot_log.odometry;
+    while (odometry_index + 1 < odometry.size() &&
+           std::abs(odometry[odometry_index + 1].stamp_seconds - laser.scan.stamp_seconds) <=
+               std::abs(odometry[odometry_index].stamp_seconds - laser.scan.stamp_seconds)) {
+      ++odometry_index;
+    }
+    if (!odometry.empty() && std::abs(odometry[odometry_index].stamp_seconds - laser.scan.stamp_seconds) <= 0.05) {
+      reading.odometry_pose = odometry[odometry_index].pose;
+      reading.has_odometry_pose = true;
+    }
+    log->lasers.push_back(std::move(reading));
+  }
+  truth->clear();
+  for (const StampedPose3& pose : robot_log.truth) {
+    const Eigen::Vector3d rpy = RollPitchYawFromRotation(pose.pose.linear());
+    truth->push_back({pose.stamp_seconds, Pose2(pose.pose.translation().x(), pose.pose.translation().y(), rpy.z())});
+  }
+  return Status::Ok();
+}
+
 int Run() {
   PoseGraphSlamOptions options;
   std::string error;
@@ -146,7 +199,9 @@ int Run() {
   read_options.flaser_fov_radians = FLAGS_flaser_fov_deg * M_PI / 180.0;
   if (!(FLAGS_flaser_fov_deg > 0 && FLAGS_flaser_fov_deg <= 360)) return Fail("--flaser_fov_deg must be in (0, 360]"), 2;
   CarmenLog log;
-  const Status read = ReadCarmenLog(FLAGS_log, read_options, &log);
+  std::vector<StampedPose2> log_truth;  // TRUTH of a robot log
+  const Status read = IsRobotLog(FLAGS_log) ? ReadRobotLogAsCarmen(FLAGS_log, FLAGS_lenient, &log, &log_truth)
+                                            : ReadCarmenLog(FLAGS_log, read_options, &log);
   if (!read.ok()) return Fail(read.message()), 1;
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
   if (log.stats.malformed_lines_skipped > 0)
@@ -160,10 +215,12 @@ int Run() {
       }
     }
   }
-  std::vector<StampedPose2> truth;
+  std::vector<StampedPose2> truth = log_truth;
+  std::string truth_name = FLAGS_log + " (TRUTH)";
   if (!FLAGS_truth.empty()) {
     const Status status = ReadTrajectory(FLAGS_truth, &truth);
     if (!status.ok()) return Fail(status.message()), 1;
+    truth_name = FLAGS_truth;
   }
   std::error_code ec;
   std::filesystem::create_directories(FLAGS_out, ec);
@@ -299,7 +356,7 @@ int Run() {
   if (!truth.empty()) {
     const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, truth);
     std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
-                FLAGS_truth.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
+                truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
                 ate.rotation_rmse_degrees, ate.rotation_max_degrees);
   }
   std::printf("wrote %s.pgm, %s.yaml, %s.png, %s\n", base.c_str(), base.c_str(), base.c_str(), trajectory_path.c_str());
