@@ -11,15 +11,18 @@
 // scan (node), [x, y, yaw] blocks with the Se2Manifold. Constraints (factors/relative_pose_cost.h):
 //   intra-submap  s_T_i = local_T_s^-1 * local_T_i   for each submap s that node i entered
 //                 (no robust loss: the backbone);
-//   loop closure  s_T_i measured by matching node i's scan against finished submap s inside
-//                 ±loop window around the graph's current estimate; accepted above a score,
+//   loop closure  s_T_i measured by matching node i's scan against finished submap s (at least
+//                 `loop_min_node_separation` scans old) inside ±loop window around the graph's
+//                 current estimate, narrowed to the drift gate; accepted above a score,
 //                 added with a Huber loss, and removed again if, after the solve, the graph
 //                 disagrees with it by more than the consistency bounds.
 // Gauge: the first submap is held constant (the world frame is the start pose).
 //
-// Solving: after every `solve_every_n_loop_closures` accepted closures (and at Finish()), a
-// warm-started Ceres solve with bounded iterations, single-threaded: the same input gives
-// the same output. New nodes enter the graph through the latest world_T_local correction.
+// Solving: once `solve_every_n_loop_closures` closures were accepted and `solve_min_new_nodes`
+// scans added since the last solve (and at Finish()), a warm-started Ceres solve with bounded
+// iterations, single-threaded, nodes eliminated first (SPARSE_SCHUR over the submaps) in a
+// fixed order: the same input gives the same output, also for repeated runs in one process.
+// New nodes enter the graph through the latest world_T_local correction.
 #ifndef HETSLAM_FRONTENDS_POSE_GRAPH_SLAM_H_
 #define HETSLAM_FRONTENDS_POSE_GRAPH_SLAM_H_
 
