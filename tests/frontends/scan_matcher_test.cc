@@ -131,6 +131,35 @@ TEST_F(ScanMatcherTest, BranchAndBoundMatchesBruteForceOnRandomPoses) {
   }
 }
 
+// The narrow first try: a small offset is resolved inside the narrow window with the same
+// pose as the full search, scoring fewer candidates; an offset beyond the narrow window lands
+// on its border (or scores low), so the full search runs and still finds the truth.
+TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes) {
+  ScanMatcherOptions narrow_options;
+  narrow_options.narrow_linear_search_window_meters = 0.4;
+  narrow_options.narrow_angular_search_window_radians = 10 * M_PI / 180;
+  narrow_options.narrow_accept_score = 0.4;
+  const ScanMatcher narrow(narrow_options);
+  const Pose2 truth(0.4, -0.3, 0.3);
+  std::mt19937 rng(2);
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
+  for (const Pose2& offset : {Pose2(0.1, -0.05, 0.03), Pose2(0.9, 0.4, 0.5)}) {
+    const ScanMatchResult with_narrow = narrow.Match(map_, truth * offset, scan);
+    const ScanMatchResult full = narrow.Match(map_, truth * offset, scan, {}, /*try_narrow_first=*/false);
+    ASSERT_TRUE(with_narrow.converged) << with_narrow.message;
+    EXPECT_NEAR(truth.x(), with_narrow.pose.x(), 0.02) << "offset " << offset;
+    EXPECT_NEAR(truth.y(), with_narrow.pose.y(), 0.02) << "offset " << offset;
+    EXPECT_NEAR(0.0, WrapAngle(truth.theta() - with_narrow.pose.theta()), 0.5 * M_PI / 180) << "offset " << offset;
+    EXPECT_NEAR(full.pose.x(), with_narrow.pose.x(), 0.01);
+    EXPECT_NEAR(full.pose.y(), with_narrow.pose.y(), 0.01);
+    if (offset.translation().norm() < 0.2) {
+      EXPECT_LT(with_narrow.candidates_scored, full.candidates_scored);  // the full search was skipped
+    } else {
+      EXPECT_GT(with_narrow.candidates_scored, full.candidates_scored);  // narrow, then full
+    }
+  }
+}
+
 TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   ScanMatcherOptions options;
   std::string error;

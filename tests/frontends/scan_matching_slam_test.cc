@@ -99,5 +99,21 @@ TEST(ScanMatchingSlamTest, IntelPrefixRelations) {
   EXPECT_LT(metric.rot_mean_deg, 0.3);
 }
 
+TEST(NarrowSearchTrustedTest, OnlyAfterSmallMotionOrWithOdometry) {
+  ScanMatchingSlamOptions options;  // narrow ±0.4 m, ±10° by default
+  std::vector<StampedPose2> trajectory = {{0.0, Pose2(0, 0, 0)}};
+  EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // no motion known yet
+  trajectory.push_back({0.1, Pose2(0.1, 0.02, 0.05)});
+  EXPECT_TRUE(NarrowSearchTrusted(options, trajectory));   // 0.10 m, 2.9° <= half the windows
+  trajectory.push_back({0.2, Pose2(0.5, 0.02, 0.05)});
+  EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // 0.4 m step
+  trajectory.push_back({0.3, Pose2(0.55, 0.02, 0.25)});
+  EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // 11.5° turn
+  options.prediction = MotionPrediction::kOdometry;
+  EXPECT_TRUE(NarrowSearchTrusted(options, trajectory));
+  options.matcher.narrow_linear_search_window_meters = 0.0;
+  EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // narrow try off
+}
+
 }  // namespace
 }  // namespace hetslam
