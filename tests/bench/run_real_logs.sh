@@ -24,7 +24,8 @@
 #   fails      scans whose match failed (hetslam_run inserts them at the prediction)
 #   loops      loop closures accepted ("-" when hetslam_run prints none, e.g. --no_loop_closure)
 #   accuracy   intel: the ground-truth relations metric (Kümmerle et al. 2009) via hetslam_eval
-#              --clock_offset=976052857.337284 --match_tolerance=0.006 (matched relations, mean ± sample
+#              --clock_offset=976052857.337284 --match_tolerance=0.006 (scored relations: both ends matched, neither
+#              ambiguous, see core/relations.h; mean ± sample
 #              std of translation m and rotation deg). Every log with a <name>.gmapping.txt: AGREEMENT
 #              with GMapping's trajectory via hetslam_compare (a reference, NOT ground truth): ATE rmse
 #              after SE(2) alignment and the relative pose error over 10 s, mean ± std.
