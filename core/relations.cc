@@ -72,6 +72,32 @@ int NearestPose(const std::vector<StampedPose2>& trajectory, const std::vector<i
   return best;
 }
 
+// Exact association of a relation end at trajectory time `t` (see the header): the index of
+// the trajectory pose whose stamp is that of the reading nearest to `t`; `unmatched` when no
+// reading lies within `tolerance`, `other_reading` when the nearest reading is no trajectory
+// pose, `tied_reading` when a reading with another pose shares the nearest reading's stamp.
+int MatchThroughReadings(const std::vector<StampedPose2>& trajectory, const std::vector<int>& order,
+                         const std::vector<StampedPose2>& readings, const std::vector<int>& reading_order,
+                         double t, double tolerance, double same_stamp_tolerance, int unmatched,
+                         int other_reading, int tied_reading) {
+  const int nearest = NearestPose(readings, reading_order, t, tolerance);
+  if (nearest < 0) return unmatched;
+  const StampedPose2& reading = readings[nearest];
+  auto it = std::lower_bound(reading_order.begin(), reading_order.end(),
+                             reading.stamp_seconds - same_stamp_tolerance,
+                             [&](int index, double value) { return readings[index].stamp_seconds < value; });
+  for (; it != reading_order.end() &&
+         readings[*it].stamp_seconds <= reading.stamp_seconds + same_stamp_tolerance;
+       ++it) {
+    const Pose2& other = readings[*it].pose;
+    if (other.x() != reading.pose.x() || other.y() != reading.pose.y() || other.theta() != reading.pose.theta()) {
+      return tied_reading;
+    }
+  }
+  const int pose = NearestPose(trajectory, order, reading.stamp_seconds, same_stamp_tolerance);
+  return pose >= 0 ? pose : other_reading;
+}
+
 }  // namespace
 
 Status ReadRelations(const std::string& path, std::vector<Relation>* relations) {
@@ -103,6 +129,15 @@ bool RelationsMetricOptions::IsValid(std::string* error) const {
     msg << "match_tolerance_seconds must be finite and >= 0 (got " << match_tolerance_seconds
         << "); ";
   }
+  if (!(same_stamp_tolerance_seconds >= 0.0 && std::isfinite(same_stamp_tolerance_seconds))) {
+    msg << "same_stamp_tolerance_seconds must be finite and >= 0 (got " << same_stamp_tolerance_seconds << "); ";
+  }
+  for (const StampedPose2& reading : readings) {
+    if (!std::isfinite(reading.stamp_seconds)) {
+      msg << "readings must have finite stamps; ";
+      break;
+    }
+  }
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -121,16 +156,34 @@ RelationsMetricResult EvaluateRelations(const std::vector<StampedPose2>& traject
     return trajectory[a].stamp_seconds < trajectory[b].stamp_seconds;
   });
 
+  std::vector<int> reading_order(options.readings.size());
+  std::iota(reading_order.begin(), reading_order.end(), 0);
+  std::stable_sort(reading_order.begin(), reading_order.end(), [&](int a, int b) {
+    return options.readings[a].stamp_seconds < options.readings[b].stamp_seconds;
+  });
+
   // Nearest poses of both ends, and for every pose the distinct relation stamps it matched.
+  // With readings, an end is first matched to its nearest reading (see the header).
+  constexpr int kUnmatched = -1, kOtherReading = -2, kTiedReading = -3;
   std::vector<std::array<int, 2>> ends(relations.size());
   std::vector<std::vector<double>> stamps_of_pose(trajectory.size());
   for (size_t r = 0; r < relations.size(); ++r) {
     const double t[2] = {relations[r].t1_seconds, relations[r].t2_seconds};
     for (int e = 0; e < 2; ++e) {
-      ends[r][e] = NearestPose(trajectory, order, t[e] - options.clock_offset_seconds, options.match_tolerance_seconds);
+      const double t_trajectory = t[e] - options.clock_offset_seconds;
+      if (options.readings.empty()) {
+        ends[r][e] = NearestPose(trajectory, order, t_trajectory, options.match_tolerance_seconds);
+      } else {
+        ends[r][e] = MatchThroughReadings(trajectory, order, options.readings, reading_order, t_trajectory,
+                                          options.match_tolerance_seconds, options.same_stamp_tolerance_seconds,
+                                          kUnmatched, kOtherReading, kTiedReading);
+      }
       if (ends[r][e] >= 0) stamps_of_pose[ends[r][e]].push_back(t[e]);
     }
   }
+  // (With readings, two relation stamps nearest to one reading name the same reading: the
+  // readings already resolved which instant each end is, so the stamp rule below is moot.)
+  if (!options.readings.empty()) stamps_of_pose.assign(trajectory.size(), {});
   std::vector<bool> ambiguous_pose(trajectory.size(), false);
   for (size_t i = 0; i < trajectory.size(); ++i) {
     const auto [lo, hi] = std::minmax_element(stamps_of_pose[i].begin(), stamps_of_pose[i].end());
@@ -141,8 +194,12 @@ RelationsMetricResult EvaluateRelations(const std::vector<StampedPose2>& traject
   for (size_t r = 0; r < relations.size(); ++r) {
     const Relation& relation = relations[r];
     const int i1 = ends[r][0], i2 = ends[r][1];
-    if (i1 < 0 || i2 < 0) continue;
-    if (ambiguous_pose[i1] || ambiguous_pose[i2]) {
+    if (i1 == kUnmatched || i2 == kUnmatched) continue;
+    if (i1 == kOtherReading || i2 == kOtherReading) {
+      ++result.on_other_reading;
+      continue;
+    }
+    if (i1 == kTiedReading || i2 == kTiedReading || ambiguous_pose[i1] || ambiguous_pose[i2]) {
       ++result.ambiguous;
       continue;
     }

@@ -18,6 +18,19 @@
 // wrong one.) Ambiguous relations are counted in `ambiguous`, not scored; the decision depends
 // on time stamps only, never on the trajectory's poses, so every system is scored on the same
 // relations.
+//
+// Exact association (optional, RelationsMetricOptions::readings). A log that keeps only some
+// readings of the original recording, with stamps rounded to its print precision (Intel: 10 ms
+// above 1000 s), cannot always say which original reading a scan is: nearest-in-time matching
+// may pair a relation end with a scan although another reading of the recording lies nearer
+// (Intel: a relation end at 1396.4854 s meets the scan printed 1396.48 s, but the reading
+// printed 1396.49 s, 5° further into a turn, is nearer). Given every reading of the recording
+// (stamp and a pose that tells readings apart, e.g. a CARMEN log's ODOM lines), an end falls
+// on a trajectory pose only when the reading nearest to the relation time has that pose's
+// stamp; an end whose nearest reading is not a trajectory pose is unmatched (counted in
+// `on_other_reading`), and an end whose nearest reading shares its stamp with a reading of a
+// different pose is ambiguous (counted in `ambiguous`); the stamp-based ambiguity rule above
+// is then not applied (the readings tell the instants apart).
 // With est = Between(pose(t1), pose(t2)):
 //   translational error  e_t = |t(est) - t(delta)|                 (metres)
 //   rotational error     e_r = |WrapAngle(theta(est) - theta(delta))| (reported in degrees)
@@ -54,6 +67,12 @@ struct RelationsMetricOptions {
   double clock_offset_seconds = 0.0;
   // An end matches the trajectory pose nearest in time only if |dt| <= this.
   double match_tolerance_seconds = 0.006;
+  // Exact association (see above): every reading of the original recording, stamps in the
+  // trajectory clock, any order. Empty: nearest-pose association only.
+  std::vector<StampedPose2> readings;
+  // A reading and a trajectory pose are the same instant when their stamps differ by at most
+  // this (well below the log's print precision).
+  double same_stamp_tolerance_seconds = 1e-4;
 
   bool IsValid(std::string* error) const;
 };
@@ -71,6 +90,9 @@ struct RelationsMetricResult {
   int total = 0;    // relations given
   int matched = 0;    // relations with both ends matched and unambiguous (scored)
   int ambiguous = 0;  // relations with both ends matched but one ambiguous (not scored)
+  // With readings: relations not scored because an end's nearest reading is not a pose of the
+  // trajectory (a reading the log does not keep as a scan).
+  int on_other_reading = 0;
   // Statistics over the matched relations; all 0 when matched == 0. Standard deviations are
   // sample standard deviations (N - 1).
   double trans_mean_m = 0.0;

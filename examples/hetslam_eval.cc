@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/carmen_log.h"
 #include "core/relations.h"
 #include "core/trajectory_io.h"
 #include "examples/flag_help.h"
@@ -28,6 +29,12 @@ DEFINE_double(clock_offset, 0.0,
 DEFINE_double(match_tolerance, 0.006,
               "A relation end matches the trajectory pose nearest in time only within this many "
               "seconds (>= 0); relations with an unmatched end, or with an ambiguous end (core/relations.h), are not scored.");
+DEFINE_string(readings_log, "",
+              "Optional CARMEN log whose ODOM lines are every reading of the original recording "
+              "(stamps in the trajectory clock; the shared logs keep them all). Turns on exact "
+              "association: a relation end falls on a trajectory pose only when the reading nearest "
+              "to it is that pose's own reading, not a neighbouring reading the log printed with a "
+              "nearby or the same stamp (see core/relations.h). Default: nearest-pose association.");
 DEFINE_string(errors_out, "",
               "Optional file receiving one line per scored relation: `t1 t2 trans_error_m "
               "rot_error_deg`.");
@@ -72,6 +79,15 @@ int Run() {
   status = ReadRelations(FLAGS_relations, &relations);
   if (!status.ok()) return Fail(status.message());
   if (trajectory.empty()) return Fail("'" + FLAGS_trajectory + "' holds no pose");
+  if (!FLAGS_readings_log.empty()) {
+    CarmenLog log;
+    status = ReadCarmenLog(FLAGS_readings_log, CarmenReadOptions(), &log);
+    if (!status.ok()) return Fail(status.message());
+    if (log.odometry.empty()) return Fail("--readings_log '" + FLAGS_readings_log + "' holds no ODOM line");
+    for (const OdometryReading& odometry : log.odometry) {
+      options.readings.push_back({odometry.stamp_seconds, odometry.pose});
+    }
+  }
   if (relations.empty()) return Fail("'" + FLAGS_relations + "' holds no relation");
 
   const RelationsMetricResult result = EvaluateRelations(trajectory, relations, options);
@@ -79,10 +95,19 @@ int Run() {
   std::printf("relations:  %s (%zu relations)\n", FLAGS_relations.c_str(), relations.size());
   std::printf("clock offset %.6f s, match tolerance %.6f s\n", options.clock_offset_seconds,
               options.match_tolerance_seconds);
+  if (!options.readings.empty()) {
+    std::printf("exact association through %zu readings of %s\n", options.readings.size(),
+                FLAGS_readings_log.c_str());
+  }
   std::printf("matched: %d / %d relations\n", result.matched, result.total);
+  if (result.on_other_reading > 0) {
+    std::printf("not scored: %d relations with an end whose nearest reading is not a trajectory pose\n",
+                result.on_other_reading);
+  }
   if (result.ambiguous > 0) {
     std::printf("not scored: %d relations with an ambiguous end (a pose that is the nearest match "
-                "of two different relation time stamps; see core/relations.h)\n", result.ambiguous);
+                "of two different relation time stamps, or a reading printed with the stamp of a reading "
+                "of another pose; see core/relations.h)\n", result.ambiguous);
   }
   if (result.matched == 0) {
     auto [min_pose, max_pose] = std::minmax_element(
@@ -132,7 +157,7 @@ int main(int argc, char** argv) {
   gflags::SetUsageMessage(
       "scores a trajectory against ground-truth relations (Kümmerle et al. 2009).\n"
       "  hetslam_eval --trajectory=FILE --relations=FILE [--clock_offset=SECONDS] "
-      "[--match_tolerance=SECONDS] [--errors_out=FILE]");
+      "[--match_tolerance=SECONDS] [--readings_log=FILE] [--errors_out=FILE]");
   hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, /*remove_flags=*/true);
   if (argc > 1) {

@@ -25,7 +25,8 @@
 #   loops      loop closures accepted ("-" when hetslam_run prints none, e.g. --no_loop_closure)
 #   accuracy   intel: the ground-truth relations metric (Kümmerle et al. 2009) via hetslam_eval
 #              --clock_offset=976052857.337284 --match_tolerance=0.006 (scored relations: both ends matched, neither
-#              ambiguous, see core/relations.h; mean ± sample
+#              ambiguous, see core/relations.h; then again with exact association through the
+#              log's readings, --readings_log; mean ± sample
 #              std of translation m and rotation deg). Every log with a <name>.gmapping.txt: AGREEMENT
 #              with GMapping's trajectory via hetslam_compare (a reference, NOT ground truth): ATE rmse
 #              after SE(2) alignment and the relative pose error over 10 s, mean ± std.
@@ -153,6 +154,20 @@ for name in "${logs[@]}"; do
       trans=$(sed -n 's/^ *translation error: *\([0-9.]*\) +- \([0-9.]*\) m.*/\1 ± \2 m/p' "$out/eval.txt")
       rot=$(sed -n 's/^ *rotation error: *\([0-9.]*\) +- \([0-9.]*\) deg.*/\1 ± \2°/p' "$out/eval.txt")
       accuracy="$label: $matched matched, $trans, $rot"
+      if [ "$name" = intel ]; then
+        # Exact association through the log's readings (its ODOM lines), see core/relations.h.
+        if "$build/examples/hetslam_eval" --trajectory="$out/trajectory.txt" --relations="$data/$name/$name.relations" \
+             --clock_offset=$offset --match_tolerance=$tolerance --readings_log="$data/$name/$name.clf" \
+             >"$out/eval_exact.txt" 2>&1; then
+          matched=$(sed -n 's/^matched: \([0-9]*\) \/ \([0-9]*\) relations.*/\1\/\2/p' "$out/eval_exact.txt")
+          trans=$(sed -n 's/^ *translation error: *\([0-9.]*\) +- \([0-9.]*\) m.*/\1 ± \2 m/p' "$out/eval_exact.txt")
+          rot=$(sed -n 's/^ *rotation error: *\([0-9.]*\) +- \([0-9.]*\) deg.*/\1 ± \2°/p' "$out/eval_exact.txt")
+          accuracy="$accuracy; exact association through the readings: $matched matched, $trans, $rot"
+        else
+          accuracy="$accuracy; exact association: hetslam_eval FAILED, see $out/eval_exact.txt"
+          status=1
+        fi
+      fi
     else
       accuracy="$label: hetslam_eval FAILED, see $out/eval.txt"
       status=1

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/carmen_log.h"
 #include "core/trajectory_io.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -239,6 +240,48 @@ TEST(EvaluateRelationsTest, RelationsWithAnAmbiguousEndAreCountedNotScored) {
   EXPECT_NEAR(0.0, result.trans_mean_m, 1e-12);
 }
 
+TEST(EvaluateRelationsTest, ExactAssociationThroughReadings) {
+  // The log keeps the scans at 0, 1, 2 s; the recording also had a reading at 1.01 s (another
+  // pose, not kept) and two readings printed 2 s (different poses).
+  RelationsMetricOptions options;
+  options.readings = {{0.0, Pose2(0, 0, 0)},    {1.0, Pose2(1, 0, 0.1)},   {1.01, Pose2(1.1, 0, 0.2)},
+                      {2.0, Pose2(2, 0, 0.2)},  {2.0, Pose2(2.1, 0, 0.3)}, {3.0, Pose2(3, 0, 0.3)}};
+  std::vector<Relation> relations(5);
+  relations[0].t1_seconds = 0.0;     // nearest reading 0 s, a scan: scored
+  relations[0].t2_seconds = 0.999;   // nearest reading 1 s: scored
+  relations[0].delta = Pose2(1, 0, 0.1);
+  relations[1].t1_seconds = 0.0;
+  relations[1].t2_seconds = 1.0054;  // within 6 ms of the scan at 1 s, but the 1.01 s reading is nearer
+  relations[2].t1_seconds = 0.0;
+  relations[2].t2_seconds = 2.003;   // two readings of different poses printed 2 s: ambiguous
+  relations[3].t1_seconds = 0.0;
+  relations[3].t2_seconds = 1.5;     // no reading within 6 ms: unmatched
+  relations[4].t1_seconds = 0.0;
+  relations[4].t2_seconds = 3.0;     // a reading, but no scan of the trajectory (it has 3 poses)
+  const RelationsMetricResult exact = EvaluateRelations(StraightTrajectory(3), relations, options);
+  EXPECT_EQ(5, exact.total);
+  EXPECT_EQ(1, exact.matched);
+  EXPECT_EQ(2, exact.on_other_reading);
+  EXPECT_EQ(1, exact.ambiguous);
+  ASSERT_EQ(1u, exact.errors.size());
+  EXPECT_EQ(0, exact.errors[0].relation_index);
+  EXPECT_NEAR(0.0, exact.trans_mean_m, 1e-12);
+
+  // Nearest-pose association scores relation 2 against one of the two readings printed 2 s
+  // and, with 0.999 s and 1.0054 s both nearest to the pose at 1 s, drops relations 0 and 1
+  // as ambiguous.
+  const RelationsMetricResult nearest =
+      EvaluateRelations(StraightTrajectory(3), relations, RelationsMetricOptions());
+  ASSERT_EQ(1, nearest.matched);
+  EXPECT_EQ(2, nearest.errors[0].relation_index);
+  EXPECT_EQ(2, nearest.ambiguous);
+  EXPECT_EQ(0, nearest.on_other_reading);
+
+  // Readings printed with one stamp but the same pose (a robot standing still) are no tie.
+  options.readings[4].pose = options.readings[3].pose;
+  EXPECT_EQ(2, EvaluateRelations(StraightTrajectory(3), relations, options).matched);
+}
+
 TEST(EvaluateRelationsTest, NothingMatchedGivesZeroStatistics) {
   std::vector<Relation> relations(2);
   relations[0].t1_seconds = 50;  // no pose there
@@ -289,6 +332,20 @@ TEST(EvaluateRelationsTest, ReproducesGmappingFigureOnIntel) {
   EXPECT_NEAR(0.997, result.rot_std_deg, 0.0005);
   EXPECT_NEAR(0.0299, result.trans_median_m, 0.00005);
   EXPECT_NEAR(0.351, result.rot_median_deg, 0.0005);
+
+  // Exact association through the log's readings (its ODOM lines): 43 relations fall on
+  // scans; 2558 end on a reading the log does not keep as a scan.
+  const std::string log_path = SharedDatasetPath("intel/intel.clf");
+  if (log_path.empty()) return;
+  CarmenLog log;
+  status = ReadCarmenLog(log_path, CarmenReadOptions(), &log);
+  ASSERT_TRUE(status.ok()) << status.message();
+  for (const OdometryReading& odometry : log.odometry) options.readings.push_back({odometry.stamp_seconds, odometry.pose});
+  const RelationsMetricResult exact = EvaluateRelations(trajectory, relations, options);
+  EXPECT_EQ(43, exact.matched);
+  EXPECT_EQ(2558, exact.on_other_reading);
+  EXPECT_NEAR(0.0396, exact.trans_mean_m, 0.00005);
+  EXPECT_NEAR(0.361, exact.rot_mean_deg, 0.0005);
 }
 
 }  // namespace
