@@ -78,6 +78,12 @@ DEFINE_double(narrow_accept_score, 0.4, "Front end narrow first try: minimum sco
 DEFINE_double(loop_search_min_travel, 0.3, "Search for loop closures again only after the robot moved this many metres "
               "(or turned --loop_search_min_turn_deg) since the last search.");
 DEFINE_double(loop_search_min_turn_deg, 20.0, "See --loop_search_min_travel.");
+DEFINE_bool(loop_wide_search, true, "Once the drift bound (grown with the travel since the last solve) exceeds "
+            "--loop_linear_window and the standard search finds nothing, also search a wide window (up to "
+            "--loop_wide_window m), without motion prior; two wide matches of different scans that agree on the "
+            "correction enter the graph (long corridors).");
+DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metres (see --loop_wide_search).");
+DEFINE_double(loop_wide_min_score, 0.6, "Wide loop search: minimum mean likelihood of a match (see --loop_wide_search).");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
@@ -125,6 +131,9 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   }
   graph_options->scans_per_submap = FLAGS_scans_per_submap;
   graph_options->loop_min_score = FLAGS_loop_min_score;
+  graph_options->loop_wide_search = FLAGS_loop_wide_search;
+  graph_options->loop_wide_window_meters = FLAGS_loop_wide_window;
+  graph_options->loop_wide_min_score = FLAGS_loop_wide_min_score;
   graph_options->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
   graph_options->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
   graph_options->loop_min_node_separation = FLAGS_loop_min_node_separation;
@@ -281,10 +290,12 @@ int Run() {
     std::snprintf(line, sizeof(line),
                   "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n"
                   "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d "
-                  "removed as inconsistent, %d solves (%d iterations, %.2f s), loop search %.2f s\n",
+                  "removed as inconsistent, %d solves (%d iterations, %.2f s), loop search %.2f s\n"
+                  "wide loop search: %d matches, %d candidates, %d closures accepted\n",
                   stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
                   stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
-                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solver_iterations, stats.solve_seconds, stats.loop_search_seconds);
+                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solver_iterations, stats.solve_seconds, stats.loop_search_seconds,
+                  stats.loop_wide_searches, stats.loop_wide_candidates, stats.loop_closures_accepted_wide);
     stats_line = line;
     // Loop-closure precision as Cartographer reports it: the share of kept closures that the
     // final graph agrees with to 20 cm and 1°.

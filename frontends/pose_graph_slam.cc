@@ -39,6 +39,10 @@ struct PoseGraphSlam::Constraint {
   bool loop = false;
   double score = 0.0;
   bool removed = false;
+  // Confirmed wide closures are exempt from the consistency check of the solve that brings
+  // them in: alone against the whole chain they leave a few degrees of residual; the
+  // ordinary closures that the corrected estimate then finds decide at the next solve.
+  bool exempt_from_next_check = false;
   ceres::ResidualBlockId residual = nullptr;
 };
 
@@ -63,11 +67,25 @@ ScanMatcherOptions PoseGraphSlamOptions::DefaultLoopMatcherOptions() {
   return options;
 }
 
+ScanMatcherOptions PoseGraphSlamOptions::DefaultLoopWideMatcherOptions() {
+  ScanMatcherOptions options = DefaultLoopMatcherOptions();
+  // No motion prior: the point of the wide search is a pose far from the estimate.
+  options.translation_penalty_per_square_meter = 0.0;
+  options.rotation_penalty_per_square_radian = 0.0;
+  options.branch_and_bound_depth = 6;
+  return options;
+}
+
 bool PoseGraphSlamOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
   std::string sub;
   if (!local.IsValid(&sub)) msg << "local: " << sub;
   if (!loop_matcher.IsValid(&sub)) msg << "loop_matcher: " << sub;
+  if (!loop_wide_matcher.IsValid(&sub)) msg << "loop_wide_matcher: " << sub;
+  if (!(loop_wide_window_meters > 0 && loop_wide_angular_window_radians > 0 && loop_wide_search_spacing_meters >= 0 &&
+        loop_wide_agreement_meters > 0 && loop_wide_agreement_radians > 0))
+    msg << "wide search windows and agreement bounds must be > 0, its spacing >= 0; ";
+  if (!(loop_wide_min_score >= 0 && loop_wide_min_score < 1)) msg << "loop_wide_min_score must be in [0, 1); ";
   if (scans_per_submap < 2) msg << "scans_per_submap must be >= 2 (got " << scans_per_submap << "); ";
   if (!(loop_min_score >= 0 && loop_min_score < 1)) msg << "loop_min_score must be in [0, 1); ";
   if (!(loop_search_min_travel_meters >= 0 && loop_search_min_turn_radians >= 0))
@@ -92,6 +110,7 @@ PoseGraphSlam::PoseGraphSlam(const PoseGraphSlamOptions& options)
     : options_(options),
       local_matcher_(options.local.matcher),
       loop_matcher_(options.loop_matcher),
+      loop_wide_matcher_(options.loop_wide_matcher),
       manifold_(CreateSe2Manifold()) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid PoseGraphSlamOptions: " << error;
@@ -128,7 +147,9 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   }
   if (odometry_pose.has_value()) last_odometry_ = odometry_pose;
   if (!local_trajectory_.empty()) {
-    travel_since_solve_meters_ += (local_pose.translation() - local_trajectory_.back().pose.translation()).norm();
+    const double step = (local_pose.translation() - local_trajectory_.back().pose.translation()).norm();
+    travel_since_solve_meters_ += step;
+    travel_since_wide_search_meters_ += step;
   }
   local_trajectory_.push_back({scan.stamp_seconds, local_pose});
 
@@ -221,15 +242,53 @@ void PoseGraphSlam::SearchLoopClosures(int node_index) {
                                         options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel);
   const double angular_window = std::min(options_.loop_matcher.angular_search_window_radians,
                                          options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel);
-  SearchSubmaps(node_index, linear_window, angular_window,
-                               options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel,
-                               options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel,
-                               options_.loop_min_score, options_.loop_matcher.linear_search_window_meters);
+  const double gate_meters = options_.loop_gate_base_meters + options_.loop_gate_meters_per_meter * travel;
+  const double gate_radians = options_.loop_gate_base_radians + options_.loop_gate_radians_per_meter * travel;
+  const int accepted = SearchSubmaps(node_index, linear_window, angular_window, gate_meters, gate_radians,
+                                     options_.loop_min_score, options_.loop_matcher.linear_search_window_meters);
+  if (accepted > 0) {
+    pending_wide_.reset();
+  } else if (options_.loop_wide_search && gate_meters > options_.loop_matcher.linear_search_window_meters &&
+             travel_since_wide_search_meters_ >= options_.loop_wide_search_spacing_meters) {
+    WideSearch(node_index, gate_meters, gate_radians);
+  }
   stats_.loop_search_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+void PoseGraphSlam::WideSearch(int node_index, double gate_meters, double gate_radians) {
+  travel_since_wide_search_meters_ = 0.0;
+  std::optional<WideCandidate> best;
+  SearchSubmaps(node_index, std::min(gate_meters, options_.loop_wide_window_meters),
+                std::min(gate_radians, options_.loop_wide_angular_window_radians), gate_meters, gate_radians,
+                options_.loop_wide_min_score, std::min(gate_meters, options_.loop_wide_window_meters), &best);
+  if (!best.has_value()) return;
+  ++stats_.loop_wide_candidates;
+  // One wide match may be an alias (a corridor, a repeated room); two matches of different
+  // nodes that call for the same correction of the drifting estimate are taken as real.
+  if (pending_wide_.has_value() && pending_wide_->node != node_index) {
+    const Pose2 disagreement = Between(pending_wide_->world_correction, best->world_correction);
+    if (disagreement.translation().norm() <= options_.loop_wide_agreement_meters &&
+        std::abs(disagreement.theta()) <= options_.loop_wide_agreement_radians) {
+      // Confirmed closures enter without robust loss: they are metres from the estimate, where
+      // the Huber loss of ordinary closures would leave them almost no pull.
+      AddLoopConstraint(pending_wide_->submap, pending_wide_->node, pending_wide_->submap_T_node,
+                        pending_wide_->score, /*robust=*/false);
+      AddLoopConstraint(best->submap, best->node, best->submap_T_node, best->score, /*robust=*/false);
+      constraints_[constraints_.size() - 1].exempt_from_next_check = true;
+      constraints_[constraints_.size() - 2].exempt_from_next_check = true;
+      stats_.loop_closures_accepted_wide += 2;
+      pending_wide_.reset();
+      // A correction of metres must reach the estimate of the next nodes before they search.
+      Solve(options_.max_iterations_final);
+      return;
+    }
+  }
+  pending_wide_ = best;
+}
+
 int PoseGraphSlam::SearchSubmaps(int node_index, double linear_window, double angular_window, double gate_meters,
-                                 double gate_radians, double min_score, double margin_meters) {
+                                 double gate_radians, double min_score, double margin_meters,
+                                 std::optional<WideCandidate>* wide_best) {
   const Node& node = nodes_[node_index];
   const Pose2 world_T_node = ToPose(node.world_pose);
   int accepted = 0;
@@ -247,13 +306,21 @@ int PoseGraphSlam::SearchSubmaps(int node_index, double linear_window, double an
         (p.array() > submap.max_submap.array() + margin_meters).any()) {
       continue;
     }
-    ++stats_.loop_searches;
+    const ScanMatcher& matcher = wide_best != nullptr ? loop_wide_matcher_ : loop_matcher_;
+    ++(wide_best != nullptr ? stats_.loop_wide_searches : stats_.loop_searches);
     const ScanMatchResult match =
-        loop_matcher_.MatchWithinWindow(*submap.map, predicted, node.matching_points, linear_window, angular_window);
+        matcher.MatchWithinWindow(*submap.map, predicted, node.matching_points, linear_window, angular_window);
     if (!match.converged || match.score < min_score) continue;
     const Pose2 correction = Between(predicted, match.pose);
     if (correction.translation().norm() > gate_meters || std::abs(correction.theta()) > gate_radians) {
       ++stats_.loop_closures_rejected_by_gate;
+      continue;
+    }
+    if (wide_best != nullptr) {
+      if (!wide_best->has_value() || match.score > (*wide_best)->score) {
+        const Pose2 world_matched = ToPose(submap.world_pose) * match.pose;
+        *wide_best = WideCandidate{node_index, s, match.pose, world_matched * world_T_node.inverse(), match.score};
+      }
       continue;
     }
     AddLoopConstraint(s, node_index, match.pose, match.score);
@@ -262,7 +329,8 @@ int PoseGraphSlam::SearchSubmaps(int node_index, double linear_window, double an
   return accepted;
 }
 
-void PoseGraphSlam::AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score) {
+void PoseGraphSlam::AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score,
+                                      bool robust) {
   const Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(
       options_.loop_translation_sigma_meters, options_.loop_translation_sigma_meters,
       options_.loop_rotation_sigma_radians);
@@ -273,7 +341,7 @@ void PoseGraphSlam::AddLoopConstraint(int submap, int node, const Pose2& submap_
   c.loop = true;
   c.score = score;
   c.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(submap_T_node, sqrt_information),
-                                          new ceres::HuberLoss(options_.loop_loss_scale),
+                                          robust ? new ceres::HuberLoss(options_.loop_loss_scale) : nullptr,
                                           submaps_[submap].world_pose, nodes_[node].world_pose);
   constraints_.push_back(c);
   ++stats_.loop_closures_accepted;
@@ -337,7 +405,7 @@ void PoseGraphSlam::Solve(int max_iterations) {
     // remove closures the optimised graph disagrees with, then solve once more.
     int removed = 0;
     for (Constraint& c : constraints_) {
-      if (!c.loop || c.removed) continue;
+      if (!c.loop || c.removed || c.exempt_from_next_check) continue;
       const Pose2 estimate = Between(ToPose(submaps_[c.submap].world_pose), ToPose(nodes_[c.node].world_pose));
       const Pose2 error = Between(c.submap_T_node, estimate);
       if (error.translation().norm() > options_.loop_consistency_translation_meters ||
@@ -351,6 +419,7 @@ void PoseGraphSlam::Solve(int max_iterations) {
     }
     if (removed == 0) break;
   }
+  for (Constraint& c : constraints_) c.exempt_from_next_check = false;
   UpdateWorldFromLocal();
   stats_.solve_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

@@ -27,6 +27,7 @@
 #define HETSLAM_FRONTENDS_POSE_GRAPH_SLAM_H_
 
 #include <array>
+#include <cmath>
 #include <deque>
 #include <memory>
 #include <optional>
@@ -78,6 +79,23 @@ struct PoseGraphSlamOptions {
   double loop_gate_meters_per_meter = 0.1;
   double loop_gate_base_radians = 0.1;
   double loop_gate_radians_per_meter = 0.02;
+  // Wide search (issue: "a wider branch-and-bound search when the pose uncertainty grows past
+  // that window", long corridors). The drift bound above grows with the travel since the last
+  // solve; once it exceeds the loop window and the standard search found nothing, the node is
+  // also searched over ±min(drift bound, loop_wide_window_meters) and ±min(angular bound,
+  // loop_wide_angular_window_radians), without motion prior, at most once per
+  // loop_wide_search_spacing_meters of travel. A wide result (score >= loop_wide_min_score,
+  // within the drift bound) is only a candidate until the next wide search of a later node
+  // confirms it: its correction of the graph's estimate (world frame) agrees within
+  // loop_wide_agreement_*; then both enter the graph as loop closures.
+  bool loop_wide_search = true;
+  ScanMatcherOptions loop_wide_matcher = DefaultLoopWideMatcherOptions();
+  double loop_wide_window_meters = 8.0;
+  double loop_wide_angular_window_radians = M_PI;
+  double loop_wide_min_score = 0.6;
+  double loop_wide_search_spacing_meters = 1.0;
+  double loop_wide_agreement_meters = 0.3;
+  double loop_wide_agreement_radians = 0.05;
   int solve_every_n_loop_closures = 10;
   // ... but not before this many nodes were added since the last solve (bounds the solves of
   // dense logs, where closures arrive at almost every scan).
@@ -87,6 +105,7 @@ struct PoseGraphSlamOptions {
   bool loop_closure = true;
 
   static ScanMatcherOptions DefaultLoopMatcherOptions();
+  static ScanMatcherOptions DefaultLoopWideMatcherOptions();
   bool IsValid(std::string* error) const;
 };
 
@@ -101,6 +120,9 @@ struct PoseGraphSlamStats {
   int loop_closures_accepted = 0;
   int loop_closures_rejected_after_solve = 0;
   int loop_closures_rejected_by_gate = 0;
+  int loop_wide_searches = 0;              // (node, submap) matches over the wide window
+  int loop_wide_candidates = 0;            // wide results above the score, within the bound
+  int loop_closures_accepted_wide = 0;     // confirmed wide candidates (counted in accepted too)
   int solves = 0;
   int solver_iterations = 0;      // summed over all solves
   double solve_seconds = 0.0;
@@ -166,15 +188,27 @@ class PoseGraphSlam {
   // Matches node `node_index` against every finished, old-enough submap whose box (grown by
   // `margin_meters`) holds its estimate; adds closures scoring >= min_score within the gate.
   // Returns how many were added.
+  // `wide`: use the wide matcher and only report the best result in *wide_best (nothing is
+  // added). Returns how many closures were added.
+  struct WideCandidate {
+    int node = -1;
+    int submap = -1;
+    Pose2 submap_T_node;
+    Pose2 world_correction;  // matched world pose relative to the graph's estimate, world frame
+    double score = 0.0;
+  };
   int SearchSubmaps(int node_index, double linear_window, double angular_window, double gate_meters,
-                    double gate_radians, double min_score, double margin_meters);
-  void AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score);
+                    double gate_radians, double min_score, double margin_meters,
+                    std::optional<WideCandidate>* wide_best = nullptr);
+  void WideSearch(int node_index, double gate_meters, double gate_radians);
+  void AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score, bool robust = true);
   void Solve(int max_iterations);
   void UpdateWorldFromLocal();
 
   PoseGraphSlamOptions options_;
   ScanMatcher local_matcher_;
   ScanMatcher loop_matcher_;
+  ScanMatcher loop_wide_matcher_;
   std::vector<std::unique_ptr<double[]>> pose_block_chunks_;
   size_t pose_blocks_used_in_chunk_ = 0;
   std::deque<Node> nodes_;
@@ -190,6 +224,8 @@ class PoseGraphSlam {
   int loop_closures_since_solve_ = 0;
   int nodes_since_solve_ = 0;
   double travel_since_solve_meters_ = 0.0;
+  double travel_since_wide_search_meters_ = 0.0;
+  std::optional<WideCandidate> pending_wide_;
   bool finished_ = false;
   PoseGraphSlamStats stats_;
 };

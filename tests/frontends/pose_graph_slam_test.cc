@@ -131,6 +131,74 @@ TEST(PoseGraphSlamTest, RejectsWrongLoopClosure) {
   EXPECT_LT(ate.translation_rmse_meters, 0.08);
 }
 
+// Dead reckoning with odometry that overestimates distance by 12% and turns 0.12 degrees per
+// scan too far (the front end's matches are switched off, so the chain between closures keeps
+// that distortion): back at the start the estimate is metres from the truth, beyond the
+// standard loop window (narrowed to ±1 m here). The drift bound has grown past that window, so
+// the wide search runs, finds the start again, and its closures bring the estimate close
+// enough for the standard search to take over; without it the loop stays open.
+PipelineRun RunDeadReckoning(const sim::SimulationResult& simulation, bool wide_search) {
+  PoseGraphSlamOptions options = TestOptions();
+  options.local.prediction = MotionPrediction::kOdometry;
+  options.local.matcher.min_correlative_score = 0.999;  // every front-end match "fails"
+  options.loop_matcher.linear_search_window_meters = 1.0;
+  options.loop_wide_search = wide_search;
+  PipelineRun run;
+  run.simulation = simulation;
+  PoseGraphSlam slam(options);
+  Pose2 biased;
+  for (size_t i = 0; i < simulation.log.lasers.size(); ++i) {
+    const LaserReading& reading = simulation.log.lasers[i];
+    if (i > 0) {
+      const Pose2 step = Between(simulation.log.lasers[i - 1].odometry_pose, reading.odometry_pose);
+      biased = biased * Pose2(1.12 * step.translation(), step.theta() + 0.12 * M_PI / 180);
+    }
+    slam.AddScan(reading.scan, biased);
+  }
+  slam.Finish();
+  run.trajectory = slam.trajectory();
+  run.loops = slam.LoopClosures();
+  run.stats = slam.stats();
+  return run;
+}
+
+// Error (metres) of the pose where the robot is back at its start (the truth's nearest
+// approach to the start in the second half), relative to the first pose: the loop's closure.
+// (Poses farther on carry the distortion of the dead-reckoned first lap they are tied to.)
+double LoopError(const PipelineRun& run) {
+  const std::vector<StampedPose2>& truth = run.simulation.truth;
+  size_t back = truth.size() / 2;
+  for (size_t i = back; i < truth.size(); ++i) {
+    if ((truth[i].pose.translation() - truth.front().pose.translation()).norm() <
+        (truth[back].pose.translation() - truth.front().pose.translation()).norm()) {
+      back = i;
+    }
+  }
+  const Pose2 estimate = Between(run.trajectory.front().pose, run.trajectory[back].pose);
+  const Pose2 truth_delta = Between(truth.front().pose, truth[back].pose);
+  return (estimate.translation() - truth_delta.translation()).norm();
+}
+
+TEST(PoseGraphSlamTest, WideSearchClosesALoopBeyondTheStandardWindow) {
+  const sim::SimulationResult simulation = Simulate(5);
+  ASSERT_FALSE(simulation.log.lasers.empty());
+  ASSERT_TRUE(simulation.log.lasers.front().has_odometry_pose);
+
+  const PipelineRun narrow = RunDeadReckoning(simulation, /*wide_search=*/false);
+  EXPECT_EQ(0, narrow.stats.loop_wide_searches);
+  EXPECT_GT(LoopError(narrow), 1.5);
+
+  const PipelineRun wide = RunDeadReckoning(simulation, /*wide_search=*/true);
+  EXPECT_GT(wide.stats.loop_wide_searches, 0);
+  EXPECT_GE(wide.stats.loop_closures_accepted_wide, 2);
+  EXPECT_GT(wide.stats.loop_closures_accepted, wide.stats.loop_closures_accepted_wide);  // the standard search took over
+  EXPECT_LT(LoopError(wide), 0.2);
+  LOG(INFO) << "dead reckoning: loop error " << LoopError(narrow) << " m without the wide search, " << LoopError(wide)
+            << " m with it (" << wide.stats.loop_wide_searches << " wide matches, " << wide.stats.loop_wide_candidates
+            << " candidates, " << wide.stats.loop_closures_accepted_wide << " wide closures, "
+            << wide.stats.loop_closures_accepted << " closures in all)";
+}
+
 TEST(PoseGraphSlamOptionsTest, RejectsBadValues) {
   PoseGraphSlamOptions options;
   std::string error;
@@ -140,6 +208,13 @@ TEST(PoseGraphSlamOptionsTest, RejectsBadValues) {
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("scans_per_submap"));
   EXPECT_NE(std::string::npos, error.find("loop_min_score"));
+
+  PoseGraphSlamOptions wide;
+  wide.loop_wide_window_meters = 0;
+  wide.loop_wide_min_score = 1.5;
+  EXPECT_FALSE(wide.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("wide search windows"));
+  EXPECT_NE(std::string::npos, error.find("loop_wide_min_score"));
 }
 
 }  // namespace
