@@ -26,8 +26,8 @@
 
 DEFINE_string(log, "", "Log to map: a CARMEN log (.clf: FLASER/ROBOTLASER1/RAWLASER1 scans, ODOM optional), or a "
               "hetslam robot log (a file whose first line is `HSLOG 1`, e.g. a simulated robot's <dir>/<robot>/log.txt: "
-              "LASER scans with their MOUNT, ODOM optional, TRUTH used as --truth when that is not given; the "
-              "attitude is not used yet, so only level robots map correctly). Required.");
+              "LASER scans with their MOUNT, ODOM optional, TRUTH used as --truth when that is not given; ATTITUDE/ALTITUDE "
+              "for the 2.5D projection, see --use_attitude). Required.");
 DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm, map.yaml, map.png, trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
@@ -88,6 +88,14 @@ DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VER
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
               "record it; PARAM laser_*_fov in the log overrides it).");
+DEFINE_bool(use_attitude, true, "Robot logs: project each scan with the body attitude (ATTITUDE roll and pitch, "
+            "ALTITUDE height) under the 2.5D assumption and drop floor hits (points lower than "
+            "--floor_max_height); false = treat every scan as level. CARMEN logs carry no attitude.");
+DEFINE_double(floor_max_height, 0.08, "With an attitude: end points lower than this above the floor (metres) are floor "
+              "hits, neither matched nor mapped.");
+DEFINE_double(degenerate_ratio, 0.0, "Front end: when the smaller eigenvalue of a match's translational information "
+              "is below this fraction of the larger (a corridor, side walls only), keep the prediction along the weak "
+              "direction (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
 DEFINE_int32(progress_every, 100, "Print progress every N scans (0 = never).");
 
@@ -118,6 +126,8 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   options->matcher.narrow_accept_score = FLAGS_narrow_accept_score;
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
   options->max_point_range_meters = FLAGS_max_range;
+  options->floor_max_height_meters = FLAGS_floor_max_height;
+  options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
@@ -161,10 +171,29 @@ bool IsRobotLog(const std::string& path) {
   return false;
 }
 
+// The reading of `readings` (sorted by stamp) nearest to `stamp`, or null when none lies
+// within `tolerance` seconds.
+template <typename Reading>
+const Reading* Nearest(const std::vector<Reading>& readings, double stamp, double tolerance) {
+  auto it = std::lower_bound(readings.begin(), readings.end(), stamp,
+                             [](const Reading& r, double t) { return r.stamp_seconds < t; });
+  const Reading* best = nullptr;
+  if (it != readings.end() && it->stamp_seconds - stamp <= tolerance) best = &*it;
+  if (it != readings.begin() && stamp - std::prev(it)->stamp_seconds <= tolerance &&
+      (best == nullptr || stamp - std::prev(it)->stamp_seconds < best->stamp_seconds - stamp)) {
+    best = &*std::prev(it);
+  }
+  return best;
+}
+
 // Reads a robot log (core/robot_log.h) into the CARMEN structures this program maps: its LASER
 // scans (with their MOUNT) and, per scan, the ODOM pose within 50 ms if any; its TRUTH as the
-// planar truth (x, y, yaw of world_T_body).
-Status ReadRobotLogAsCarmen(const std::string& path, bool lenient, CarmenLog* log, std::vector<StampedPose2>* truth) {
+// planar truth (x, y, yaw of world_T_body); per scan (aligned with log->lasers) the body
+// attitude for the 2.5D projection: roll and pitch of the nearest ATTITUDE within 50 ms and
+// the height of the nearest ALTITUDE within 0.2 s (a UAV; else 0: the body stands on the
+// floor), or nothing when the log has no ATTITUDE near the scan.
+Status ReadRobotLogAsCarmen(const std::string& path, bool lenient, CarmenLog* log, std::vector<StampedPose2>* truth,
+                            std::vector<std::optional<BodyAttitude>>* attitudes) {
   RobotLogReadOptions options;
   options.lenient = lenient;
   RobotLog robot_log;
@@ -186,6 +215,17 @@ Status ReadRobotLogAsCarmen(const std::string& path, bool lenient, CarmenLog* lo
     if (!odometry.empty() && std::abs(odometry[odometry_index].stamp_seconds - laser.scan.stamp_seconds) <= 0.05) {
       reading.odometry_pose = odometry[odometry_index].pose;
       reading.has_odometry_pose = true;
+    }
+    const AttitudeReading* attitude = Nearest(robot_log.attitudes, laser.scan.stamp_seconds, 0.05);
+    if (attitude != nullptr) {
+      BodyAttitude body;
+      body.roll_radians = attitude->roll_radians;
+      body.pitch_radians = attitude->pitch_radians;
+      const AltitudeReading* altitude = Nearest(robot_log.altitudes, laser.scan.stamp_seconds, 0.2);
+      if (altitude != nullptr) body.base_height_meters = altitude->height_meters;
+      attitudes->push_back(body);
+    } else {
+      attitudes->push_back(std::nullopt);
     }
     log->lasers.push_back(std::move(reading));
   }
@@ -209,7 +249,8 @@ int Run() {
   if (!(FLAGS_flaser_fov_deg > 0 && FLAGS_flaser_fov_deg <= 360)) return Fail("--flaser_fov_deg must be in (0, 360]"), 2;
   CarmenLog log;
   std::vector<StampedPose2> log_truth;  // TRUTH of a robot log
-  const Status read = IsRobotLog(FLAGS_log) ? ReadRobotLogAsCarmen(FLAGS_log, FLAGS_lenient, &log, &log_truth)
+  std::vector<std::optional<BodyAttitude>> attitudes;  // per scan of a robot log
+  const Status read = IsRobotLog(FLAGS_log) ? ReadRobotLogAsCarmen(FLAGS_log, FLAGS_lenient, &log, &log_truth, &attitudes)
                                             : ReadCarmenLog(FLAGS_log, read_options, &log);
   if (!read.ok()) return Fail(read.message()), 1;
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
@@ -256,11 +297,13 @@ int Run() {
     const LaserReading& reading = log.lasers[i];
     const std::optional<Pose2> odometry =
         reading.has_odometry_pose ? std::optional<Pose2>(reading.odometry_pose) : std::nullopt;
+    const std::optional<BodyAttitude> attitude =
+        FLAGS_use_attitude && i < attitudes.size() ? attitudes[i] : std::nullopt;
     if (front_end != nullptr) {
-      const ScanResult result = front_end->AddScan(reading.scan, odometry);
+      const ScanResult result = front_end->AddScan(reading.scan, odometry, attitude);
       if (result.match.converged) scores.push_back(result.match.score);
     } else {
-      graph_slam->AddScan(reading.scan, odometry);
+      graph_slam->AddScan(reading.scan, odometry, attitude);
     }
     if (FLAGS_progress_every > 0 && (i + 1) % FLAGS_progress_every == 0) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -272,14 +315,16 @@ int Run() {
       std::fprintf(stderr, "\n");
     }
   }
-  char line[512];
+  char line[768];
   if (front_end != nullptr) {
     trajectory = front_end->trajectory();
     map = &front_end->map();
     const ScanMatchingSlamStats& stats = front_end->stats();
     std::snprintf(line, sizeof(line),
-                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n",
-                  stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards);
+                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards, "
+                  "%lld floor points dropped, %d degenerate matches\n",
+                  stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
+                  stats.floor_points, stats.degenerate_matches);
     stats_line = line;
   } else {
     graph_slam->Finish();
@@ -288,12 +333,13 @@ int Run() {
     map = rendered_map.get();
     const PoseGraphSlamStats& stats = graph_slam->stats();
     std::snprintf(line, sizeof(line),
-                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards\n"
+                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards, "
+                  "%lld floor points dropped, %d degenerate matches\n"
                   "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d "
                   "removed as inconsistent, %d solves (%d iterations, %.2f s), loop search %.2f s\n"
                   "wide loop search: %d matches, %d candidates, %d closures accepted\n",
                   stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
-                  stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
+                  stats.floor_points, stats.degenerate_matches, stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
                   stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solver_iterations, stats.solve_seconds, stats.loop_search_seconds,
                   stats.loop_wide_searches, stats.loop_wide_candidates, stats.loop_closures_accepted_wide);
     stats_line = line;

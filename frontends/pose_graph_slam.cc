@@ -121,13 +121,15 @@ PoseGraphSlam::PoseGraphSlam(const PoseGraphSlamOptions& options)
 
 PoseGraphSlam::~PoseGraphSlam() = default;
 
-void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose) {
+void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose,
+                            const std::optional<BodyAttitude>& attitude) {
   CHECK(!finished_) << "AddScan after Finish";
   ++stats_.scans;
   if (!local_trajectory_.empty() && scan.stamp_seconds < local_trajectory_.back().stamp_seconds) {
     ++stats_.timestamps_backwards;
   }
-  const ScanPoints points = PrepareScanPoints(options_.local, scan);
+  const ScanPoints points = PrepareScanPoints(options_.local, scan, attitude);
+  stats_.floor_points += points.floor_points;
   if (static_cast<int>(points.all.size()) < options_.local.min_points) {
     ++stats_.skipped_too_few_points;
     return;
@@ -136,11 +138,13 @@ void PoseGraphSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& o
   Pose2 local_pose = PredictNextPose(options_.local, local_trajectory_, last_odometry_, odometry_pose);
   if (!active_submaps_.empty() && submaps_[active_submaps_.front()].num_scans > 0) {
     const Submap& target = submaps_[active_submaps_.front()];
-    const ScanMatchResult match =
-        local_matcher_.Match(*target.map, target.local_T_submap.inverse() * local_pose, points.matching, {},
-                             NarrowSearchTrusted(options_.local, local_trajectory_));
+    const Pose2 predicted_submap = target.local_T_submap.inverse() * local_pose;
+    const ScanMatchResult match = local_matcher_.Match(*target.map, predicted_submap, points.matching, {},
+                                                       NarrowSearchTrusted(options_.local, local_trajectory_));
     if (match.converged) {
-      local_pose = target.local_T_submap * match.pose;
+      bool degenerate = false;
+      local_pose = target.local_T_submap * DegeneracyAwarePose(options_.local, predicted_submap, match, &degenerate);
+      stats_.degenerate_matches += degenerate;
     } else {
       ++stats_.match_failures;
     }

@@ -116,6 +116,8 @@ struct PoseGraphSlamStats {
   int skipped_too_few_points = 0;
   int match_failures = 0;
   int timestamps_backwards = 0;
+  long long floor_points = 0;     // end points removed as floor hits (scans with an attitude)
+  int degenerate_matches = 0;     // front-end matches whose weak direction kept the prediction
   int loop_searches = 0;          // (node, submap) matches attempted
   int loop_closures_accepted = 0;
   int loop_closures_rejected_after_solve = 0;
@@ -147,8 +149,9 @@ class PoseGraphSlam {
   PoseGraphSlam(const PoseGraphSlam&) = delete;
   PoseGraphSlam& operator=(const PoseGraphSlam&) = delete;
 
-  // Processes one scan; `odometry_pose` as in ScanMatchingSlam::AddScan.
-  void AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose = std::nullopt);
+  // Processes one scan; `odometry_pose` and `attitude` as in ScanMatchingSlam::AddScan.
+  void AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose = std::nullopt,
+               const std::optional<BodyAttitude>& attitude = std::nullopt);
 
   // Adds a loop-closure constraint from outside the loop-closure search (a place recognised
   // by other means, a fiducial): `submap_T_node` is node `node`'s pose in submap `submap`'s

@@ -1,7 +1,9 @@
 #include "frontends/scan_matching_slam.h"
 
+#include <cmath>
 #include <sstream>
 
+#include "Eigen/Eigenvalues"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -38,6 +40,9 @@ bool ScanMatchingSlamOptions::IsValid(std::string* error) const {
   if (!(angular_velocity_fraction >= 0 && angular_velocity_fraction <= 1.5))
     msg << "angular_velocity_fraction must be in [0, 1.5] (got " << angular_velocity_fraction << "); ";
   if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
+  if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
+  if (!(degenerate_eigenvalue_ratio >= 0 && degenerate_eigenvalue_ratio < 1))
+    msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
   if (!(matching_voxel_meters >= 0)) msg << "matching_voxel_meters must be >= 0; ";
   if (min_points < 1) msg << "min_points must be >= 1; ";
   if (error != nullptr) *error = msg.str();
@@ -81,10 +86,33 @@ bool NarrowSearchTrusted(const ScanMatchingSlamOptions& options, const std::vect
          std::abs(delta.theta()) <= 0.5 * m.narrow_angular_search_window_radians;
 }
 
-ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan) {
+Pose2 DegeneracyAwarePose(const ScanMatchingSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
+                          bool* degenerate) {
+  if (degenerate != nullptr) *degenerate = false;
+  const Eigen::Matrix3d& info = match.information;
+  if (options.degenerate_eigenvalue_ratio <= 0 || !(info(2, 2) > 0)) return match.pose;
+  // Translational information with the yaw marginalised out (Schur complement).
+  const Eigen::Matrix2d translational =
+      info.topLeftCorner<2, 2>() - info.topRightCorner<2, 1>() * info.bottomLeftCorner<1, 2>() / info(2, 2);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(translational);
+  const Eigen::Vector2d values = eigen.eigenvalues();  // ascending
+  if (!(values(1) > 0) || values(0) >= options.degenerate_eigenvalue_ratio * values(1)) return match.pose;
+  const Eigen::Vector2d strong = eigen.eigenvectors().col(1);
+  const Eigen::Vector2d correction = match.pose.translation() - predicted.translation();
+  if (degenerate != nullptr) *degenerate = true;
+  return Pose2(predicted.translation() + strong.dot(correction) * strong, match.pose.theta());
+}
+
+ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan,
+                             const std::optional<BodyAttitude>& attitude) {
   ScanPoints points;
   const float max_range = static_cast<float>(options.max_point_range_meters);
-  for (const ProjectedPoint& p : ProjectScan(scan, BodyAttitude())) {
+  const float floor_height = static_cast<float>(options.floor_max_height_meters);
+  for (const ProjectedPoint& p : ProjectScan(scan, attitude.value_or(BodyAttitude()))) {
+    if (attitude.has_value() && p.z_meters < floor_height) {
+      ++points.floor_points;
+      continue;
+    }
     if (p.p_robot.norm() <= max_range) points.all.push_back(p.p_robot);
   }
   points.matching = options.matching_voxel_meters > 0
@@ -94,13 +122,15 @@ ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const Laser
   return points;
 }
 
-ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose) {
+ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose,
+                                     const std::optional<BodyAttitude>& attitude) {
   ScanResult result;
   result.stamp_seconds = scan.stamp_seconds;
   ++stats_.scans;
   if (!trajectory_.empty() && scan.stamp_seconds < trajectory_.back().stamp_seconds) ++stats_.timestamps_backwards;
 
-  const ScanPoints points = PrepareScanPoints(options_, scan);
+  const ScanPoints points = PrepareScanPoints(options_, scan, attitude);
+  stats_.floor_points += points.floor_points;
   result.predicted = PredictNextPose(options_, trajectory_, last_odometry_, odometry_pose);
   result.pose = result.predicted;
   if (static_cast<int>(points.all.size()) < options_.min_points) {
@@ -111,7 +141,9 @@ ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<
     result.match = matcher_.Match(map_, result.predicted, points.matching, {},
                                   NarrowSearchTrusted(options_, trajectory_));
     if (result.match.converged) {
-      result.pose = result.match.pose;
+      bool degenerate = false;
+      result.pose = DegeneracyAwarePose(options_, result.predicted, result.match, &degenerate);
+      stats_.degenerate_matches += degenerate;
     } else {
       ++stats_.match_failures;
     }

@@ -48,6 +48,18 @@ struct ScanMatchingSlamOptions {
   double matching_voxel_meters = 0.20;
   // Scans with fewer valid points are not matched or inserted (counted as skipped).
   int min_points = 20;
+  // With a known body attitude (AddScan's `attitude`: a tilting head, a UAV), the scan is
+  // projected under the 2.5D assumption (core/laser_scan.h ProjectScan, paper §III-D) and
+  // end points lower than this above the floor are floor hits: neither matched nor mapped
+  // (walls are vertical, so a wall hit at any other height projects onto the wall).
+  double floor_max_height_meters = 0.08;
+  // Degenerate scans (a corridor's two parallel walls, a tilted head seeing side walls only):
+  // when the smaller eigenvalue of the match's translational information (J^T J of the scan
+  // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps
+  // the prediction along the weak direction and takes the match's correction only along the
+  // strong one (solution remapping; there the score is flat and the matched position is
+  // noise). 0 = always take the whole match.
+  double degenerate_eigenvalue_ratio = 0.0;
 
   // ScanMatcherOptions with a narrow first try of ±0.4 m, ±10° accepted from a score of 0.4:
   // scan-to-scan motion is far below the full windows on most logs.
@@ -62,9 +74,11 @@ Pose2 PredictNextPose(const ScanMatchingSlamOptions& options, const std::vector<
                       const std::optional<Pose2>& last_odometry, const std::optional<Pose2>& odometry);
 
 // The scan's valid end points in the robot frame within max_point_range_meters (for the
-// map), and their voxel-thinned subset (for matching).
+// map), and their voxel-thinned subset (for matching). With an attitude, the 2.5D projection
+// and floor hits removed (see floor_max_height_meters); without, the scan is taken as level.
 struct ScanPoints {
   std::vector<Eigen::Vector2f> all;
+  int floor_points = 0;  // removed as floor hits
   std::vector<Eigen::Vector2f> matching;
   Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();  // sensor origin, robot frame
 };
@@ -73,13 +87,23 @@ struct ScanPoints {
 // constant-velocity prediction is close). False when the narrow try is off.
 bool NarrowSearchTrusted(const ScanMatchingSlamOptions& options, const std::vector<StampedPose2>& trajectory);
 
-ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan);
+// The matched pose with the correction from `predicted` removed along a degenerate direction
+// (see degenerate_eigenvalue_ratio); `match.pose` itself when the match constrains both
+// directions, the ratio is 0 or the match carries no information matrix. Both poses in the
+// frame the match was made in. `*degenerate` (optional) tells whether a direction was held.
+Pose2 DegeneracyAwarePose(const ScanMatchingSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
+                          bool* degenerate = nullptr);
+
+ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan,
+                             const std::optional<BodyAttitude>& attitude = std::nullopt);
 
 struct ScanMatchingSlamStats {
   int scans = 0;
   int skipped_too_few_points = 0;
   int match_failures = 0;        // inserted at the prediction
   int timestamps_backwards = 0;
+  long long floor_points = 0;    // end points removed as floor hits (scans with an attitude)
+  int degenerate_matches = 0;    // matches whose weak direction kept the prediction
 };
 
 struct ScanResult {
@@ -95,8 +119,10 @@ class ScanMatchingSlam {
   explicit ScanMatchingSlam(const ScanMatchingSlamOptions& options);
 
   // Processes one scan. `odometry_pose` is the odometry reading at the scan (any fixed
-  // frame), required when the prediction is kOdometry and ignored otherwise.
-  ScanResult AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose = std::nullopt);
+  // frame), required when the prediction is kOdometry and ignored otherwise. `attitude`: the
+  // body's roll, pitch and height above the floor at the scan, when known (else level).
+  ScanResult AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose = std::nullopt,
+                     const std::optional<BodyAttitude>& attitude = std::nullopt);
 
   const LaserMap& map() const { return map_; }
   const std::vector<StampedPose2>& trajectory() const { return trajectory_; }

@@ -117,3 +117,59 @@ TEST(NarrowSearchTrustedTest, OnlyAfterSmallMotionOrWithOdometry) {
 
 }  // namespace
 }  // namespace hetslam
+
+namespace hetslam {
+namespace {
+
+// A laser 0.5 m above the floor, pitched 40° down, 181 beams over ±90° in a 2 m-wide corridor
+// (walls at y = ±1): beams within about ±45° of straight ahead hit the floor, the outer ones the walls.
+TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) {
+  LaserScan scan;
+  scan.angles_radians = EvenlySpacedAngles(181, -M_PI / 2, M_PI / 180);
+  scan.range_max_meters = 10.0;
+  const double pitch = 40.0 * M_PI / 180.0, height = 0.5;
+  scan.robot_T_sensor = Eigen::Translation3d(0, 0, height) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY());
+  for (double angle : scan.angles_radians) {
+    const Eigen::Vector3d direction = scan.robot_T_sensor.linear() * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0);
+    const double to_floor = direction.z() < 0 ? height / -direction.z() : 1e9;
+    const double to_wall = std::abs(direction.y()) > 1e-9 ? 1.0 / std::abs(direction.y()) : 1e9;
+    scan.ranges_meters.push_back(std::min({to_floor, to_wall, 9.0}));
+  }
+  ScanMatchingSlamOptions options;
+  const ScanPoints level = PrepareScanPoints(options, scan);  // no attitude: nothing dropped
+  EXPECT_EQ(0, level.floor_points);
+  EXPECT_EQ(181u, level.all.size());
+
+  const ScanPoints projected = PrepareScanPoints(options, scan, BodyAttitude());
+  EXPECT_GT(projected.floor_points, 40);
+  EXPECT_EQ(181u, projected.all.size() + projected.floor_points);
+  for (const Eigen::Vector2f& p : projected.all) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4) << p.transpose();
+}
+
+TEST(DegeneracyAwarePoseTest, KeepsThePredictionAlongTheWeakDirectionOnly) {
+  ScanMatchingSlamOptions options;
+  options.degenerate_eigenvalue_ratio = 0.05;
+  ScanMatchResult match;
+  match.converged = true;
+  match.pose = Pose2(0.3, 0.1, 0.02);
+  const Pose2 predicted(0.0, 0.0, 0.0);
+  // A corridor along x: the walls constrain y and yaw, not x.
+  match.information = Eigen::Vector3d(0.5, 400.0, 900.0).asDiagonal();
+  bool degenerate = false;
+  Pose2 pose = DegeneracyAwarePose(options, predicted, match, &degenerate);
+  EXPECT_TRUE(degenerate);
+  EXPECT_NEAR(0.0, pose.x(), 1e-12);
+  EXPECT_NEAR(0.1, pose.y(), 1e-12);
+  EXPECT_NEAR(0.02, pose.theta(), 1e-12);
+  // Well constrained: the match as it is; ratio 0: always the match.
+  match.information = Eigen::Vector3d(300.0, 400.0, 900.0).asDiagonal();
+  pose = DegeneracyAwarePose(options, predicted, match, &degenerate);
+  EXPECT_FALSE(degenerate);
+  EXPECT_NEAR(0.3, pose.x(), 1e-12);
+  options.degenerate_eigenvalue_ratio = 0.0;
+  match.information = Eigen::Vector3d(0.5, 400.0, 900.0).asDiagonal();
+  EXPECT_NEAR(0.3, DegeneracyAwarePose(options, predicted, match).x(), 1e-12);
+}
+
+}  // namespace
+}  // namespace hetslam
