@@ -1014,4 +1014,63 @@ Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
 
 #undef HETSLAM_RETURN_IF_ERROR
 
+namespace {
+
+// The reading of `readings` (sorted by stamp) nearest to `stamp`, or null when none lies
+// within `tolerance` seconds. On a tie the earlier one.
+template <typename Reading>
+const Reading* NearestReading(const std::vector<Reading>& readings, double stamp, double tolerance) {
+  auto it = std::lower_bound(readings.begin(), readings.end(), stamp,
+                             [](const Reading& r, double t) { return r.stamp_seconds < t; });
+  const Reading* best = nullptr;
+  if (it != readings.begin() && stamp - std::prev(it)->stamp_seconds <= tolerance) best = &*std::prev(it);
+  if (it != readings.end() && it->stamp_seconds - stamp <= tolerance &&
+      (best == nullptr || it->stamp_seconds - stamp < stamp - best->stamp_seconds)) {
+    best = &*it;
+  }
+  return best;
+}
+
+}  // namespace
+
+std::vector<RobotScanInputs> ScanInputsFromRobotLog(const RobotLog& log, const RobotScanInputsOptions& options) {
+  std::vector<RobotScanInputs> inputs(log.lasers.size());
+  const std::vector<CommandReading>& commands = log.commands;
+  Pose2 command_pose;
+  double t = commands.empty() ? 0.0 : commands.front().stamp_seconds;
+  size_t next_command = 0;  // first command not yet in force
+  const CommandReading* command = nullptr;
+  for (size_t i = 0; i < log.lasers.size(); ++i) {
+    const double stamp = log.lasers[i].scan.stamp_seconds;
+    RobotScanInputs& in = inputs[i];
+    if (const OdometryPose2Reading* odometry = NearestReading(log.odometry, stamp, options.odometry_tolerance_seconds)) {
+      in.odometry = odometry->pose;
+    }
+    if (const AttitudeReading* attitude = NearestReading(log.attitudes, stamp, options.attitude_tolerance_seconds)) {
+      BodyAttitude body;
+      body.roll_radians = attitude->roll_radians;
+      body.pitch_radians = attitude->pitch_radians;
+      if (const AltitudeReading* altitude = NearestReading(log.altitudes, stamp, options.altitude_tolerance_seconds)) {
+        body.base_height_meters = altitude->height_meters;
+      }
+      in.attitude = body;
+    }
+    if (commands.empty() || stamp < t) continue;
+    while (t < stamp) {
+      while (next_command < commands.size() && commands[next_command].stamp_seconds <= t) {
+        command = &commands[next_command++];
+      }
+      const double until = next_command < commands.size() ? std::min(stamp, commands[next_command].stamp_seconds) : stamp;
+      for (double remaining = until - t; remaining > 0;) {
+        const double dt = std::min(0.01, remaining);
+        command_pose = command_pose * Pose2(command->vx_mps * dt, command->vy_mps * dt, command->yaw_rate_radps * dt);
+        remaining -= dt;
+      }
+      t = until;
+    }
+    in.command_pose = command_pose;
+  }
+  return inputs;
+}
+
 }  // namespace hetslam

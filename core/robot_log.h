@@ -63,6 +63,7 @@
 #define HETSLAM_CORE_ROBOT_LOG_H_
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -189,6 +190,30 @@ Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options,
 // first MOUNT), else an error: the log stores mounts only as MOUNT messages. Poses are stored
 // as roll/pitch/yaw, so rotations read back equal to rounding (~1e-16), not bit for bit;
 // non-finite ranges are written as "nan".
+// What a SLAM front end takes with each LASER scan of a robot log, looked up by time.
+struct RobotScanInputs {
+  // ODOM pose nearest to the scan within the odometry tolerance.
+  std::optional<Pose2> odometry;
+  // The COMMAND velocities (body frame, each holding until the next) integrated from the first
+  // COMMAND up to the scan (10 ms steps); empty for scans before the first COMMAND.
+  std::optional<Pose2> command_pose;
+  // Roll and pitch of the nearest ATTITUDE within the attitude tolerance, with the height of
+  // the nearest ALTITUDE within the altitude tolerance (else 0: a body standing on the
+  // floor); empty when no ATTITUDE is near.
+  std::optional<BodyAttitude> attitude;
+};
+
+struct RobotScanInputsOptions {
+  double odometry_tolerance_seconds = 0.05;
+  double attitude_tolerance_seconds = 0.05;
+  double altitude_tolerance_seconds = 0.2;
+};
+
+// One entry per log.lasers element (whose messages must be in time order, as ReadRobotLog
+// returns them).
+std::vector<RobotScanInputs> ScanInputsFromRobotLog(const RobotLog& log,
+                                                    const RobotScanInputsOptions& options = RobotScanInputsOptions());
+
 Status WriteRobotLog(const std::string& path, const RobotLog& log,
                      const std::vector<std::string>& comment_lines);
 

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "core/carmen_log.h"
@@ -34,6 +35,9 @@ DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per li
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
 DEFINE_bool(use_odometry, false, "Predict each scan's pose from the log's odometry. Off by default: the pipeline is "
             "odometry-free and uses --prediction instead.");
+DEFINE_bool(use_commands, true, "Robot logs with COMMAND lines: predict each scan's pose from the controller's "
+            "commanded velocities (integrated in the body frame between scans), as the paper's EKF does without "
+            "odometry. --use_odometry takes precedence; CARMEN logs have no commands.");
 DEFINE_string(prediction, "constant_velocity", "Motion prediction without odometry: constant_velocity (extrapolate "
               "--velocity_fraction of the last translation and --angular_velocity_fraction of the last turn) or stationary.");
 DEFINE_double(velocity_fraction, 0.5, "Fraction of the last scan-to-scan translation (robot frame) extrapolated by "
@@ -93,9 +97,10 @@ DEFINE_bool(use_attitude, true, "Robot logs: project each scan with the body att
             "--floor_max_height); false = treat every scan as level. CARMEN logs carry no attitude.");
 DEFINE_double(floor_max_height, 0.08, "With an attitude: end points lower than this above the floor (metres) are floor "
               "hits, neither matched nor mapped.");
-DEFINE_double(degenerate_ratio, 0.0, "Front end: when the smaller eigenvalue of a match's translational information "
-              "is below this fraction of the larger (a corridor, side walls only), keep the prediction along the weak "
-              "direction (0 = off).");
+DEFINE_double(degenerate_ratio, -1.0, "Front end: when the smaller eigenvalue of a match's translational information "
+              "is below this fraction of the larger (a corridor, a tilted head seeing side walls only), keep the "
+              "prediction along the weak direction; 0 = off, -1 = auto: 0.3 for hetslam robot logs (tilting heads "
+              "and UAVs see such scans routinely, and commands or odometry predict), 0 for CARMEN logs.");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
 DEFINE_int32(progress_every, 100, "Print progress every N scans (0 = never).");
 
@@ -127,7 +132,11 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
   options->max_point_range_meters = FLAGS_max_range;
   options->floor_max_height_meters = FLAGS_floor_max_height;
-  options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;
+  options->degenerate_eigenvalue_ratio = std::max(0.0, FLAGS_degenerate_ratio);  // auto: set after reading the log
+  if (!(FLAGS_degenerate_ratio == -1.0 || (FLAGS_degenerate_ratio >= 0 && FLAGS_degenerate_ratio < 1))) {
+    *error = "--degenerate_ratio must be -1 (auto) or in [0, 1)";
+    return false;
+  }
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
@@ -159,6 +168,12 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   return true;
 }
 
+std::string FormatNumber(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
 // Whether `path` is a hetslam robot log (first non-blank, non-comment line starts with HSLOG).
 bool IsRobotLog(const std::string& path) {
   std::ifstream in(path);
@@ -171,29 +186,13 @@ bool IsRobotLog(const std::string& path) {
   return false;
 }
 
-// The reading of `readings` (sorted by stamp) nearest to `stamp`, or null when none lies
-// within `tolerance` seconds.
-template <typename Reading>
-const Reading* Nearest(const std::vector<Reading>& readings, double stamp, double tolerance) {
-  auto it = std::lower_bound(readings.begin(), readings.end(), stamp,
-                             [](const Reading& r, double t) { return r.stamp_seconds < t; });
-  const Reading* best = nullptr;
-  if (it != readings.end() && it->stamp_seconds - stamp <= tolerance) best = &*it;
-  if (it != readings.begin() && stamp - std::prev(it)->stamp_seconds <= tolerance &&
-      (best == nullptr || stamp - std::prev(it)->stamp_seconds < best->stamp_seconds - stamp)) {
-    best = &*std::prev(it);
-  }
-  return best;
-}
-
 // Reads a robot log (core/robot_log.h) into the CARMEN structures this program maps: its LASER
-// scans (with their MOUNT) and, per scan, the ODOM pose within 50 ms if any; its TRUTH as the
-// planar truth (x, y, yaw of world_T_body); per scan (aligned with log->lasers) the body
-// attitude for the 2.5D projection: roll and pitch of the nearest ATTITUDE within 50 ms and
-// the height of the nearest ALTITUDE within 0.2 s (a UAV; else 0: the body stands on the
-// floor), or nothing when the log has no ATTITUDE near the scan.
+// scans (with their MOUNT) and the ODOM pose near each (core ScanInputsFromRobotLog); its TRUTH
+// as the planar truth (x, y, yaw of world_T_body); per scan (aligned with log->lasers) the body
+// attitude and the command-integrated pose (see RobotScanInputs).
 Status ReadRobotLogAsCarmen(const std::string& path, bool lenient, CarmenLog* log, std::vector<StampedPose2>* truth,
-                            std::vector<std::optional<BodyAttitude>>* attitudes) {
+                            std::vector<std::optional<BodyAttitude>>* attitudes,
+                            std::vector<std::optional<Pose2>>* command_poses) {
   RobotLogReadOptions options;
   options.lenient = lenient;
   RobotLog robot_log;
@@ -201,33 +200,18 @@ Status ReadRobotLogAsCarmen(const std::string& path, bool lenient, CarmenLog* lo
   if (!status.ok()) return status;
   log->warnings = robot_log.warnings;
   log->stats.malformed_lines_skipped = robot_log.stats.malformed_lines_skipped;
-  size_t odometry_index = 0;
-  for (const RobotLaserReading& laser : robot_log.lasers) {
+  const std::vector<RobotScanInputs> inputs = ScanInputsFromRobotLog(robot_log);
+  attitudes->clear();
+  command_poses->clear();
+  for (size_t i = 0; i < robot_log.lasers.size(); ++i) {
     LaserReading reading;
-    reading.scan = laser.scan;
-    reading.line_number = laser.line_number;
-    const std::vector<OdometryPose2Reading>& odometry = robot_log.odometry;
-    while (odometry_index + 1 < odometry.size() &&
-           std::abs(odometry[odometry_index + 1].stamp_seconds - laser.scan.stamp_seconds) <=
-               std::abs(odometry[odometry_index].stamp_seconds - laser.scan.stamp_seconds)) {
-      ++odometry_index;
-    }
-    if (!odometry.empty() && std::abs(odometry[odometry_index].stamp_seconds - laser.scan.stamp_seconds) <= 0.05) {
-      reading.odometry_pose = odometry[odometry_index].pose;
-      reading.has_odometry_pose = true;
-    }
-    const AttitudeReading* attitude = Nearest(robot_log.attitudes, laser.scan.stamp_seconds, 0.05);
-    if (attitude != nullptr) {
-      BodyAttitude body;
-      body.roll_radians = attitude->roll_radians;
-      body.pitch_radians = attitude->pitch_radians;
-      const AltitudeReading* altitude = Nearest(robot_log.altitudes, laser.scan.stamp_seconds, 0.2);
-      if (altitude != nullptr) body.base_height_meters = altitude->height_meters;
-      attitudes->push_back(body);
-    } else {
-      attitudes->push_back(std::nullopt);
-    }
+    reading.scan = robot_log.lasers[i].scan;
+    reading.line_number = robot_log.lasers[i].line_number;
+    reading.has_odometry_pose = inputs[i].odometry.has_value();
+    if (reading.has_odometry_pose) reading.odometry_pose = *inputs[i].odometry;
     log->lasers.push_back(std::move(reading));
+    attitudes->push_back(inputs[i].attitude);
+    command_poses->push_back(inputs[i].command_pose);
   }
   truth->clear();
   for (const StampedPose3& pose : robot_log.truth) {
@@ -250,7 +234,9 @@ int Run() {
   CarmenLog log;
   std::vector<StampedPose2> log_truth;  // TRUTH of a robot log
   std::vector<std::optional<BodyAttitude>> attitudes;  // per scan of a robot log
-  const Status read = IsRobotLog(FLAGS_log) ? ReadRobotLogAsCarmen(FLAGS_log, FLAGS_lenient, &log, &log_truth, &attitudes)
+  std::vector<std::optional<Pose2>> command_poses;     // per scan of a robot log
+  const bool robot_log = IsRobotLog(FLAGS_log);
+  const Status read = robot_log ? ReadRobotLogAsCarmen(FLAGS_log, FLAGS_lenient, &log, &log_truth, &attitudes, &command_poses)
                                             : ReadCarmenLog(FLAGS_log, read_options, &log);
   if (!read.ok()) return Fail(read.message()), 1;
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
@@ -265,6 +251,23 @@ int Run() {
       }
     }
   }
+  if (FLAGS_degenerate_ratio == -1.0) options.local.degenerate_eigenvalue_ratio = robot_log ? 0.3 : 0.0;
+  const bool use_commands = robot_log && FLAGS_use_commands && !FLAGS_use_odometry &&
+                            std::any_of(command_poses.begin(), command_poses.end(),
+                                        [](const std::optional<Pose2>& pose) { return pose.has_value(); });
+  if (use_commands) {
+    // Scans before the first COMMAND are dropped: the prediction needs a commanded pose.
+    size_t first = 0;
+    while (!command_poses[first].has_value()) ++first;
+    for (size_t i = first; i < log.lasers.size(); ++i) {
+      log.lasers[i].odometry_pose = *command_poses[i];
+      log.lasers[i].has_odometry_pose = true;
+    }
+    log.lasers.erase(log.lasers.begin(), log.lasers.begin() + first);
+    attitudes.erase(attitudes.begin(), attitudes.begin() + std::min(first, attitudes.size()));
+    options.local.prediction = MotionPrediction::kOdometry;
+    if (first > 0) std::cerr << "warning: " << first << " scans before the first COMMAND skipped (--use_commands)\n";
+  }
   std::vector<StampedPose2> truth = log_truth;
   std::string truth_name = FLAGS_log + " (TRUTH)";
   if (!FLAGS_truth.empty()) {
@@ -278,7 +281,13 @@ int Run() {
 
   const size_t num_scans = FLAGS_max_scans > 0 ? std::min<size_t>(FLAGS_max_scans, log.lasers.size()) : log.lasers.size();
   std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log
-            << (FLAGS_use_odometry ? " (odometry prediction)" : " (no odometry)") << "\n";
+            << (FLAGS_use_odometry ? " (odometry prediction)"
+                : use_commands ? " (command prediction, no odometry)" : " (no odometry)")
+            << (options.local.degenerate_eigenvalue_ratio > 0
+                    ? ", degenerate directions keep the prediction below eigenvalue ratio " +
+                          FormatNumber(options.local.degenerate_eigenvalue_ratio)
+                    : std::string())
+            << "\n";
   // Either pipeline fills these.
   std::vector<StampedPose2> trajectory;
   std::unique_ptr<LaserMap> rendered_map;
