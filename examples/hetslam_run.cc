@@ -101,6 +101,8 @@ DEFINE_double(degenerate_ratio, -1.0, "Front end: when the smaller eigenvalue of
               "is below this fraction of the larger (a corridor, a tilted head seeing side walls only), keep the "
               "prediction along the weak direction; 0 = off, -1 = auto: 0.3 for hetslam robot logs (tilting heads "
               "and UAVs see such scans routinely, and commands or odometry predict), 0 for CARMEN logs.");
+DEFINE_double(densify_max_gap, 0.0, "Join the end points of neighbouring beams closer than this (metres) by points at "
+              "the grid resolution before matching and mapping (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
 DEFINE_int32(progress_every, 100, "Print progress every N scans (0 = never).");
 
@@ -132,6 +134,7 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
   options->max_point_range_meters = FLAGS_max_range;
   options->floor_max_height_meters = FLAGS_floor_max_height;
+  options->densify_max_gap_meters = FLAGS_densify_max_gap;
   options->degenerate_eigenvalue_ratio = std::max(0.0, FLAGS_degenerate_ratio);  // auto: set after reading the log
   if (!(FLAGS_degenerate_ratio == -1.0 || (FLAGS_degenerate_ratio >= 0 && FLAGS_degenerate_ratio < 1))) {
     *error = "--degenerate_ratio must be -1 (auto) or in [0, 1)";

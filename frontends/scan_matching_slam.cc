@@ -41,6 +41,7 @@ bool ScanMatchingSlamOptions::IsValid(std::string* error) const {
     msg << "angular_velocity_fraction must be in [0, 1.5] (got " << angular_velocity_fraction << "); ";
   if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
+  if (!(densify_max_gap_meters >= 0)) msg << "densify_max_gap_meters must be >= 0; ";
   if (!(degenerate_eigenvalue_ratio >= 0 && degenerate_eigenvalue_ratio < 1))
     msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
   if (!(matching_voxel_meters >= 0)) msg << "matching_voxel_meters must be >= 0; ";
@@ -108,12 +109,26 @@ ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const Laser
   ScanPoints points;
   const float max_range = static_cast<float>(options.max_point_range_meters);
   const float floor_height = static_cast<float>(options.floor_max_height_meters);
+  const float max_gap = static_cast<float>(options.densify_max_gap_meters);
+  const float step = static_cast<float>(options.grid.resolution_meters);
+  int previous_beam = -2;
   for (const ProjectedPoint& p : ProjectScan(scan, attitude.value_or(BodyAttitude()))) {
     if (attitude.has_value() && p.z_meters < floor_height) {
       ++points.floor_points;
       continue;
     }
-    if (p.p_robot.norm() <= max_range) points.all.push_back(p.p_robot);
+    if (p.p_robot.norm() > max_range) continue;
+    if (max_gap > 0 && p.beam_index == previous_beam + 1) {
+      // Neighbouring beams on one surface: fill the gap at the grid resolution.
+      const Eigen::Vector2f from = points.all.back();
+      const float gap = (p.p_robot - from).norm();
+      if (gap > step && gap <= max_gap) {
+        const int n = static_cast<int>(gap / step);
+        for (int k = 1; k <= n; ++k) points.all.push_back(from + (p.p_robot - from) * (static_cast<float>(k) / (n + 1)));
+      }
+    }
+    points.all.push_back(p.p_robot);
+    previous_beam = p.beam_index;
   }
   points.matching = options.matching_voxel_meters > 0
                         ? VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters))

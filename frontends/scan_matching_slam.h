@@ -60,6 +60,10 @@ struct ScanMatchingSlamOptions {
   // strong one (solution remapping; there the score is flat and the matched position is
   // noise). 0 = always take the whole match.
   double degenerate_eigenvalue_ratio = 0.0;
+  // End points of neighbouring beams closer than this are joined by points at the grid
+  // resolution (0 = off): a wall seen at a grazing angle then is a line in the map, not a
+  // dotted one whose gaps bias matching towards where the wall was mapped densely.
+  double densify_max_gap_meters = 0.0;
 
   // ScanMatcherOptions with a narrow first try of ±0.4 m, ±10° accepted from a score of 0.4:
   // scan-to-scan motion is far below the full windows on most logs.

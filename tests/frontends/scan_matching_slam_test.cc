@@ -146,6 +146,40 @@ TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) 
   for (const Eigen::Vector2f& p : projected.all) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4) << p.transpose();
 }
 
+// A wall 1 m to the side seen at grazing angles: neighbouring beams' end points lie up to
+// ~0.9 m apart. Densified, gaps up to the limit are filled at the grid resolution; a larger
+// gap (the depth jump to the far wall) is not bridged.
+TEST(PrepareScanPointsTest, DensifyFillsGapsAlongASurfaceOnly) {
+  LaserScan scan;
+  scan.angles_radians = EvenlySpacedAngles(91, 0.0, M_PI / 180);  // 0° .. 90°, left side
+  scan.range_max_meters = 30.0;
+  for (double angle : scan.angles_radians) {
+    scan.ranges_meters.push_back(angle < 5.5 * M_PI / 180 ? 20.0 : 1.0 / std::sin(angle));  // far wall ahead
+  }
+  ScanMatchingSlamOptions options;
+  options.densify_max_gap_meters = 0.6;
+  const ScanPoints dense = PrepareScanPoints(options, scan);
+  options.densify_max_gap_meters = 0.0;
+  const ScanPoints plain = PrepareScanPoints(options, scan);
+  EXPECT_EQ(91u, plain.all.size());
+  EXPECT_GT(dense.all.size(), plain.all.size());
+  int on_side_wall = 0;
+  for (const Eigen::Vector2f& p : dense.all) {
+    if (p.x() < 19.0) {
+      EXPECT_NEAR(1.0, p.y(), 1e-4) << p.transpose();  // every added point lies on the wall
+      ++on_side_wall;
+    }
+  }
+  // The side wall from x = 0 to where beam gaps exceed 0.6 m is sampled at <= 5 cm.
+  float largest_gap = 0.f;
+  for (size_t i = 1; i < dense.all.size(); ++i) {
+    const float gap = (dense.all[i] - dense.all[i - 1]).norm();
+    if (dense.all[i].x() < 19.0 && dense.all[i - 1].x() < 19.0 && gap <= 0.6f) largest_gap = std::max(largest_gap, gap);
+  }
+  EXPECT_LE(largest_gap, 0.05f + 1e-4f);
+  EXPECT_GT(on_side_wall, 150);
+}
+
 TEST(DegeneracyAwarePoseTest, KeepsThePredictionAlongTheWeakDirectionOnly) {
   ScanMatchingSlamOptions options;
   options.degenerate_eigenvalue_ratio = 0.05;
