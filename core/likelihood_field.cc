@@ -11,6 +11,8 @@ namespace {
 const Eigen::Vector2f kNone(std::numeric_limits<float>::quiet_NaN(),
                             std::numeric_limits<float>::quiet_NaN());
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
+// Marks a squared distance as stale (no real d^2 is negative); see ApplyChanges.
+constexpr float kStale = -1.f;
 }  // namespace
 
 bool LikelihoodFieldOptions::IsValid(std::string* error) const {
@@ -93,6 +95,12 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     Resize(grid.geometry());
   }
   const float republish_sq = static_cast<float>(options_.republish_distance_meters * options_.republish_distance_meters);
+  // Cells that may have lost their nearest point are recomputed once, after every change of
+  // this batch is published: neighbouring hit points along a wall often republish together,
+  // and would otherwise recompute the same cells several times. Until then they are marked
+  // kStale and skipped (the final recompute reads the final published points, so the result
+  // is the same as recomputing at once).
+  stale_cells_.clear();
   for (int i : changed_cells) {
     const CellIndex o = geometry_.FromLinearIndex(i);
     const Eigen::Vector2f old_p = published_[i];
@@ -113,19 +121,24 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
         const CellIndex c{x, y};
         const int j = y * geometry_.width() + x;
         float& squared_distance = squared_distances_[j];
+        if (squared_distance == kStale) continue;
         const float new_squared_distance = has ? SquaredDistance(c, o, new_p) : kInfinity;
         if (new_squared_distance < squared_distance) {
           squared_distance = new_squared_distance;
           values_[j] = ValueFromSquaredDistance(squared_distance);
         } else if (had && new_squared_distance > squared_distance &&
                    SquaredDistance(c, o, old_p) <= squared_distance) {
-          // c's nearest point may have been o's old point, which is gone: recompute it.
-          // (A new d^2 equal to the old minimum leaves the minimum as it is.)
-          squared_distance = RecomputeSquaredDistance(c);
-          values_[j] = ValueFromSquaredDistance(squared_distance);
+          // c's nearest point may have been o's old point, which is gone: recompute it
+          // (below). A new d^2 equal to the old minimum leaves the minimum as it is.
+          squared_distance = kStale;
+          stale_cells_.push_back(j);
         }
       }
     }
+  }
+  for (int j : stale_cells_) {
+    squared_distances_[j] = RecomputeSquaredDistance(geometry_.FromLinearIndex(j));
+    values_[j] = ValueFromSquaredDistance(squared_distances_[j]);
   }
 }
 

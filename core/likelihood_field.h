@@ -82,8 +82,10 @@ class LikelihoodField {
   int radius_cells_ = 0;
   bool frozen_ = false;
   std::vector<float> values_;
-  // values_[i] = ValueFromSquaredDistance(squared_distances_[i]); freed by Freeze.
+  // values_[i] = ValueFromSquaredDistance(squared_distances_[i]); freed by Freeze. Within
+  // ApplyChanges, kStale marks a cell queued in stale_cells_ for one recompute at the end.
   std::vector<float> squared_distances_;
+  std::vector<int> stale_cells_;  // scratch of ApplyChanges
   // Published hit point per cell relative to the cell's own minimum corner (metres), NaN
   // when the cell does not contribute. Relative storage makes values independent of growth.
   std::vector<Eigen::Vector2f> published_;
