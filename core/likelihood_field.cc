@@ -80,9 +80,9 @@ float LikelihoodField::RecomputeSquaredDistance(const CellIndex& c) const {
   const int y0 = std::max(0, c.y - radius_cells_), y1 = std::min(geometry_.height() - 1, c.y + radius_cells_);
   for (int y = y0; y <= y1; ++y) {
     for (int x = x0; x <= x1; ++x) {
-      const int i = y * geometry_.width() + x;
-      if (!HasPublished(i)) continue;
-      best = std::min(best, SquaredDistance(c, {x, y}, published_[i]));
+      // No HasPublished branch: an unpublished cell's NaN point gives a NaN d^2, which
+      // std::min(best, NaN) ignores (it returns best when the comparison is false).
+      best = std::min(best, SquaredDistance(c, {x, y}, published_[y * geometry_.width() + x]));
     }
   }
   return best;
