@@ -62,14 +62,6 @@ void LikelihoodField::Resize(const GridGeometry& g) {
   published_.swap(published);
 }
 
-float LikelihoodField::SquaredDistance(const CellIndex& c, const CellIndex& o,
-                                       const Eigen::Vector2f& p_o) const {
-  const float r = static_cast<float>(geometry_.resolution_meters());
-  const float dx = (static_cast<float>(c.x - o.x) + 0.5f) * r - p_o.x();
-  const float dy = (static_cast<float>(c.y - o.y) + 0.5f) * r - p_o.y();
-  return dx * dx + dy * dy;
-}
-
 float LikelihoodField::ValueFromSquaredDistance(float squared_distance) const {
   return std::exp(-std::sqrt(squared_distance) / static_cast<float>(options_.sigma_meters));
 }

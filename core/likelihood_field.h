@@ -69,8 +69,15 @@ class LikelihoodField {
   const std::vector<float>& values() const { return values_; }
 
  private:
-  // d^2 (m^2) from occupied cell o's published point p_o to the centre of cell c.
-  float SquaredDistance(const CellIndex& c, const CellIndex& o, const Eigen::Vector2f& p_o) const;
+  // d^2 (m^2) from occupied cell o's published point p_o to the centre of cell c. In the
+  // header so that it inlines into the window loops (an out-of-line call per cell was
+  // a sixth of the instructions on FR079).
+  float SquaredDistance(const CellIndex& c, const CellIndex& o, const Eigen::Vector2f& p_o) const {
+    const float r = static_cast<float>(geometry_.resolution_meters());
+    const float dx = (static_cast<float>(c.x - o.x) + 0.5f) * r - p_o.x();
+    const float dy = (static_cast<float>(c.y - o.y) + 0.5f) * r - p_o.y();
+    return dx * dx + dy * dy;
+  }
   // exp(-d / sigma) for a squared distance d^2 (0 for d^2 = +inf: nothing in the window).
   float ValueFromSquaredDistance(float squared_distance) const;
   // Min d^2 over the published points in c's window (+inf when there is none).
