@@ -3,17 +3,16 @@
 #include <algorithm>
 
 namespace hetslam {
-namespace {
-OccupancyGridOptions WithMargin(OccupancyGridOptions grid, const LikelihoodFieldOptions& field) {
+
+OccupancyGridOptions WithFieldMargin(OccupancyGridOptions grid, const LikelihoodFieldOptions& field) {
   grid.border_margin_meters =
       std::max(grid.border_margin_meters, field.max_distance_meters + 2 * grid.resolution_meters);
   return grid;
 }
-}  // namespace
 
 LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
                    const LikelihoodFieldOptions& field_options)
-    : grid_(WithMargin(grid_options, field_options)), field_(field_options) {}
+    : grid_(WithFieldMargin(grid_options, field_options)), field_(field_options) {}
 
 void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                           const std::vector<Eigen::Vector2f>& points_robot) {

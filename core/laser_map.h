@@ -12,6 +12,10 @@
 
 namespace hetslam {
 
+// `grid` with its border margin raised to cover the likelihood window of `field` (plus two
+// cells), so that no window clips: the grid options a LaserMap uses.
+OccupancyGridOptions WithFieldMargin(OccupancyGridOptions grid, const LikelihoodFieldOptions& field);
+
 class LaserMap {
  public:
   // The grid's border margin is raised to cover the likelihood window so no window clips.

@@ -10,6 +10,9 @@ namespace hetslam {
 namespace {
 const Eigen::Vector2f kNone(std::numeric_limits<float>::quiet_NaN(),
                             std::numeric_limits<float>::quiet_NaN());
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+// Marks a squared distance as stale (no real d^2 is negative); see ApplyChanges.
+constexpr float kStale = -1.f;
 }  // namespace
 
 bool LikelihoodFieldOptions::IsValid(std::string* error) const {
@@ -29,6 +32,7 @@ LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options) : option
 void LikelihoodField::Freeze() {
   frozen_ = true;
   std::vector<Eigen::Vector2f>().swap(published_);
+  std::vector<float>().swap(squared_distances_);
 }
 
 void LikelihoodField::Resize(const GridGeometry& g) {
@@ -36,6 +40,7 @@ void LikelihoodField::Resize(const GridGeometry& g) {
   const double r = g.resolution_meters();
   radius_cells_ = static_cast<int>(std::ceil(options_.max_distance_meters / r - 1e-9));
   std::vector<float> values(g.num_cells(), 0.f);
+  std::vector<float> squared_distances(g.num_cells(), kInfinity);
   std::vector<Eigen::Vector2f> published(g.num_cells(), kNone);
   if (geometry_.num_cells() > 0) {
     CHECK_EQ(g.resolution_meters(), geometry_.resolution_meters()) << "resolution changed";
@@ -46,32 +51,30 @@ void LikelihoodField::Resize(const GridGeometry& g) {
         const int from = y * geometry_.width() + x;
         const int to = (y + dy) * g.width() + (x + dx);
         values[to] = values_[from];
+        squared_distances[to] = squared_distances_[from];
         published[to] = published_[from];
       }
     }
   }
   geometry_ = g;
   values_.swap(values);
+  squared_distances_.swap(squared_distances);
   published_.swap(published);
 }
 
-float LikelihoodField::Contribution(const CellIndex& c, const CellIndex& o,
-                                    const Eigen::Vector2f& p_o) const {
-  const float r = static_cast<float>(geometry_.resolution_meters());
-  const float dx = (static_cast<float>(c.x - o.x) + 0.5f) * r - p_o.x();
-  const float dy = (static_cast<float>(c.y - o.y) + 0.5f) * r - p_o.y();
-  return std::exp(-std::sqrt(dx * dx + dy * dy) / static_cast<float>(options_.sigma_meters));
+float LikelihoodField::ValueFromSquaredDistance(float squared_distance) const {
+  return std::exp(-std::sqrt(squared_distance) / static_cast<float>(options_.sigma_meters));
 }
 
-float LikelihoodField::RecomputeCell(const CellIndex& c) const {
-  float best = 0.f;
+float LikelihoodField::RecomputeSquaredDistance(const CellIndex& c) const {
+  float best = kInfinity;
   const int x0 = std::max(0, c.x - radius_cells_), x1 = std::min(geometry_.width() - 1, c.x + radius_cells_);
   const int y0 = std::max(0, c.y - radius_cells_), y1 = std::min(geometry_.height() - 1, c.y + radius_cells_);
   for (int y = y0; y <= y1; ++y) {
     for (int x = x0; x <= x1; ++x) {
-      const int i = y * geometry_.width() + x;
-      if (!HasPublished(i)) continue;
-      best = std::max(best, Contribution(c, {x, y}, published_[i]));
+      // No HasPublished branch: an unpublished cell's NaN point gives a NaN d^2, which
+      // std::min(best, NaN) ignores (it returns best when the comparison is false).
+      best = std::min(best, SquaredDistance(c, {x, y}, published_[y * geometry_.width() + x]));
     }
   }
   return best;
@@ -84,6 +87,12 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     Resize(grid.geometry());
   }
   const float republish_sq = static_cast<float>(options_.republish_distance_meters * options_.republish_distance_meters);
+  // Cells that may have lost their nearest point are recomputed once, after every change of
+  // this batch is published: neighbouring hit points along a wall often republish together,
+  // and would otherwise recompute the same cells several times. Until then they are marked
+  // kStale and skipped (the final recompute reads the final published points, so the result
+  // is the same as recomputing at once).
+  stale_cells_.clear();
   for (int i : changed_cells) {
     const CellIndex o = geometry_.FromLinearIndex(i);
     const Eigen::Vector2f old_p = published_[i];
@@ -102,23 +111,37 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     for (int y = y0; y <= y1; ++y) {
       for (int x = x0; x <= x1; ++x) {
         const CellIndex c{x, y};
-        float& value = values_[y * geometry_.width() + x];
-        const float new_contribution = has ? Contribution(c, o, new_p) : 0.f;
-        if (new_contribution >= value) {
-          value = new_contribution;
-        } else if (had && Contribution(c, o, old_p) >= value) {
-          // c's value may have come from o's old point, which is gone: recompute it.
-          value = RecomputeCell(c);
+        const int j = y * geometry_.width() + x;
+        float& squared_distance = squared_distances_[j];
+        if (squared_distance == kStale) continue;
+        const float new_squared_distance = has ? SquaredDistance(c, o, new_p) : kInfinity;
+        if (new_squared_distance < squared_distance) {
+          squared_distance = new_squared_distance;
+          values_[j] = ValueFromSquaredDistance(squared_distance);
+        } else if (had && new_squared_distance > squared_distance &&
+                   SquaredDistance(c, o, old_p) <= squared_distance) {
+          // c's nearest point may have been o's old point, which is gone: recompute it
+          // (below). A new d^2 equal to the old minimum leaves the minimum as it is.
+          squared_distance = kStale;
+          stale_cells_.push_back(j);
         }
       }
     }
+  }
+  for (int j : stale_cells_) {
+    squared_distances_[j] = RecomputeSquaredDistance(geometry_.FromLinearIndex(j));
+    values_[j] = ValueFromSquaredDistance(squared_distances_[j]);
   }
 }
 
 void LikelihoodField::RebuildAll() {
   CHECK(!frozen_) << "RebuildAll on a frozen likelihood field";
   for (int y = 0; y < geometry_.height(); ++y) {
-    for (int x = 0; x < geometry_.width(); ++x) values_[y * geometry_.width() + x] = RecomputeCell({x, y});
+    for (int x = 0; x < geometry_.width(); ++x) {
+      const int i = y * geometry_.width() + x;
+      squared_distances_[i] = RecomputeSquaredDistance({x, y});
+      values_[i] = ValueFromSquaredDistance(squared_distances_[i]);
+    }
   }
 }
 

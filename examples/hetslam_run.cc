@@ -293,8 +293,8 @@ int Run() {
             << "\n";
   // Either pipeline fills these.
   std::vector<StampedPose2> trajectory;
-  std::unique_ptr<LaserMap> rendered_map;
-  const LaserMap* map = nullptr;
+  std::unique_ptr<OccupancyGrid> rendered_grid;
+  const OccupancyGrid* grid = nullptr;
   std::string stats_line;
   std::vector<double> scores;
   std::unique_ptr<ScanMatchingSlam> front_end;
@@ -330,7 +330,7 @@ int Run() {
   char line[768];
   if (front_end != nullptr) {
     trajectory = front_end->trajectory();
-    map = &front_end->map();
+    grid = &front_end->map().grid();
     const ScanMatchingSlamStats& stats = front_end->stats();
     std::snprintf(line, sizeof(line),
                   "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards, "
@@ -341,8 +341,8 @@ int Run() {
   } else {
     graph_slam->Finish();
     trajectory = graph_slam->trajectory();
-    rendered_map = graph_slam->RenderMap();
-    map = rendered_map.get();
+    rendered_grid = graph_slam->RenderMap();
+    grid = rendered_grid.get();
     const PoseGraphSlamStats& stats = graph_slam->stats();
     std::snprintf(line, sizeof(line),
                   "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards, "
@@ -380,7 +380,7 @@ int Run() {
   std::vector<Pose2> path;
   for (const StampedPose2& p : trajectory) path.push_back(p.pose);
   std::vector<std::vector<Pose2>> paths = {path};
-  for (const Status& status : {WriteMapPgmYaml(map->grid(), base), WriteMapPng(map->grid(), paths, base + ".png"),
+  for (const Status& status : {WriteMapPgmYaml(*grid, base), WriteMapPng(*grid, paths, base + ".png"),
                                WriteTrajectory(trajectory_path, trajectory)}) {
     if (!status.ok()) return Fail(status.message()), 1;
   }

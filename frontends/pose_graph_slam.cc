@@ -450,10 +450,16 @@ std::vector<StampedPose2> PoseGraphSlam::trajectory() const {
 
 std::vector<StampedPose2> PoseGraphSlam::local_trajectory() const { return local_trajectory_; }
 
-std::unique_ptr<LaserMap> PoseGraphSlam::RenderMap() const {
-  auto map = std::make_unique<LaserMap>(options_.local.grid, options_.local.field);
-  for (const Node& node : nodes_) map->InsertScan(ToPose(node.world_pose), node.sensor_robot, node.points);
-  return map;
+std::unique_ptr<OccupancyGrid> PoseGraphSlam::RenderMap() const {
+  auto grid = std::make_unique<OccupancyGrid>(WithFieldMargin(options_.local.grid, options_.local.field));
+  std::vector<Eigen::Vector2d> points_world;
+  for (const Node& node : nodes_) {
+    const Pose2 world_T_node = ToPose(node.world_pose);
+    points_world.clear();
+    for (const Eigen::Vector2f& p : node.points) points_world.push_back(world_T_node * p.cast<double>());
+    grid->InsertScan(world_T_node * node.sensor_robot, points_world, nullptr);
+  }
+  return grid;
 }
 
 PoseGraph2d PoseGraphSlam::ExportGraph() const {

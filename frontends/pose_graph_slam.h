@@ -170,8 +170,10 @@ class PoseGraphSlam {
   std::vector<StampedPose2> trajectory() const;
   // The front end's (drifting, never corrected) poses.
   std::vector<StampedPose2> local_trajectory() const;
-  // A map of every scan inserted at its optimised pose (built on demand).
-  std::unique_ptr<LaserMap> RenderMap() const;
+  // An occupancy grid of every scan inserted at its optimised pose (built on demand; grid
+  // options and border as the submaps' LaserMaps, without their likelihood field, which
+  // rendering does not need and which would cost more than the grid).
+  std::unique_ptr<OccupancyGrid> RenderMap() const;
   // The pose graph (submaps then nodes as vertices; intra then loop edges), for g2o export.
   PoseGraph2d ExportGraph() const;
   std::vector<LoopClosureReport> LoopClosures() const;

@@ -125,16 +125,20 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
     std::fill(dst, dst + x_begin, 0.f);
     std::fill(dst + x_end, dst + w, 0.f);
     const int row = gy * g.width() + s.region_min.x + x_begin;
-    Eigen::Map<const Eigen::ArrayXf> value(values + row, n);
-    Eigen::Map<Eigen::ArrayXf> out(dst + x_begin, n);
+    const float* value = values + row;
+    float* out = dst + x_begin;
     if (free_space_penalty > 0.f) {
       // A point in known free space (observed, not occupied), away from any hit, is evidence
-      // against the pose.
-      Eigen::Map<const Eigen::ArrayXf> odds(log_odds + row, n);
-      Eigen::Map<const Eigen::Array<uint8_t, Eigen::Dynamic, 1>> seen(observed + row, n);
-      out = (value == 0.f && odds <= occupied_threshold && seen.cast<float>() > 0.f).select(-free_space_penalty, value);
+      // against the pose. (A plain loop: the equivalent Eigen select over a mixed-type boolean
+      // expression was evaluated element by element, ~1.5x slower at -O2.)
+      const float* odds = log_odds + row;
+      const uint8_t* seen = observed + row;
+      for (int x = 0; x < n; ++x) {
+        const bool free_space = (value[x] == 0.f) & (odds[x] <= occupied_threshold) & (seen[x] != 0);
+        out[x] = free_space ? -free_space_penalty : value[x];
+      }
     } else {
-      out = value;
+      std::copy(value, value + n, out);
     }
   }
   for (int level = 1; level <= depth; ++level) {
