@@ -87,6 +87,8 @@ DEFINE_bool(loop_wide_search, true, "Once the drift bound (grown with the travel
             "--loop_wide_window m), without motion prior; two wide matches of different scans that agree on the "
             "correction enter the graph (long corridors).");
 DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metres (see --loop_wide_search).");
+DEFINE_double(loop_wide_spacing, 1.0, "Wide loop search: search again only after this much travel (metres) since the "
+              "last wide search (see --loop_wide_search).");
 DEFINE_double(loop_wide_min_score, 0.6, "Wide loop search: minimum mean likelihood of a match (see --loop_wide_search).");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
@@ -156,6 +158,7 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   graph_options->loop_wide_search = FLAGS_loop_wide_search;
   graph_options->loop_wide_window_meters = FLAGS_loop_wide_window;
   graph_options->loop_wide_min_score = FLAGS_loop_wide_min_score;
+  graph_options->loop_wide_search_spacing_meters = FLAGS_loop_wide_spacing;
   graph_options->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
   graph_options->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
   graph_options->loop_min_node_separation = FLAGS_loop_min_node_separation;
