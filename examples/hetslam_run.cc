@@ -1,7 +1,9 @@
-// hetslam_run: single-robot laser SLAM on a CARMEN log; writes the map and trajectory.
+// hetslam_run: single-robot laser SLAM on a CARMEN log or a hetslam robot log (attitude, 2.5D
+// projection, command prediction); writes the map and trajectory.
 //
 //   hetslam_run --log=intel.clf --out=out/intel
 //   hetslam_run --log=sim/log.clf --truth=sim/truth.txt --out=out/sim
+//   hetslam_run --log=team/nao/log.txt --out=out/nao      (scored against the log's TRUTH)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
