@@ -1055,7 +1055,9 @@ std::vector<RobotScanInputs> ScanInputsFromRobotLog(const RobotLog& log, const R
       }
       in.attitude = body;
     }
-    if (commands.empty() || stamp < t) continue;
+    // Before the first COMMAND: no commanded pose. A scan stamped before the previous one
+    // (a backwards stamp) keeps the pose integrated so far.
+    if (commands.empty() || stamp < commands.front().stamp_seconds) continue;
     while (t < stamp) {
       while (next_command < commands.size() && commands[next_command].stamp_seconds <= t) {
         command = &commands[next_command++];

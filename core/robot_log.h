@@ -180,22 +180,13 @@ struct RobotLog {
 
 Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options, RobotLog* log);
 
-// Writes every message of `log` merged by time stamp (at equal stamps in the order MOUNT,
-// ODOM, MARG, ATTITUDE, ALTITUDE, COMMAND, TRUTH, LASER, IMAGE; within a type in vector
-// order), after the HSLOG line, `comment_lines` as '#' lines and the PARAMs (sorted by name).
-// Numbers are printed so that reading gives back the same doubles (the shortest such text,
-// std::to_chars: locale independent); the same
-// log gives the same bytes. Laser scans must have evenly spaced angles (else an error), and
-// each scan's robot_T_sensor must be the MOUNT in force at its stamp (identity before the
-// first MOUNT), else an error: the log stores mounts only as MOUNT messages. Poses are stored
-// as roll/pitch/yaw, so rotations read back equal to rounding (~1e-16), not bit for bit;
-// non-finite ranges are written as "nan".
 // What a SLAM front end takes with each LASER scan of a robot log, looked up by time.
 struct RobotScanInputs {
   // ODOM pose nearest to the scan within the odometry tolerance.
   std::optional<Pose2> odometry;
   // The COMMAND velocities (body frame, each holding until the next) integrated from the first
-  // COMMAND up to the scan (10 ms steps); empty for scans before the first COMMAND.
+  // COMMAND up to the scan (10 ms steps); empty for scans before the first COMMAND; a scan
+  // stamped before its predecessor keeps the pose integrated so far.
   std::optional<Pose2> command_pose;
   // Roll and pitch of the nearest ATTITUDE within the attitude tolerance, with the height of
   // the nearest ALTITUDE within the altitude tolerance (else 0: a body standing on the
@@ -214,6 +205,16 @@ struct RobotScanInputsOptions {
 std::vector<RobotScanInputs> ScanInputsFromRobotLog(const RobotLog& log,
                                                     const RobotScanInputsOptions& options = RobotScanInputsOptions());
 
+// Writes every message of `log` merged by time stamp (at equal stamps in the order MOUNT,
+// ODOM, MARG, ATTITUDE, ALTITUDE, COMMAND, TRUTH, LASER, IMAGE; within a type in vector
+// order), after the HSLOG line, `comment_lines` as '#' lines and the PARAMs (sorted by name).
+// Numbers are printed so that reading gives back the same doubles (the shortest such text,
+// std::to_chars: locale independent); the same
+// log gives the same bytes. Laser scans must have evenly spaced angles (else an error), and
+// each scan's robot_T_sensor must be the MOUNT in force at its stamp (identity before the
+// first MOUNT), else an error: the log stores mounts only as MOUNT messages. Poses are stored
+// as roll/pitch/yaw, so rotations read back equal to rounding (~1e-16), not bit for bit;
+// non-finite ranges are written as "nan".
 Status WriteRobotLog(const std::string& path, const RobotLog& log,
                      const std::vector<std::string>& comment_lines);
 

@@ -267,8 +267,8 @@ int Run() {
     // Scans before the first COMMAND are dropped: the prediction needs a commanded pose.
     size_t first = 0;
     while (!command_poses[first].has_value()) ++first;
-    for (size_t i = first; i < log.lasers.size(); ++i) {
-      log.lasers[i].odometry_pose = *command_poses[i];
+    for (size_t i = first; i < log.lasers.size(); ++i) {  // every scan after the first command has one
+      log.lasers[i].odometry_pose = command_poses[i].value();
       log.lasers[i].has_odometry_pose = true;
     }
     log.lasers.erase(log.lasers.begin(), log.lasers.begin() + first);

@@ -85,9 +85,10 @@ struct PoseGraphSlamOptions {
   // also searched over ±min(drift bound, loop_wide_window_meters) and ±min(angular bound,
   // loop_wide_angular_window_radians), without motion prior, at most once per
   // loop_wide_search_spacing_meters of travel. A wide result (score >= loop_wide_min_score,
-  // within the drift bound) is only a candidate until the next wide search of a later node
-  // confirms it: its correction of the graph's estimate (world frame) agrees within
-  // loop_wide_agreement_*; then both enter the graph as loop closures.
+  // within the drift bound) is only a candidate until a wide result of a later node confirms
+  // it: their corrections of the graph's estimate (world frame) agree within
+  // loop_wide_agreement_*; then both enter the graph as loop closures (no robust loss), else
+  // the later result becomes the candidate. An accepted ordinary closure drops the candidate.
   bool loop_wide_search = true;
   ScanMatcherOptions loop_wide_matcher = DefaultLoopWideMatcherOptions();
   double loop_wide_window_meters = 8.0;
@@ -190,11 +191,7 @@ class PoseGraphSlam {
   double* AllocatePoseBlock(const Pose2& pose);
   void AddNodeToGraph(Node* node, const std::vector<int>& submap_indices);
   void SearchLoopClosures(int node_index);
-  // Matches node `node_index` against every finished, old-enough submap whose box (grown by
-  // `margin_meters`) holds its estimate; adds closures scoring >= min_score within the gate.
-  // Returns how many were added.
-  // `wide`: use the wide matcher and only report the best result in *wide_best (nothing is
-  // added). Returns how many closures were added.
+  // A wide-search result waiting for confirmation (see loop_wide_search).
   struct WideCandidate {
     int node = -1;
     int submap = -1;
@@ -202,9 +199,14 @@ class PoseGraphSlam {
     Pose2 world_correction;  // matched world pose relative to the graph's estimate, world frame
     double score = 0.0;
   };
+  // Matches node `node_index` against every finished, old-enough submap whose box (grown by
+  // `margin_meters`) holds its estimate; adds closures scoring >= min_score within the gate.
+  // Returns how many were added. With `wide_best`: uses the wide matcher and only keeps the
+  // best result in *wide_best (nothing is added; returns 0).
   int SearchSubmaps(int node_index, double linear_window, double angular_window, double gate_meters,
                     double gate_radians, double min_score, double margin_meters,
                     std::optional<WideCandidate>* wide_best = nullptr);
+  // The wide search of one node; confirms the pending candidate or replaces it.
   void WideSearch(int node_index, double gate_meters, double gate_radians);
   void AddLoopConstraint(int submap, int node, const Pose2& submap_T_node, double score, bool robust = true);
   void Solve(int max_iterations);

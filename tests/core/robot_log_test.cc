@@ -771,6 +771,14 @@ TEST(ScanInputsFromRobotLogTest, IntegratesCommandsAndLooksUpAttitudeOdometryAlt
   EXPECT_DOUBLE_EQ(0.4, inputs[2].attitude->pitch_radians);
   EXPECT_DOUBLE_EQ(0.0, inputs[2].attitude->base_height_meters);  // no ALTITUDE near: on the floor
   EXPECT_FALSE(inputs[3].attitude.has_value());
+
+  // A backwards-stamped scan after the first command holds the pose integrated so far.
+  RobotLaserReading late;
+  late.scan.stamp_seconds = 2.5;
+  log.lasers.push_back(late);
+  const std::vector<RobotScanInputs> with_backwards = ScanInputsFromRobotLog(log);
+  ASSERT_TRUE(with_backwards[4].command_pose.has_value());
+  EXPECT_NEAR(0.5, with_backwards[4].command_pose->theta(), 1e-9);
 }
 
 }  // namespace
