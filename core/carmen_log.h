@@ -35,25 +35,11 @@
 #include <vector>
 
 #include "core/laser_scan.h"
+#include "core/measurement.h"
 #include "core/se2.h"
 #include "core/status.h"
 
 namespace hetslam {
-
-struct OdometryReading {
-  double stamp_seconds = 0.0;
-  Pose2 pose;  // odometry frame
-  int line_number = 0;
-};
-
-struct LaserReading {
-  LaserScan scan;
-  // The pose the log stores with the scan (FLASER: the odometry pose `odom_x..`; ROBOTLASER1:
-  // the robot pose). In the shared logs this is raw odometry: never ground truth.
-  Pose2 odometry_pose;
-  bool has_odometry_pose = false;
-  int line_number = 0;
-};
 
 struct CarmenReadOptions {
   bool lenient = false;                // skip malformed lines with a count instead of failing

@@ -226,7 +226,7 @@ Status ParseLaser(const std::vector<std::string>& fields, LaserScan* scan,
   return Status::Ok();
 }
 
-Status ParseMarg(const std::vector<std::string>& fields, MargReading* reading) {
+Status ParseMarg(const std::vector<std::string>& fields, MargSample* reading) {
   MessageFields m(fields);
   double v[9];
   HETSLAM_RETURN_IF_ERROR(
@@ -234,7 +234,7 @@ Status ParseMarg(const std::vector<std::string>& fields, MargReading* reading) {
   HETSLAM_RETURN_IF_ERROR(m.Stamp(&reading->stamp_seconds));
   reading->gyro_radps = Eigen::Vector3d(v[0], v[1], v[2]);
   reading->accel_mps2 = Eigen::Vector3d(v[3], v[4], v[5]);
-  reading->magnetometer_microtesla = Eigen::Vector3d(v[6], v[7], v[8]);
+  reading->magnetometer = Eigen::Vector3d(v[6], v[7], v[8]);
   return Status::Ok();
 }
 
@@ -255,7 +255,7 @@ Status ParseAltitude(const std::vector<std::string>& fields, AltitudeReading* re
   return m.Stamp(&reading->stamp_seconds);
 }
 
-Status ParseOdom(const std::vector<std::string>& fields, OdometryPose2Reading* reading) {
+Status ParseOdom(const std::vector<std::string>& fields, OdometryReading* reading) {
   MessageFields m(fields);
   double v[3];
   HETSLAM_RETURN_IF_ERROR(m.Numbers({"x", "y", "theta"}, v));
@@ -264,18 +264,18 @@ Status ParseOdom(const std::vector<std::string>& fields, OdometryPose2Reading* r
   return Status::Ok();
 }
 
-Status ParseCommand(const std::vector<std::string>& fields, CommandReading* reading) {
+Status ParseCommand(const std::vector<std::string>& fields, VelocityCommand* reading) {
   MessageFields m(fields);
   double v[3];
   HETSLAM_RETURN_IF_ERROR(m.Numbers({"vx", "vy", "yaw_rate"}, v));
   HETSLAM_RETURN_IF_ERROR(m.Stamp(&reading->stamp_seconds));
-  reading->vx_mps = v[0];
-  reading->vy_mps = v[1];
+  reading->forward_mps = v[0];
+  reading->left_mps = v[1];
   reading->yaw_rate_radps = v[2];
   return Status::Ok();
 }
 
-Status ParseImage(const std::vector<std::string>& fields, ImageReference* image) {
+Status ParseImage(const std::vector<std::string>& fields, CameraImage* image) {
   MessageFields m(fields);
   if (fields.size() != 3) {
     return Status::Error("IMAGE needs a stamp and one path, found " +
@@ -433,7 +433,7 @@ Status RobotLog::CameraModel(CameraIntrinsics* intrinsics,
   return Status::Ok();
 }
 
-std::string RobotLog::ImagePath(const ImageReference& image) const {
+std::string RobotLog::ImagePath(const CameraImage& image) const {
   return JoinPath(directory, image.path);
 }
 
@@ -497,7 +497,7 @@ Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options,
     Status status;
     double stamp = 0.0;
     if (type == "LASER") {
-      RobotLaserReading reading;
+      LaserReading reading;
       reading.line_number = line_number;
       int non_finite = 0;
       status = ParseLaser(fields, &reading.scan, &non_finite);
@@ -521,7 +521,7 @@ Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options,
         }
       }
     } else if (type == "MARG") {
-      MargReading reading;
+      MargSample reading;
       reading.line_number = line_number;
       status = ParseMarg(fields, &reading);
       if (status.ok()) {
@@ -545,7 +545,7 @@ Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options,
         log->altitudes.push_back(reading);
       }
     } else if (type == "ODOM") {
-      OdometryPose2Reading reading;
+      OdometryReading reading;
       reading.line_number = line_number;
       status = ParseOdom(fields, &reading);
       if (status.ok()) {
@@ -553,7 +553,7 @@ Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options,
         log->odometry.push_back(reading);
       }
     } else if (type == "COMMAND") {
-      CommandReading reading;
+      VelocityCommand reading;
       reading.line_number = line_number;
       status = ParseCommand(fields, &reading);
       if (status.ok()) {
@@ -561,7 +561,7 @@ Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options,
         log->commands.push_back(reading);
       }
     } else if (type == "IMAGE") {
-      ImageReference image;
+      CameraImage image;
       image.line_number = line_number;
       status = ParseImage(fields, &image);
       if (status.ok()) {
@@ -682,9 +682,9 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
     }
   }
   for (size_t k = 0; k < log.marg.size(); ++k) {
-    const MargReading& m = log.marg[k];
+    const MargSample& m = log.marg[k];
     if (!std::isfinite(m.stamp_seconds) || !m.gyro_radps.allFinite() ||
-        !m.accel_mps2.allFinite() || !m.magnetometer_microtesla.allFinite()) {
+        !m.accel_mps2.allFinite() || !m.magnetometer.allFinite()) {
       return bad("MARG", k, m.stamp_seconds, "has a non-finite value");
     }
   }
@@ -701,19 +701,19 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
     }
   }
   for (size_t k = 0; k < log.odometry.size(); ++k) {
-    const OdometryPose2Reading& o = log.odometry[k];
+    const OdometryReading& o = log.odometry[k];
     if (!std::isfinite(o.stamp_seconds) || !o.pose.ToVector().allFinite()) {
       return bad("ODOM", k, o.stamp_seconds, "has a non-finite value");
     }
   }
   for (size_t k = 0; k < log.commands.size(); ++k) {
-    const CommandReading& c = log.commands[k];
-    if (!AllFinite({c.stamp_seconds, c.vx_mps, c.vy_mps, c.yaw_rate_radps})) {
+    const VelocityCommand& c = log.commands[k];
+    if (!AllFinite({c.stamp_seconds, c.forward_mps, c.left_mps, c.yaw_rate_radps})) {
       return bad("COMMAND", k, c.stamp_seconds, "has a non-finite value");
     }
   }
   for (size_t k = 0; k < log.images.size(); ++k) {
-    const ImageReference& image = log.images[k];
+    const CameraImage& image = log.images[k];
     if (!std::isfinite(image.stamp_seconds) || !IsPlainWord(image.path)) {
       return bad("IMAGE", k, image.stamp_seconds,
                  "has a non-finite stamp or a path that is empty, starts with '#' or contains "
@@ -756,16 +756,16 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
        }},
       {log.odometry.size(), [&](size_t k) { return log.odometry[k].stamp_seconds; },
        [&](size_t k) {
-         const OdometryPose2Reading& o = log.odometry[k];
+         const OdometryReading& o = log.odometry[k];
          return "ODOM " + stamp_text(o.stamp_seconds) + " " + FormatDouble(o.pose.x()) + " " +
                 FormatDouble(o.pose.y()) + " " + FormatDouble(o.pose.theta());
        }},
       {log.marg.size(), [&](size_t k) { return log.marg[k].stamp_seconds; },
        [&](size_t k) {
-         const MargReading& m = log.marg[k];
+         const MargSample& m = log.marg[k];
          std::string line = "MARG " + stamp_text(m.stamp_seconds);
          for (const Eigen::Vector3d* v :
-              {&m.gyro_radps, &m.accel_mps2, &m.magnetometer_microtesla}) {
+              {&m.gyro_radps, &m.accel_mps2, &m.magnetometer}) {
            for (int i = 0; i < 3; ++i) line += " " + FormatDouble((*v)[i]);
          }
          return line;
@@ -783,9 +783,9 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
        }},
       {log.commands.size(), [&](size_t k) { return log.commands[k].stamp_seconds; },
        [&](size_t k) {
-         const CommandReading& c = log.commands[k];
-         return "COMMAND " + stamp_text(c.stamp_seconds) + " " + FormatDouble(c.vx_mps) + " " +
-                FormatDouble(c.vy_mps) + " " + FormatDouble(c.yaw_rate_radps);
+         const VelocityCommand& c = log.commands[k];
+         return "COMMAND " + stamp_text(c.stamp_seconds) + " " + FormatDouble(c.forward_mps) + " " +
+                FormatDouble(c.left_mps) + " " + FormatDouble(c.yaw_rate_radps);
        }},
       {log.truth.size(), [&](size_t k) { return log.truth[k].stamp_seconds; },
        [&](size_t k) {
@@ -1035,15 +1035,15 @@ const Reading* NearestReading(const std::vector<Reading>& readings, double stamp
 
 std::vector<RobotScanInputs> ScanInputsFromRobotLog(const RobotLog& log, const RobotScanInputsOptions& options) {
   std::vector<RobotScanInputs> inputs(log.lasers.size());
-  const std::vector<CommandReading>& commands = log.commands;
+  const std::vector<VelocityCommand>& commands = log.commands;
   Pose2 command_pose;
   double t = commands.empty() ? 0.0 : commands.front().stamp_seconds;
   size_t next_command = 0;  // first command not yet in force
-  const CommandReading* command = nullptr;
+  const VelocityCommand* command = nullptr;
   for (size_t i = 0; i < log.lasers.size(); ++i) {
     const double stamp = log.lasers[i].scan.stamp_seconds;
     RobotScanInputs& in = inputs[i];
-    if (const OdometryPose2Reading* odometry = NearestReading(log.odometry, stamp, options.odometry_tolerance_seconds)) {
+    if (const OdometryReading* odometry = NearestReading(log.odometry, stamp, options.odometry_tolerance_seconds)) {
       in.odometry = odometry->pose;
     }
     if (const AttitudeReading* attitude = NearestReading(log.attitudes, stamp, options.attitude_tolerance_seconds)) {
@@ -1065,7 +1065,7 @@ std::vector<RobotScanInputs> ScanInputsFromRobotLog(const RobotLog& log, const R
       const double until = next_command < commands.size() ? std::min(stamp, commands[next_command].stamp_seconds) : stamp;
       for (double remaining = until - t; remaining > 0;) {
         const double dt = std::min(0.01, remaining);
-        command_pose = command_pose * Pose2(command->vx_mps * dt, command->vy_mps * dt, command->yaw_rate_radps * dt);
+        command_pose = command_pose * Pose2(command->forward_mps * dt, command->left_mps * dt, command->yaw_rate_radps * dt);
         remaining -= dt;
       }
       t = until;

@@ -70,6 +70,7 @@
 #include "Eigen/Core"
 #include "Eigen/Geometry"
 #include "core/laser_scan.h"
+#include "core/measurement.h"
 #include "core/se2.h"
 #include "core/status.h"
 
@@ -84,55 +85,6 @@ struct StampedPose3 {
   double stamp_seconds = 0.0;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   int line_number = 0;  // 0 when not read from a file
-};
-
-struct RobotLaserReading {
-  // scan.robot_T_sensor is the latest MOUNT at or before the scan, i.e. the last MOUNT line
-  // above it in the file (identity if none).
-  LaserScan scan;
-  int line_number = 0;
-};
-
-struct MargReading {
-  double stamp_seconds = 0.0;
-  Eigen::Vector3d gyro_radps = Eigen::Vector3d::Zero();
-  Eigen::Vector3d accel_mps2 = Eigen::Vector3d::Zero();
-  Eigen::Vector3d magnetometer_microtesla = Eigen::Vector3d::Zero();
-  int line_number = 0;
-};
-
-struct AttitudeReading {
-  double stamp_seconds = 0.0;
-  double roll_radians = 0.0;
-  double pitch_radians = 0.0;
-  double yaw_radians = 0.0;
-  int line_number = 0;
-};
-
-struct AltitudeReading {
-  double stamp_seconds = 0.0;
-  double height_meters = 0.0;
-  int line_number = 0;
-};
-
-struct OdometryPose2Reading {
-  double stamp_seconds = 0.0;
-  Pose2 pose;
-  int line_number = 0;
-};
-
-struct CommandReading {
-  double stamp_seconds = 0.0;
-  double vx_mps = 0.0;
-  double vy_mps = 0.0;
-  double yaw_rate_radps = 0.0;
-  int line_number = 0;
-};
-
-struct ImageReference {
-  double stamp_seconds = 0.0;
-  std::string path;  // as written in the log (relative to the log's directory)
-  int line_number = 0;
 };
 
 struct CameraIntrinsics {
@@ -159,14 +111,14 @@ struct RobotLog {
   std::string directory;  // its directory, for resolving IMAGE paths
   int version = 0;
   std::map<std::string, std::string> params;
-  std::vector<RobotLaserReading> lasers;
+  std::vector<LaserReading> lasers;
   std::vector<StampedPose3> mounts;  // body_T_laser
-  std::vector<MargReading> marg;
+  std::vector<MargSample> marg;
   std::vector<AttitudeReading> attitudes;
   std::vector<AltitudeReading> altitudes;
-  std::vector<OdometryPose2Reading> odometry;
-  std::vector<CommandReading> commands;
-  std::vector<ImageReference> images;
+  std::vector<OdometryReading> odometry;
+  std::vector<VelocityCommand> commands;
+  std::vector<CameraImage> images;
   std::vector<StampedPose3> truth;  // world_T_body
   RobotLogStats stats;
   std::vector<std::string> warnings;  // first few, "file:line: message"
@@ -175,7 +127,7 @@ struct RobotLog {
   // malformed parameter when the log has none or bad ones.
   Status CameraModel(CameraIntrinsics* intrinsics, Eigen::Isometry3d* laser_T_camera) const;
   // `directory`/`image.path`.
-  std::string ImagePath(const ImageReference& image) const;
+  std::string ImagePath(const CameraImage& image) const;
 };
 
 Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options, RobotLog* log);

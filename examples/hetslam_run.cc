@@ -15,15 +15,13 @@
 #include <sstream>
 #include <string>
 
-#include "core/carmen_log.h"
 #include "core/g2o_io.h"
 #include "core/map_io.h"
-#include "core/robot_log.h"
+#include "core/measurement_log.h"
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
-#include "frontends/pose_graph_slam.h"
-#include "frontends/scan_matching_slam.h"
+#include "frontends/online_estimator.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
 
@@ -37,9 +35,9 @@ DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per li
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
 DEFINE_bool(use_odometry, false, "Predict each scan's pose from the log's odometry. Off by default: the pipeline is "
             "odometry-free and uses --prediction instead.");
-DEFINE_bool(use_commands, true, "Robot logs with COMMAND lines: predict each scan's pose from the controller's "
-            "commanded velocities (integrated in the body frame between scans), as the paper's EKF does without "
-            "odometry. --use_odometry takes precedence; CARMEN logs have no commands.");
+DEFINE_bool(use_commands, true, "Robot logs with COMMAND lines: the EKF predicts each scan's pose from the "
+            "controller's commanded velocities (paper eq. 3); with MARG samples and no commands, from the MARG rates. "
+            "--use_odometry takes precedence; CARMEN logs have neither.");
 DEFINE_string(prediction, "constant_velocity", "Motion prediction without odometry: constant_velocity (extrapolate "
               "--velocity_fraction of the last translation and --angular_velocity_fraction of the last turn) or stationary.");
 DEFINE_double(velocity_fraction, 0.5, "Fraction of the last scan-to-scan translation (robot frame) extrapolated by "
@@ -65,7 +63,7 @@ DEFINE_double(matching_voxel, 0.20, "Thin the points used for scan matching to o
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
 DEFINE_bool(no_loop_closure, false, "Run the scan-matching front end alone against one global map (no submaps, no "
-            "pose graph): the walking-skeleton path, kept for comparison.");
+            "loop closure, no solves): the walking-skeleton path, kept for comparison.");
 DEFINE_int32(scans_per_submap, 40, "Scans per submap of the loop-closing pipeline (a new submap starts every half of it).");
 DEFINE_double(loop_min_score, 0.55, "Minimum mean likelihood of a loop-closure match to accept it.");
 DEFINE_double(loop_linear_window, 2.0, "Loop-closure search window, ± metres around the graph's estimate (paper: 2 m).");
@@ -96,15 +94,17 @@ DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VER
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
               "record it; PARAM laser_*_fov in the log overrides it).");
-DEFINE_bool(use_attitude, true, "Robot logs: project each scan with the body attitude (ATTITUDE roll and pitch, "
-            "ALTITUDE height) under the 2.5D assumption and drop floor hits (points lower than "
-            "--floor_max_height); false = treat every scan as level. CARMEN logs carry no attitude.");
+DEFINE_bool(use_attitude, true, "Robot logs: project each scan with the body attitude (see --attitude_source) and "
+            "ALTITUDE height under the 2.5D assumption and drop floor hits (points lower than --floor_max_height); "
+            "false = treat every scan as level (plain 2D). CARMEN logs carry no attitude.");
+DEFINE_string(attitude_source, "marg", "Where the attitude for the 2.5D projection comes from: marg (our MARG filter on "
+              "the log's raw MARG samples) or logged (the log's ATTITUDE lines, the sensor's own filter).");
 DEFINE_double(floor_max_height, 0.08, "With an attitude: end points lower than this above the floor (metres) are floor "
               "hits, neither matched nor mapped.");
-DEFINE_double(degenerate_ratio, -1.0, "Front end: when the smaller eigenvalue of a match's translational information "
-              "is below this fraction of the larger (a corridor, a tilted head seeing side walls only), keep the "
-              "prediction along the weak direction; 0 = off, -1 = auto: 0.3 for hetslam robot logs (tilting heads "
-              "and UAVs see such scans routinely, and commands or odometry predict), 0 for CARMEN logs.");
+DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a motion source (commands or MARG rates through the "
+              "EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
+              "of the larger (a corridor, a tilted head seeing side walls only), keep the prediction along the weak "
+              "direction; 0 = off. Scans predicted by the front end's own extrapolation always take the whole match.");
 DEFINE_double(densify_max_gap, 0.0, "Join the end points of neighbouring beams closer than this (metres) by points at "
               "the grid resolution before matching and mapping (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
@@ -118,10 +118,13 @@ bool Fail(const std::string& message) {
   return false;
 }
 
-bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
-  ScanMatchingSlamOptions* options = &graph_options->local;
+bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* read, std::string* error) {
+  LocalSlamOptions* options = &estimator->local;
   if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file or a hetslam robot log)"), false;
   if (FLAGS_out.empty()) return (*error = "--out is required (an output folder)"), false;
+  read->lenient = FLAGS_lenient;
+  read->flaser_max_range_meters = FLAGS_flaser_max_range;
+  read->flaser_fov_radians = FLAGS_flaser_fov_deg * M_PI / 180.0;
   options->grid.resolution_meters = FLAGS_resolution;
   options->field.sigma_meters = FLAGS_sigma;
   options->field.max_distance_meters = FLAGS_field_max_distance;
@@ -139,14 +142,11 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
   options->max_point_range_meters = FLAGS_max_range;
   options->floor_max_height_meters = FLAGS_floor_max_height;
   options->densify_max_gap_meters = FLAGS_densify_max_gap;
-  options->degenerate_eigenvalue_ratio = std::max(0.0, FLAGS_degenerate_ratio);  // auto: set after reading the log
-  if (!(FLAGS_degenerate_ratio == -1.0 || (FLAGS_degenerate_ratio >= 0 && FLAGS_degenerate_ratio < 1))) {
-    *error = "--degenerate_ratio must be -1 (auto) or in [0, 1)";
-    return false;
-  }
+  options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
+  options->scans_per_submap = FLAGS_no_loop_closure ? 0 : FLAGS_scans_per_submap;
   if (FLAGS_use_odometry) {
     options->prediction = MotionPrediction::kOdometry;
   } else if (!ParseMotionPrediction(FLAGS_prediction, &options->prediction) ||
@@ -155,128 +155,113 @@ bool OptionsFromFlags(PoseGraphSlamOptions* graph_options, std::string* error) {
              "'); use --use_odometry for odometry";
     return false;
   }
-  graph_options->scans_per_submap = FLAGS_scans_per_submap;
-  graph_options->loop_min_score = FLAGS_loop_min_score;
-  graph_options->loop_wide_search = FLAGS_loop_wide_search;
-  graph_options->loop_wide_window_meters = FLAGS_loop_wide_window;
-  graph_options->loop_wide_min_score = FLAGS_loop_wide_min_score;
-  graph_options->loop_wide_search_spacing_meters = FLAGS_loop_wide_spacing;
-  graph_options->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
-  graph_options->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
-  graph_options->loop_min_node_separation = FLAGS_loop_min_node_separation;
-  graph_options->loop_search_min_travel_meters = FLAGS_loop_search_min_travel;
-  graph_options->loop_search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;
-  graph_options->loop_matcher.linear_search_window_meters = FLAGS_loop_linear_window;
-  graph_options->loop_matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
-  graph_options->loop_closure = !FLAGS_no_loop_closure;
+  estimator->use_odometry = FLAGS_use_odometry;
+  estimator->use_commands = FLAGS_use_commands && !FLAGS_use_odometry;
+  if (!ParseAttitudeSource(FLAGS_attitude_source, &estimator->attitude_source) ||
+      estimator->attitude_source == AttitudeSource::kLevel) {
+    *error = "--attitude_source must be marg or logged (got '" + FLAGS_attitude_source +
+             "'); use --nouse_attitude for level scans";
+    return false;
+  }
+  if (!FLAGS_use_attitude) estimator->attitude_source = AttitudeSource::kLevel;
+  estimator->loop_closure = !FLAGS_no_loop_closure;
+  LoopCloserOptions* loop = &estimator->loop;
+  loop->min_score = FLAGS_loop_min_score;
+  loop->wide_search = FLAGS_loop_wide_search;
+  loop->wide_window_meters = FLAGS_loop_wide_window;
+  loop->wide_min_score = FLAGS_loop_wide_min_score;
+  loop->wide_search_spacing_meters = FLAGS_loop_wide_spacing;
+  loop->min_node_separation = FLAGS_loop_min_node_separation;
+  loop->search_min_travel_meters = FLAGS_loop_search_min_travel;
+  loop->search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;
+  loop->matcher.linear_search_window_meters = FLAGS_loop_linear_window;
+  loop->matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
+  estimator->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
+  estimator->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
-  if (!graph_options->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
+  if (!read->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
+  if (!estimator->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
   return true;
 }
 
-std::string FormatNumber(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
+// Every accepted loop closure as measured and as in the final graph.
+Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureReport>& closures) {
+  std::ofstream out(path);
+  out << "# submap node score measured_x measured_y measured_theta final_x final_y final_theta removed\n"
+         "# submap_T_node as matched and as in the final graph (metres, radians); removed = 1 when the\n"
+         "# consistency check took the closure out\n";
+  out.precision(9);
+  for (const LoopClosureReport& loop : closures) {
+    const Pose2& m = loop.measured_submap_T_node;
+    const Pose2& f = loop.estimated_submap_T_node;
+    out << loop.submap.index << ' ' << loop.node.index << ' ' << loop.score << ' ' << m.x() << ' ' << m.y() << ' '
+        << m.theta() << ' ' << f.x() << ' ' << f.y() << ' ' << f.theta() << ' ' << (loop.removed ? 1 : 0) << '\n';
+  }
+  out.close();
+  return out ? Status::Ok() : Status::Error("cannot write '" + path + "'");
 }
 
-// Whether `path` is a hetslam robot log (first non-blank, non-comment line starts with HSLOG).
-bool IsRobotLog(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    const size_t start = line.find_first_not_of(" \t\r");
-    if (start == std::string::npos || line[start] == '#') continue;
-    return line.compare(start, 5, "HSLOG") == 0;
+std::string Summary(const OnlineEstimator& estimator) {
+  const OnlineEstimatorStats& s = estimator.stats();
+  const SubmapGraphStats& g = estimator.graph().stats();
+  const LoopCloserStats& l = estimator.loop_closer().stats();
+  char line[1024];
+  std::snprintf(line, sizeof(line),
+                "scans: %d processed, %d skipped (too few points), %d refused (too late), %d timestamps backwards, %d "
+                "match failures, %lld floor points dropped, %d degenerate matches, %d predicted by the EKF, %d "
+                "without attitude\n",
+                s.scans, s.skipped_too_few_points, s.scans_refused, s.scans_stamped_backwards, s.match_failures,
+                s.floor_points,
+                s.degenerate_matches, s.ekf_predicted_scans, s.scans_without_attitude);
+  std::string out = line;
+  if (s.marg_samples > 0) {
+    std::snprintf(line, sizeof(line), "MARG: %d samples (%d refused), EKF: %d updates refused, %lld replayed\n",
+                  s.marg_samples, s.marg_errors, s.ekf_errors, static_cast<long long>(estimator.ekf().num_replayed()));
+    out += line;
   }
-  return false;
-}
-
-// Reads a robot log (core/robot_log.h) into the CARMEN structures this program maps: its LASER
-// scans (with their MOUNT) and the ODOM pose near each (core ScanInputsFromRobotLog); its TRUTH
-// as the planar truth (x, y, yaw of world_T_body); per scan (aligned with log->lasers) the body
-// attitude and the command-integrated pose (see RobotScanInputs).
-Status ReadRobotLogAsCarmen(const std::string& path, bool lenient, CarmenLog* log, std::vector<StampedPose2>* truth,
-                            std::vector<std::optional<BodyAttitude>>* attitudes,
-                            std::vector<std::optional<Pose2>>* command_poses) {
-  RobotLogReadOptions options;
-  options.lenient = lenient;
-  RobotLog robot_log;
-  const Status status = ReadRobotLog(path, options, &robot_log);
-  if (!status.ok()) return status;
-  log->warnings = robot_log.warnings;
-  log->stats.malformed_lines_skipped = robot_log.stats.malformed_lines_skipped;
-  const std::vector<RobotScanInputs> inputs = ScanInputsFromRobotLog(robot_log);
-  attitudes->clear();
-  command_poses->clear();
-  for (size_t i = 0; i < robot_log.lasers.size(); ++i) {
-    LaserReading reading;
-    reading.scan = robot_log.lasers[i].scan;
-    reading.line_number = robot_log.lasers[i].line_number;
-    reading.has_odometry_pose = inputs[i].odometry.has_value();
-    if (reading.has_odometry_pose) reading.odometry_pose = *inputs[i].odometry;
-    log->lasers.push_back(std::move(reading));
-    attitudes->push_back(inputs[i].attitude);
-    command_poses->push_back(inputs[i].command_pose);
+  if (!estimator.options().loop_closure) return out;
+  std::snprintf(line, sizeof(line),
+                "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d removed "
+                "as inconsistent, %d solves (%d iterations, %.2f s, %d failed), loop search %.2f s\n"
+                "wide loop search: %d matches, %d candidates, %d closures accepted\n",
+                g.nodes, g.submaps, l.searches, g.loop_closures_accepted, l.rejected_by_gate,
+                g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds, g.failed_solves,
+                l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted);
+  out += line;
+  // Loop-closure precision as Cartographer reports it: the share of kept closures that the
+  // final graph agrees with to 20 cm and 1°.
+  int kept = 0, agree = 0;
+  for (const LoopClosureReport& loop : estimator.graph().LoopClosures()) {
+    if (loop.removed) continue;
+    ++kept;
+    const Pose2 error = Between(loop.measured_submap_T_node, loop.estimated_submap_T_node);
+    if (error.translation().norm() <= 0.2 && std::abs(error.theta()) <= M_PI / 180.0) ++agree;
   }
-  truth->clear();
-  for (const StampedPose3& pose : robot_log.truth) {
-    const Eigen::Vector3d rpy = RollPitchYawFromRotation(pose.pose.linear());
-    truth->push_back({pose.stamp_seconds, Pose2(pose.pose.translation().x(), pose.pose.translation().y(), rpy.z())});
-  }
-  return Status::Ok();
+  std::snprintf(line, sizeof(line),
+                "loop closure precision: %d of %d kept closures (%.1f%%) agree with the final graph to 20 cm / 1 deg\n",
+                agree, kept, kept > 0 ? 100.0 * agree / kept : 0.0);
+  return out + line;
 }
 
 int Run() {
-  PoseGraphSlamOptions options;
+  OnlineEstimatorOptions options;
+  MeasurementLogOptions read_options;
   std::string error;
-  if (!OptionsFromFlags(&options, &error)) return Fail(error + " (see --help)"), 2;
+  if (!OptionsFromFlags(&options, &read_options, &error)) return Fail(error + " (see --help)"), 2;
+  if (!FLAGS_g2o_out.empty() && FLAGS_no_loop_closure) {
+    return Fail("--g2o_out needs the loop-closing pipeline (drop --no_loop_closure)"), 2;
+  }
 
-  CarmenReadOptions read_options;
-  read_options.lenient = FLAGS_lenient;
-  read_options.flaser_max_range_meters = FLAGS_flaser_max_range;
-  read_options.flaser_fov_radians = FLAGS_flaser_fov_deg * M_PI / 180.0;
-  if (!(FLAGS_flaser_fov_deg > 0 && FLAGS_flaser_fov_deg <= 360)) return Fail("--flaser_fov_deg must be in (0, 360]"), 2;
-  CarmenLog log;
-  std::vector<StampedPose2> log_truth;  // TRUTH of a robot log
-  std::vector<std::optional<BodyAttitude>> attitudes;  // per scan of a robot log
-  std::vector<std::optional<Pose2>> command_poses;     // per scan of a robot log
-  const bool robot_log = IsRobotLog(FLAGS_log);
-  const Status read = robot_log ? ReadRobotLogAsCarmen(FLAGS_log, FLAGS_lenient, &log, &log_truth, &attitudes, &command_poses)
-                                            : ReadCarmenLog(FLAGS_log, read_options, &log);
+  MeasurementLog log;
+  const Status read = ReadMeasurementLog(FLAGS_log, read_options, &log);
   if (!read.ok()) return Fail(read.message()), 1;
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
-  if (log.stats.malformed_lines_skipped > 0)
-    std::cerr << "warning: skipped " << log.stats.malformed_lines_skipped << " malformed lines (--lenient)\n";
-  if (log.lasers.empty()) return Fail("'" + FLAGS_log + "' holds no laser scans"), 1;
-  if (FLAGS_use_odometry) {
-    for (const LaserReading& reading : log.lasers) {
-      if (!reading.has_odometry_pose) {
-        return Fail(FLAGS_log + ":" + std::to_string(reading.line_number) +
-                    ": --use_odometry needs an odometry pose with every scan"), 1;
-      }
-    }
-  }
-  if (FLAGS_degenerate_ratio == -1.0) options.local.degenerate_eigenvalue_ratio = robot_log ? 0.3 : 0.0;
-  const bool use_commands = robot_log && FLAGS_use_commands && !FLAGS_use_odometry &&
-                            std::any_of(command_poses.begin(), command_poses.end(),
-                                        [](const std::optional<Pose2>& pose) { return pose.has_value(); });
-  if (use_commands) {
-    // Scans before the first COMMAND are dropped: the prediction needs a commanded pose.
-    size_t first = 0;
-    while (!command_poses[first].has_value()) ++first;
-    for (size_t i = first; i < log.lasers.size(); ++i) {  // every scan after the first command has one
-      log.lasers[i].odometry_pose = command_poses[i].value();
-      log.lasers[i].has_odometry_pose = true;
-    }
-    log.lasers.erase(log.lasers.begin(), log.lasers.begin() + first);
-    attitudes.erase(attitudes.begin(), attitudes.begin() + std::min(first, attitudes.size()));
-    options.local.prediction = MotionPrediction::kOdometry;
-    if (first > 0) std::cerr << "warning: " << first << " scans before the first COMMAND skipped (--use_commands)\n";
-  }
-  std::vector<StampedPose2> truth = log_truth;
+  if (log.malformed_lines_skipped > 0)
+    std::cerr << "warning: skipped " << log.malformed_lines_skipped << " malformed lines (--lenient)\n";
+  if (log.num_scans == 0) return Fail("'" + FLAGS_log + "' holds no laser scans"), 1;
+  std::vector<StampedPose2> truth = log.truth;
   std::string truth_name = FLAGS_log + " (TRUTH)";
   if (!FLAGS_truth.empty()) {
     const Status status = ReadTrajectory(FLAGS_truth, &truth);
@@ -287,146 +272,68 @@ int Run() {
   std::filesystem::create_directories(FLAGS_out, ec);
   if (ec) return Fail("cannot create output folder '" + FLAGS_out + "': " + ec.message()), 1;
 
-  const size_t num_scans = FLAGS_max_scans > 0 ? std::min<size_t>(FLAGS_max_scans, log.lasers.size()) : log.lasers.size();
-  std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log
-            << (FLAGS_use_odometry ? " (odometry prediction)"
-                : use_commands ? " (command prediction, no odometry)" : " (no odometry)")
-            << (options.local.degenerate_eigenvalue_ratio > 0
-                    ? ", degenerate directions keep the prediction below eigenvalue ratio " +
-                          FormatNumber(options.local.degenerate_eigenvalue_ratio)
-                    : std::string())
-            << "\n";
-  // Either pipeline fills these.
-  std::vector<StampedPose2> trajectory;
-  std::unique_ptr<OccupancyGrid> rendered_grid;
-  const OccupancyGrid* grid = nullptr;
-  std::string stats_line;
-  std::vector<double> scores;
-  std::unique_ptr<ScanMatchingSlam> front_end;
-  std::unique_ptr<PoseGraphSlam> graph_slam;
-  if (FLAGS_no_loop_closure) {
-    front_end = std::make_unique<ScanMatchingSlam>(options.local);
-  } else {
-    graph_slam = std::make_unique<PoseGraphSlam>(options);
-  }
+  const int num_scans = FLAGS_max_scans > 0 ? std::min(FLAGS_max_scans, log.num_scans) : log.num_scans;
+  std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log << " (" << LogFormatName(log.format)
+            << ", " << log.measurements.size() << " measurements; "
+            << (FLAGS_use_odometry ? "odometry prediction" : "no odometry") << ")\n";
+  OnlineEstimator estimator(options);
   const auto start = std::chrono::steady_clock::now();
-  for (size_t i = 0; i < num_scans; ++i) {
-    const LaserReading& reading = log.lasers[i];
-    const std::optional<Pose2> odometry =
-        reading.has_odometry_pose ? std::optional<Pose2>(reading.odometry_pose) : std::nullopt;
-    const std::optional<BodyAttitude> attitude =
-        FLAGS_use_attitude && i < attitudes.size() ? attitudes[i] : std::nullopt;
-    if (front_end != nullptr) {
-      const ScanResult result = front_end->AddScan(reading.scan, odometry, attitude);
-      if (result.match.converged) scores.push_back(result.match.score);
-    } else {
-      graph_slam->AddScan(reading.scan, odometry, attitude);
-    }
-    if (FLAGS_progress_every > 0 && (i + 1) % FLAGS_progress_every == 0) {
+  int scans = 0, errors = 0;
+  double first_stamp = 0.0, last_stamp = 0.0;
+  for (const Measurement& measurement : log.measurements) {
+    const bool scan = std::holds_alternative<LaserReading>(measurement);
+    if (scan && scans == num_scans) break;
+    const Status status = estimator.Add(measurement);
+    if (!status.ok() && ++errors <= 5) std::cerr << "warning: " << FLAGS_log << ": " << status.message() << "\n";
+    if (!scan) continue;
+    if (scans == 0) first_stamp = StampOf(measurement);
+    last_stamp = std::max(last_stamp, StampOf(measurement));
+    ++scans;
+    if (FLAGS_progress_every > 0 && scans % FLAGS_progress_every == 0) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::fprintf(stderr, "  %zu/%zu scans, %.1f s, %.0f scans/s", i + 1, num_scans, elapsed, (i + 1) / elapsed);
-      if (graph_slam != nullptr) {
-        std::fprintf(stderr, ", %d submaps, %d loop closures", graph_slam->stats().submaps,
-                     graph_slam->stats().loop_closures_accepted);
-      }
-      std::fprintf(stderr, "\n");
+      std::fprintf(stderr, "  %d/%d scans, %.1f s, %.0f scans/s, %d submaps, %d loop closures\n", scans, num_scans,
+                   elapsed, scans / elapsed, estimator.graph().stats().submaps,
+                   estimator.graph().stats().loop_closures_accepted);
     }
   }
-  char line[768];
-  if (front_end != nullptr) {
-    trajectory = front_end->trajectory();
-    grid = &front_end->map().grid();
-    const ScanMatchingSlamStats& stats = front_end->stats();
-    std::snprintf(line, sizeof(line),
-                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards, "
-                  "%lld floor points dropped, %d degenerate matches\n",
-                  stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
-                  stats.floor_points, stats.degenerate_matches);
-    stats_line = line;
-  } else {
-    graph_slam->Finish();
-    trajectory = graph_slam->trajectory();
-    rendered_grid = graph_slam->RenderMap();
-    grid = rendered_grid.get();
-    const PoseGraphSlamStats& stats = graph_slam->stats();
-    std::snprintf(line, sizeof(line),
-                  "scans: %d processed, %d skipped (too few points), %d match failures, %d timestamps backwards, "
-                  "%lld floor points dropped, %d degenerate matches\n"
-                  "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d "
-                  "removed as inconsistent, %d solves (%d iterations, %.2f s), loop search %.2f s\n"
-                  "wide loop search: %d matches, %d candidates, %d closures accepted\n",
-                  stats.scans, stats.skipped_too_few_points, stats.match_failures, stats.timestamps_backwards,
-                  stats.floor_points, stats.degenerate_matches, stats.nodes, stats.submaps, stats.loop_searches, stats.loop_closures_accepted,
-                  stats.loop_closures_rejected_by_gate, stats.loop_closures_rejected_after_solve, stats.solves, stats.solver_iterations, stats.solve_seconds, stats.loop_search_seconds,
-                  stats.loop_wide_searches, stats.loop_wide_candidates, stats.loop_closures_accepted_wide);
-    stats_line = line;
-    // Loop-closure precision as Cartographer reports it: the share of kept closures that the
-    // final graph agrees with to 20 cm and 1°.
-    int kept = 0, agree = 0;
-    for (const LoopClosureReport& loop : graph_slam->LoopClosures()) {
-      if (loop.removed) continue;
-      ++kept;
-      const Pose2 error = Between(loop.measured_submap_T_node, loop.final_submap_T_node);
-      if (error.translation().norm() <= 0.2 && std::abs(error.theta()) <= M_PI / 180.0) ++agree;
-    }
-    std::snprintf(line, sizeof(line), "loop closure precision: %d of %d kept closures (%.1f%%) agree with the final "
-                  "graph to 20 cm / 1 deg\n", agree, kept, kept > 0 ? 100.0 * agree / kept : 0.0);
-    stats_line += line;
-  }
+  if (errors > 5) std::cerr << "warning: " << errors << " measurements refused in all (first 5 shown)\n";
+  estimator.Finish();
+  const std::vector<StampedPose2> trajectory = estimator.Trajectory();
+  const std::unique_ptr<OccupancyGrid> grid = estimator.RenderMap();
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
+  const std::string summary = Summary(estimator);
   if (trajectory.empty()) {
-    std::cerr << stats_line;
+    std::cerr << summary;
     return Fail("no scan of '" + FLAGS_log + "' had enough valid beams to map (at least " +
                 std::to_string(options.local.min_points) + " within --max_range); nothing written"), 1;
   }
-  const std::string base = (std::filesystem::path(FLAGS_out) / "map").string();
-  const std::string trajectory_path = (std::filesystem::path(FLAGS_out) / "trajectory.txt").string();
+
+  const std::filesystem::path out(FLAGS_out);
+  const std::string base = (out / "map").string();
+  const std::string trajectory_path = (out / "trajectory.txt").string();
   std::vector<Pose2> path;
   for (const StampedPose2& p : trajectory) path.push_back(p.pose);
-  std::vector<std::vector<Pose2>> paths = {path};
-  for (const Status& status : {WriteMapPgmYaml(*grid, base), WriteMapPng(*grid, paths, base + ".png"),
-                               WriteTrajectory(trajectory_path, trajectory)}) {
-    if (!status.ok()) return Fail(status.message()), 1;
+  std::vector<Status> written = {WriteMapPgmYaml(*grid, base), WriteMapPng(*grid, {path}, base + ".png"),
+                                 WriteTrajectory(trajectory_path, trajectory)};
+  if (options.loop_closure) {
+    written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator.graph().LoopClosures()));
+    written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator.LocalTrajectory()));
   }
-  if (graph_slam != nullptr) {
-    const std::string loops_path = (std::filesystem::path(FLAGS_out) / "loop_closures.txt").string();
-    std::ofstream loops(loops_path);
-    loops << "# submap node score measured_x measured_y measured_theta final_x final_y final_theta removed\n"
-             "# submap_T_node as matched and as in the final graph (metres, radians); removed = 1 when the\n"
-             "# consistency check took the closure out\n";
-    loops.precision(9);
-    for (const LoopClosureReport& loop : graph_slam->LoopClosures()) {
-      const Pose2& m = loop.measured_submap_T_node;
-      const Pose2& f = loop.final_submap_T_node;
-      loops << loop.submap << ' ' << loop.node << ' ' << loop.score << ' ' << m.x() << ' ' << m.y() << ' '
-            << m.theta() << ' ' << f.x() << ' ' << f.y() << ' ' << f.theta() << ' ' << (loop.removed ? 1 : 0) << '\n';
-    }
-    if (!loops) return Fail("cannot write '" + loops_path + "'"), 1;
-    const Status status = WriteTrajectory((std::filesystem::path(FLAGS_out) / "frontend_trajectory.txt").string(),
-                                          graph_slam->local_trajectory());
-    if (!status.ok()) return Fail(status.message()), 1;
-  }
-  if (!FLAGS_g2o_out.empty()) {
-    if (graph_slam == nullptr) return Fail("--g2o_out needs the loop-closing pipeline (drop --no_loop_closure)"), 2;
-    const Status status = WriteG2oPoseGraph2d(FLAGS_g2o_out, graph_slam->ExportGraph());
+  if (!FLAGS_g2o_out.empty()) written.push_back(WriteG2oPoseGraph2d(FLAGS_g2o_out, estimator.graph().ExportGraph(options.robot)));
+  for (const Status& status : written) {
     if (!status.ok()) return Fail(status.message()), 1;
   }
 
-  double first = log.lasers.front().scan.stamp_seconds, last = first;
-  for (size_t i = 0; i < num_scans; ++i) {
-    first = std::min(first, log.lasers[i].scan.stamp_seconds);
-    last = std::max(last, log.lasers[i].scan.stamp_seconds);
-  }
-  const double duration = last - first;
-  std::printf("%s", stats_line.c_str());
+  std::printf("%s", summary.c_str());
+  std::vector<double> scores = estimator.match_scores();
   if (!scores.empty()) {
     std::sort(scores.begin(), scores.end());
     std::printf("match score (mean likelihood at the matched pose): p10 %.3f, median %.3f, p90 %.3f\n",
                 scores[scores.size() / 10], scores[scores.size() / 2], scores[scores.size() * 9 / 10]);
   }
+  const double duration = last_stamp - first_stamp;
   std::printf("time: %.2f s wall, %.1f scans/s, data duration %.1f s, real-time factor %.1fx\n", wall_seconds,
-              num_scans / wall_seconds, duration, duration / wall_seconds);
+              scans / wall_seconds, duration, duration / wall_seconds);
   if (!truth.empty()) {
     const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, truth);
     std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",

@@ -323,7 +323,7 @@ void EkfStateUpdater::PredictConstantVelocity(double dt, StateEstimate* estimate
   WrapAngles(&X);
 }
 
-void EkfStateUpdater::PredictWithCommand(double dt, const BodyVelocityCommand& command,
+void EkfStateUpdater::PredictWithCommand(double dt, const VelocityCommand& command,
                                          StateEstimate* estimate) const {
   EkfVector& X = estimate->state;
   EkfMatrix& P = estimate->covariance;
@@ -389,7 +389,7 @@ void EkfStateUpdater::Apply(const Measurement& measurement, double stamp_seconds
                             FilterState* filter) const {
   Predict(stamp_seconds, filter);
   StateEstimate* estimate = &filter->estimate;
-  if (const auto* command = std::get_if<BodyVelocityCommand>(&measurement)) {
+  if (const auto* command = std::get_if<VelocityCommand>(&measurement)) {
     filter->has_command = true;
     filter->command = *command;
   } else if (const auto* marg = std::get_if<MargMeasurement>(&measurement)) {
@@ -487,7 +487,7 @@ void EkfStateUpdater::Prune() {
   scan_velocity_.DropBefore(oldest_kept - options_.scan_velocity.window_seconds);
 }
 
-Status EkfStateUpdater::AddCommand(const BodyVelocityCommand& command) {
+Status EkfStateUpdater::AddCommand(const VelocityCommand& command) {
   if (!initialized_) return Status::Error("EkfStateUpdater::AddCommand before Initialize()");
   if (!std::isfinite(command.stamp_seconds) || !std::isfinite(command.forward_mps) ||
       !std::isfinite(command.left_mps) || !std::isfinite(command.yaw_rate_radps)) {

@@ -161,13 +161,6 @@ struct StateEstimate {
   Eigen::Matrix3d pose_covariance() const;
 };
 
-struct BodyVelocityCommand {
-  double stamp_seconds = 0.0;
-  double forward_mps = 0.0;   // v_x, body frame
-  double left_mps = 0.0;      // v_y, body frame
-  double yaw_rate_radps = 0.0;  // ω_u
-};
-
 // MARG attitude and Euler rates in the world frame of the map (a magnetometer heading must
 // be offset into it by the caller, or left out with has_heading = false).
 struct MargMeasurement {
@@ -229,7 +222,7 @@ class EkfStateUpdater {
   // Each Add* returns OK once applied (in or out of sequence). Errors, with the filter
   // unchanged: not initialised, non-finite values, a covariance that is not symmetric positive
   // (semi-)definite, or a stamp older than the history window (also counted).
-  Status AddCommand(const BodyVelocityCommand& command);
+  Status AddCommand(const VelocityCommand& command);
   Status AddMarg(const MargMeasurement& measurement);
   Status AddScanMatchPose(const ScanMatchPose& measurement);
   Status AddAltitude(const AltitudeMeasurement& measurement);
@@ -255,10 +248,10 @@ class EkfStateUpdater {
   struct FilterState {
     StateEstimate estimate;
     bool has_command = false;
-    BodyVelocityCommand command;
+    VelocityCommand command;
   };
   using Measurement =
-      std::variant<BodyVelocityCommand, MargMeasurement, AltitudeMeasurement, ScanMatchPose>;
+      std::variant<VelocityCommand, MargMeasurement, AltitudeMeasurement, ScanMatchPose>;
   struct Event {
     double stamp_seconds;
     int kind;  // Measurement::index(): the tie-break order at equal stamps
@@ -270,7 +263,7 @@ class EkfStateUpdater {
   void Apply(const Measurement& measurement, double stamp_seconds, FilterState* filter) const;
   void Predict(double stamp_seconds, FilterState* filter) const;
   void PredictConstantVelocity(double dt, StateEstimate* estimate) const;
-  void PredictWithCommand(double dt, const BodyVelocityCommand& command,
+  void PredictWithCommand(double dt, const VelocityCommand& command,
                           StateEstimate* estimate) const;
   void Prune();
 

@@ -51,6 +51,7 @@
 
 #include "Eigen/Core"
 #include "Eigen/Geometry"
+#include "core/measurement.h"
 #include "core/status.h"
 
 namespace hetslam {
@@ -75,14 +76,6 @@ struct MargFilterOptions {
   double rate_stddev_radps = 0.01;
 
   bool IsValid(std::string* error) const;
-};
-
-struct MargSample {
-  double stamp_seconds = 0.0;
-  Eigen::Vector3d gyro_radps = Eigen::Vector3d::Zero();   // body frame
-  Eigen::Vector3d accel_mps2 = Eigen::Vector3d::Zero();   // specific force, body frame
-  Eigen::Vector3d magnetometer = Eigen::Vector3d::Zero();  // body frame, any unit
-  bool has_magnetometer = true;
 };
 
 struct MargAttitude {

@@ -287,10 +287,10 @@ void SimulateMotion(const RobotSpec& spec, double dt, double t_limit, RobotSimul
       state.cmd_vx = MoveTowards(state.cmd_vx, vx_d, dyn.acceleration_mps2 * dt);
       state.cmd_vy = MoveTowards(state.cmd_vy, vy_d, dyn.acceleration_mps2 * dt);
     }
-    CommandReading command;
+    VelocityCommand command;
     command.stamp_seconds = t;
-    command.vx_mps = state.cmd_vx;
-    command.vy_mps = state.cmd_vy;
+    command.forward_mps = state.cmd_vx;
+    command.left_mps = state.cmd_vy;
     command.yaw_rate_radps = state.cmd_w;
     out->log.commands.push_back(command);
     // Integrate to t + dt.
@@ -385,7 +385,7 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
     const Eigen::Isometry3d body_T_laser = spec.BodyTLaser(spec.HeadPitchRadians(t));
     std::vector<Surface> surfaces;
     int no_return = 0;
-    RobotLaserReading reading;
+    LaserReading reading;
     reading.scan = SimulateScan3D(world, spec.laser, truth.world_T_body * body_T_laser, t,
                                   &laser_rng, &surfaces, &no_return);
     reading.scan.robot_T_sensor = body_T_laser;
@@ -411,14 +411,14 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
   for (double t : SensorStamps(marg.rate_hz, t_end)) {
     const TruthAt truth = SampleTruth(out->truth, dt, t);
     const Eigen::Matrix3d body_R_world = truth.world_T_body.linear().transpose();
-    MargReading reading;
+    MargSample reading;
     reading.stamp_seconds = t;
     reading.gyro_radps = truth.rate_body + gyro_bias + Gaussian3(marg.gyro_noise_radps, &marg_rng);
     gyro_bias += Gaussian3(bias_step, &marg_rng);
     reading.accel_mps2 =
         body_R_world * (truth.acceleration_world + Eigen::Vector3d(0.0, 0.0, marg.gravity_mps2)) +
         accel_bias + Gaussian3(marg.accel_noise_mps2, &marg_rng);
-    reading.magnetometer_microtesla =
+    reading.magnetometer =
         body_R_world * field_world + Gaussian3(marg.mag_noise_microtesla, &marg_rng);
     log.marg.push_back(reading);
     const Eigen::Vector3d rpy = RollPitchYawFromRotation(truth.world_T_body.linear()) +
@@ -444,7 +444,7 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
       if (!first) odom = StepOdometry(spec.odometry, previous, truth, odom, &odometry_rng);
       first = false;
       previous = truth;
-      OdometryPose2Reading reading;
+      OdometryReading reading;
       reading.stamp_seconds = t;
       reading.pose = odom;
       log.odometry.push_back(reading);
@@ -497,7 +497,7 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
       char name[32];
       std::snprintf(name, sizeof(name), "images/%06d.png", index++);
       frame.relative_path = name;
-      ImageReference image;
+      CameraImage image;
       image.stamp_seconds = t;
       image.path = frame.relative_path;
       log.images.push_back(image);

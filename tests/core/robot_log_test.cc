@@ -143,7 +143,7 @@ RobotLog MakeFullLog() {
   log.mounts.push_back({0.25, mount1, 0});
   for (int k = 0; k < 4; ++k) {
     const double t = 0.1 * (k + 1) + 1.0 / 3.0;
-    RobotLaserReading laser;
+    LaserReading laser;
     laser.scan = MakeScan(t, 1081, t < 0.25 ? mount0 : mount1, &rng);
     if (k == 1) {
       laser.scan.ranges_meters[5] = std::numeric_limits<double>::quiet_NaN();
@@ -156,18 +156,18 @@ RobotLog MakeFullLog() {
                           Uniform(&rng, -0.3, 0.3), Uniform(&rng, -0.3, 0.3),
                           Uniform(&rng, -3, 3));
     log.truth.push_back(truth);
-    ImageReference image;
+    CameraImage image;
     image.stamp_seconds = t;
     image.path = "images/" + std::to_string(k) + ".png";
     log.images.push_back(image);
   }
   for (int k = 0; k < 20; ++k) {
     const double t = 0.025 * k;
-    MargReading marg;
+    MargSample marg;
     marg.stamp_seconds = t;
     marg.gyro_radps = Eigen::Vector3d(Uniform(&rng, -1, 1), Uniform(&rng, -1, 1), 1e-300);
     marg.accel_mps2 = Eigen::Vector3d(Uniform(&rng, -1, 1), -0.0, 9.80665);
-    marg.magnetometer_microtesla = Eigen::Vector3d(22.5, Uniform(&rng, -5, 5), -43.1);
+    marg.magnetometer = Eigen::Vector3d(22.5, Uniform(&rng, -5, 5), -43.1);
     log.marg.push_back(marg);
     AttitudeReading attitude;
     attitude.stamp_seconds = t;
@@ -179,14 +179,14 @@ RobotLog MakeFullLog() {
     altitude.stamp_seconds = t;
     altitude.height_meters = Uniform(&rng, 0.5, 2.0);
     log.altitudes.push_back(altitude);
-    OdometryPose2Reading odom;
+    OdometryReading odom;
     odom.stamp_seconds = t;
     odom.pose = Pose2(Uniform(&rng, -5, 5), Uniform(&rng, -5, 5), Uniform(&rng, -3, 3));
     log.odometry.push_back(odom);
-    CommandReading command;
+    VelocityCommand command;
     command.stamp_seconds = t;
-    command.vx_mps = Uniform(&rng, 0, 1);
-    command.vy_mps = 0.0;
+    command.forward_mps = Uniform(&rng, 0, 1);
+    command.left_mps = 0.0;
     command.yaw_rate_radps = Uniform(&rng, -1, 1);
     log.commands.push_back(command);
   }
@@ -259,7 +259,7 @@ TEST(RobotLogTest, WriteThenReadGivesTheSameValues) {
     EXPECT_EQ(original.marg[k].stamp_seconds, log.marg[k].stamp_seconds);
     EXPECT_EQ(original.marg[k].gyro_radps, log.marg[k].gyro_radps);
     EXPECT_EQ(original.marg[k].accel_mps2, log.marg[k].accel_mps2);
-    EXPECT_EQ(original.marg[k].magnetometer_microtesla, log.marg[k].magnetometer_microtesla);
+    EXPECT_EQ(original.marg[k].magnetometer, log.marg[k].magnetometer);
     EXPECT_EQ(original.attitudes[k].roll_radians, log.attitudes[k].roll_radians);
     EXPECT_EQ(original.attitudes[k].pitch_radians, log.attitudes[k].pitch_radians);
     EXPECT_EQ(original.attitudes[k].yaw_radians, log.attitudes[k].yaw_radians);
@@ -268,8 +268,8 @@ TEST(RobotLogTest, WriteThenReadGivesTheSameValues) {
     EXPECT_EQ(original.odometry[k].pose.y(), log.odometry[k].pose.y());
     // Pose2 wraps theta again on construction, which may move the last bit.
     EXPECT_NEAR(original.odometry[k].pose.theta(), log.odometry[k].pose.theta(), 1e-15);
-    EXPECT_EQ(original.commands[k].vx_mps, log.commands[k].vx_mps);
-    EXPECT_EQ(original.commands[k].vy_mps, log.commands[k].vy_mps);
+    EXPECT_EQ(original.commands[k].forward_mps, log.commands[k].forward_mps);
+    EXPECT_EQ(original.commands[k].left_mps, log.commands[k].left_mps);
     EXPECT_EQ(original.commands[k].yaw_rate_radps, log.commands[k].yaw_rate_radps);
   }
   // Line numbers point into the written file.
@@ -292,7 +292,7 @@ TEST(RobotLogTest, WriteThenReadGivesTheSameValues) {
 TEST(RobotLogTest, WriterMergesByStampWithTheDocumentedTieOrder) {
   RobotLog log;
   const double t = 1.5;
-  RobotLaserReading laser;
+  LaserReading laser;
   laser.scan.stamp_seconds = t;
   laser.scan.angles_radians = EvenlySpacedAngles(2, 0.0, 0.5);
   laser.scan.ranges_meters = {1.0, 2.0};
@@ -302,12 +302,12 @@ TEST(RobotLogTest, WriterMergesByStampWithTheDocumentedTieOrder) {
   log.commands.push_back({t, 0.1, 0.0, 0.0, 0});
   log.altitudes.push_back({t, 1.0, 0});
   log.attitudes.push_back({t, 0.0, 0.0, 0.0, 0});
-  log.marg.push_back(MargReading{t});
+  log.marg.push_back(MargSample{t});
   log.odometry.push_back({t, Pose2(), 0});
   log.mounts.push_back({t, Eigen::Isometry3d::Identity(), 0});
   // An earlier ODOM and a later MARG, to see the merge across types.
-  log.odometry.insert(log.odometry.begin(), OdometryPose2Reading{0.5, Pose2(1, 0, 0), 0});
-  log.marg.push_back(MargReading{2.0});
+  log.odometry.insert(log.odometry.begin(), OdometryReading{0.5, Pose2(1, 0, 0), 0});
+  log.marg.push_back(MargSample{2.0});
   log.params["robot_name"] = "r";
   log.params["a_first"] = "x";
   const std::string path = TempPath("order.txt");
@@ -514,7 +514,7 @@ TEST(RobotLogTest, WriterRejectsWhatTheFormatCannotStore) {
   const std::string path = TempPath("rejected.txt");
   {
     RobotLog log;
-    RobotLaserReading laser;
+    LaserReading laser;
     laser.scan.angles_radians = {0.0, 0.1, 0.3};
     laser.scan.ranges_meters = {1, 2, 3};
     log.lasers.push_back(laser);
@@ -522,7 +522,7 @@ TEST(RobotLogTest, WriterRejectsWhatTheFormatCannotStore) {
   }
   {
     RobotLog log;
-    RobotLaserReading laser;
+    LaserReading laser;
     laser.scan.angles_radians = {0.0, 0.1};
     laser.scan.ranges_meters = {1};
     log.lasers.push_back(laser);
@@ -531,7 +531,7 @@ TEST(RobotLogTest, WriterRejectsWhatTheFormatCannotStore) {
   {
     // A scan whose mount is not in a MOUNT message would lose it.
     RobotLog log;
-    RobotLaserReading laser;
+    LaserReading laser;
     laser.scan.stamp_seconds = 1.0;
     laser.scan.robot_T_sensor.translation().z() = 0.3;
     log.lasers.push_back(laser);
@@ -541,7 +541,7 @@ TEST(RobotLogTest, WriterRejectsWhatTheFormatCannotStore) {
   }
   {
     RobotLog log;
-    log.marg.push_back(MargReading{std::numeric_limits<double>::quiet_NaN()});
+    log.marg.push_back(MargSample{std::numeric_limits<double>::quiet_NaN()});
     EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("MARG 0"));
   }
   {
@@ -736,7 +736,7 @@ TEST(TeamManifestTest, WriterRejectsInvalidManifests) {
 TEST(ScanInputsFromRobotLogTest, IntegratesCommandsAndLooksUpAttitudeOdometryAltitude) {
   RobotLog log;
   for (double t : {0.5, 1.0, 2.0, 3.0}) {
-    RobotLaserReading laser;
+    LaserReading laser;
     laser.scan.stamp_seconds = t;
     log.lasers.push_back(laser);
   }
@@ -773,7 +773,7 @@ TEST(ScanInputsFromRobotLogTest, IntegratesCommandsAndLooksUpAttitudeOdometryAlt
   EXPECT_FALSE(inputs[3].attitude.has_value());
 
   // A backwards-stamped scan after the first command holds the pose integrated so far.
-  RobotLaserReading late;
+  LaserReading late;
   late.scan.stamp_seconds = 2.5;
   log.lasers.push_back(late);
   const std::vector<RobotScanInputs> with_backwards = ScanInputsFromRobotLog(log);

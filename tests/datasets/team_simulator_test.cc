@@ -213,10 +213,10 @@ TEST(TeamSimulatorTest, MargAtRestReadsGravityUpAndZeroRate) {
   ASSERT_EQ(log.marg.size(), 501u);  // 5 s at 100 Hz, both ends
   Eigen::Vector3d gyro_mean = Eigen::Vector3d::Zero(), accel_mean = Eigen::Vector3d::Zero();
   Eigen::Vector3d mag_mean = Eigen::Vector3d::Zero();
-  for (const MargReading& m : log.marg) {
+  for (const MargSample& m : log.marg) {
     gyro_mean += m.gyro_radps / log.marg.size();
     accel_mean += m.accel_mps2 / log.marg.size();
-    mag_mean += m.magnetometer_microtesla / log.marg.size();
+    mag_mean += m.magnetometer / log.marg.size();
   }
   // Within noise: the mean of 501 samples is off by the bias (drawn once) and noise / sqrt(n).
   const double gyro_tolerance = 4.0 * marg.gyro_bias_radps + 4.0 * marg.gyro_noise_radps;
@@ -247,7 +247,7 @@ TEST(TeamSimulatorTest, NoiseFreeMargMatchesTheMotion) {
   const TeamSimulationResult result = RunTeam(scenario, 7);
   const RobotLog& log = result.robots[0].log;
   int checked = 0;
-  for (const MargReading& m : log.marg) {
+  for (const MargSample& m : log.marg) {
     if (m.stamp_seconds > 2.0 && m.stamp_seconds < 3.5) {  // turning steadily
       EXPECT_NEAR(m.gyro_radps.z(), 20.0 * kDeg, 1e-6);
       EXPECT_NEAR(m.gyro_radps.head<2>().norm(), 0.0, 1e-9);

@@ -20,14 +20,14 @@ using ::testing::HasSubstr;
 // Test helpers: a seeded truth + measurement simulation.
 
 using AnyMeasurement =
-    std::variant<BodyVelocityCommand, MargMeasurement, ScanMatchPose, AltitudeMeasurement>;
+    std::variant<VelocityCommand, MargMeasurement, ScanMatchPose, AltitudeMeasurement>;
 
 double StampOf(const AnyMeasurement& m) {
   return std::visit([](const auto& x) { return x.stamp_seconds; }, m);
 }
 
 Status Feed(const AnyMeasurement& m, EkfStateUpdater* ekf) {
-  if (const auto* c = std::get_if<BodyVelocityCommand>(&m)) return ekf->AddCommand(*c);
+  if (const auto* c = std::get_if<VelocityCommand>(&m)) return ekf->AddCommand(*c);
   if (const auto* g = std::get_if<MargMeasurement>(&m)) return ekf->AddMarg(*g);
   if (const auto* s = std::get_if<ScanMatchPose>(&m)) return ekf->AddScanMatchPose(*s);
   return ekf->AddAltitude(std::get<AltitudeMeasurement>(m));
@@ -79,7 +79,7 @@ Simulation Simulate(uint32_t seed, double duration_seconds, const EkfStateUpdate
 
   Simulation sim;
   // With commands, the first one is issued at the start so that the whole run follows eq. 3.
-  BodyVelocityCommand command;
+  VelocityCommand command;
   command.stamp_seconds = initial.stamp_seconds;
   command.forward_mps = 0.5;
   if (with_commands) sim.measurements.push_back(command);
@@ -321,7 +321,7 @@ TEST(EkfStateUpdaterTest, OutOfOrderStreamEqualsInOrderStream) {
       double delay = 0.02 * unit(rng);
       if (std::holds_alternative<ScanMatchPose>(m)) delay = 0.05 + 0.35 * unit(rng);
       if (std::holds_alternative<AltitudeMeasurement>(m)) delay = 0.2 * unit(rng);
-      if (std::holds_alternative<BodyVelocityCommand>(m)) delay = 0.05 * unit(rng);
+      if (std::holds_alternative<VelocityCommand>(m)) delay = 0.05 * unit(rng);
       arrivals.emplace_back(StampOf(m) + delay, i);
     }
     std::sort(arrivals.begin(), arrivals.end());
@@ -494,7 +494,7 @@ TEST(EkfStateUpdaterTest, CoastsOnCommandsWhenScanMatchingIsSuspended) {
   initial.state[kYaw] = M_PI / 2.0;
   EkfStateUpdater ekf(options);
   ekf.Initialize(initial);
-  BodyVelocityCommand command;
+  VelocityCommand command;
   command.stamp_seconds = initial.stamp_seconds;
   command.forward_mps = 1.0;
   ASSERT_TRUE(ekf.AddCommand(command).ok());

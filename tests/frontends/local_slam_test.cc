@@ -1,4 +1,4 @@
-#include "frontends/scan_matching_slam.h"
+#include "frontends/local_slam.h"
 
 #include <random>
 
@@ -13,16 +13,32 @@
 namespace hetslam {
 namespace {
 
-std::vector<StampedPose2> RunSlam(const CarmenLog& log, const ScanMatchingSlamOptions& options, size_t max_scans,
-                                  ScanMatchingSlamStats* stats = nullptr) {
-  ScanMatchingSlam slam(options);
-  for (size_t i = 0; i < log.lasers.size() && i < max_scans; ++i) slam.AddScan(log.lasers[i].scan);
-  if (stats != nullptr) *stats = slam.stats();
-  return slam.trajectory();
+// The front end alone against one global map (scans_per_submap 0), no odometry.
+LocalSlamOptions GlobalMapOptions() {
+  LocalSlamOptions options;
+  options.scans_per_submap = 0;
+  return options;
+}
+
+std::vector<StampedPose2> RunSlam(const CarmenLog& log, const LocalSlamOptions& options, size_t max_scans,
+                                  int* match_failures = nullptr) {
+  LocalSlam slam(options);
+  std::vector<StampedPose2> trajectory;
+  int failures = 0;
+  for (size_t i = 0; i < log.lasers.size() && i < max_scans; ++i) {
+    const LaserScan& scan = log.lasers[i].scan;
+    const LocalResult result =
+        slam.AddScan(scan.stamp_seconds, PrepareScanPoints(options, scan), slam.Predict(std::nullopt));
+    if (!result.inserted) continue;
+    failures += result.matched && !result.match.converged;
+    trajectory.push_back({result.stamp_seconds, result.local_pose});
+  }
+  if (match_failures != nullptr) *match_failures = failures;
+  return trajectory;
 }
 
 // The quick start's dataset: the simulated office loop, mapped without odometry.
-TEST(ScanMatchingSlamTest, MapsSimulatedOfficeLoopWithoutOdometry) {
+TEST(LocalSlamTest, MapsSimulatedOfficeLoopWithoutOdometry) {
   sim::Scenario scenario;
   const Status read = sim::ReadScenarioFile(std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/office_loop.scenario",
                                             &scenario);
@@ -31,11 +47,11 @@ TEST(ScanMatchingSlamTest, MapsSimulatedOfficeLoopWithoutOdometry) {
   sim::SimulationResult simulation;
   const Status simulated = sim::Simulate(scenario, sim::SimulatorOptions(), &rng, &simulation);
   ASSERT_TRUE(simulated.ok()) << simulated.message();
-  ScanMatchingSlamStats stats;
+  int match_failures = -1;
   const std::vector<StampedPose2> trajectory =
-      RunSlam(simulation.log, ScanMatchingSlamOptions(), simulation.log.lasers.size(), &stats);
+      RunSlam(simulation.log, GlobalMapOptions(), simulation.log.lasers.size(), &match_failures);
   ASSERT_EQ(simulation.truth.size(), trajectory.size());
-  EXPECT_EQ(0, stats.match_failures);
+  EXPECT_EQ(0, match_failures);
   const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, simulation.truth);
   EXPECT_EQ(static_cast<int>(trajectory.size()), ate.matched);
   // Measured 0.05 m RMSE / 0.3 deg with seed 1 (no loop closure yet); the bound leaves room
@@ -44,15 +60,15 @@ TEST(ScanMatchingSlamTest, MapsSimulatedOfficeLoopWithoutOdometry) {
   EXPECT_LT(ate.rotation_rmse_degrees, 1.5);
 }
 
-TEST(ScanMatchingSlamTest, SameInputSameTrajectory) {
+TEST(LocalSlamTest, SameInputSameTrajectory) {
   sim::Scenario scenario;
   ASSERT_TRUE(sim::ReadScenarioFile(std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/office_loop.scenario",
                                     &scenario).ok());
   std::mt19937_64 rng(3);
   sim::SimulationResult simulation;
   ASSERT_TRUE(sim::Simulate(scenario, sim::SimulatorOptions(), &rng, &simulation).ok());
-  const std::vector<StampedPose2> a = RunSlam(simulation.log, ScanMatchingSlamOptions(), 300);
-  const std::vector<StampedPose2> b = RunSlam(simulation.log, ScanMatchingSlamOptions(), 300);
+  const std::vector<StampedPose2> a = RunSlam(simulation.log, GlobalMapOptions(), 300);
+  const std::vector<StampedPose2> b = RunSlam(simulation.log, GlobalMapOptions(), 300);
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(a[i].pose.x(), b[i].pose.x());
@@ -61,21 +77,21 @@ TEST(ScanMatchingSlamTest, SameInputSameTrajectory) {
   }
 }
 
-TEST(ScanMatchingSlamTest, EmptyAndNaNScansAreSkippedNotFatal) {
-  ScanMatchingSlam slam{ScanMatchingSlamOptions()};
+TEST(LocalSlamTest, EmptyAndNaNScansAreSkippedNotFatal) {
+  LocalSlam slam{LocalSlamOptions()};
   LaserScan scan;
   scan.range_max_meters = 10;
   scan.angles_radians = EvenlySpacedAngles(180, -M_PI / 2, M_PI / 180);
   scan.ranges_meters.assign(180, std::numeric_limits<double>::quiet_NaN());
-  const ScanResult result = slam.AddScan(scan);
+  const LocalResult result = slam.AddScan(0.0, PrepareScanPoints(slam.options(), scan), slam.Predict(std::nullopt));
   EXPECT_FALSE(result.inserted);
-  EXPECT_EQ(1, slam.stats().skipped_too_few_points);
-  EXPECT_TRUE(slam.trajectory().empty());
+  EXPECT_EQ(0, slam.state().num_inserted);
+  EXPECT_TRUE(slam.state().active.empty());
 }
 
 // A prefix of the real Intel log (first 300 scans, ~1000 s, the first loop around the
 // building), odometry-free, scored with the Kümmerle et al. relations that fall inside it.
-TEST(ScanMatchingSlamTest, IntelPrefixRelations) {
+TEST(LocalSlamTest, IntelPrefixRelations) {
   const std::string clf = SharedDatasetPath("intel/intel.clf");
   const std::string relations_path = SharedDatasetPath("intel/intel.relations");
   if (clf.empty() || relations_path.empty()) GTEST_SKIP() << "shared datasets not found at " << SharedDatasetDir();
@@ -84,9 +100,9 @@ TEST(ScanMatchingSlamTest, IntelPrefixRelations) {
   ASSERT_TRUE(read.ok()) << read.message();
   std::vector<Relation> relations;
   ASSERT_TRUE(ReadRelations(relations_path, &relations).ok());
-  ScanMatchingSlamStats stats;
-  const std::vector<StampedPose2> trajectory = RunSlam(log, ScanMatchingSlamOptions(), 300, &stats);
-  EXPECT_EQ(0, stats.match_failures);
+  int match_failures = -1;
+  const std::vector<StampedPose2> trajectory = RunSlam(log, GlobalMapOptions(), 300, &match_failures);
+  EXPECT_EQ(0, match_failures);
   RelationsMetricOptions metric_options;
   metric_options.clock_offset_seconds = 976052857.337284;
   const RelationsMetricResult metric = EvaluateRelations(trajectory, relations, metric_options);
@@ -100,7 +116,7 @@ TEST(ScanMatchingSlamTest, IntelPrefixRelations) {
 }
 
 TEST(NarrowSearchTrustedTest, OnlyAfterSmallMotionOrWithOdometry) {
-  ScanMatchingSlamOptions options;  // narrow ±0.4 m, ±10° by default
+  LocalSlamOptions options;  // narrow ±0.4 m, ±10° by default
   std::vector<StampedPose2> trajectory = {{0.0, Pose2(0, 0, 0)}};
   EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // no motion known yet
   trajectory.push_back({0.1, Pose2(0.1, 0.02, 0.05)});
@@ -109,8 +125,6 @@ TEST(NarrowSearchTrustedTest, OnlyAfterSmallMotionOrWithOdometry) {
   EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // 0.4 m step
   trajectory.push_back({0.3, Pose2(0.55, 0.02, 0.25)});
   EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // 11.5° turn
-  options.prediction = MotionPrediction::kOdometry;
-  EXPECT_TRUE(NarrowSearchTrusted(options, trajectory));
   options.matcher.narrow_linear_search_window_meters = 0.0;
   EXPECT_FALSE(NarrowSearchTrusted(options, trajectory));  // narrow try off
 }
@@ -135,7 +149,7 @@ TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) 
     const double to_wall = std::abs(direction.y()) > 1e-9 ? 1.0 / std::abs(direction.y()) : 1e9;
     scan.ranges_meters.push_back(std::min({to_floor, to_wall, 9.0}));
   }
-  ScanMatchingSlamOptions options;
+  LocalSlamOptions options;
   const ScanPoints level = PrepareScanPoints(options, scan);  // no attitude: nothing dropped
   EXPECT_EQ(0, level.floor_points);
   EXPECT_EQ(181u, level.all.size());
@@ -143,6 +157,12 @@ TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) 
   const ScanPoints projected = PrepareScanPoints(options, scan, BodyAttitude());
   EXPECT_GT(projected.floor_points, 40);
   EXPECT_EQ(181u, projected.all.size() + projected.floor_points);
+  ASSERT_EQ(projected.all.size(), projected.labels.size());
+  ASSERT_EQ(projected.all.size(), projected.heights_meters.size());
+  for (size_t i = 0; i < projected.all.size(); ++i) {
+    EXPECT_EQ(PointLabel::kStructure, projected.labels[i]);
+    EXPECT_GE(projected.heights_meters[i], options.floor_max_height_meters);  // wall hits, above the floor
+  }
   for (const Eigen::Vector2f& p : projected.all) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4) << p.transpose();
 }
 
@@ -156,7 +176,7 @@ TEST(PrepareScanPointsTest, DensifyFillsGapsAlongASurfaceOnly) {
   for (double angle : scan.angles_radians) {
     scan.ranges_meters.push_back(angle < 5.5 * M_PI / 180 ? 20.0 : 1.0 / std::sin(angle));  // far wall ahead
   }
-  ScanMatchingSlamOptions options;
+  LocalSlamOptions options;
   options.densify_max_gap_meters = 0.6;
   const ScanPoints dense = PrepareScanPoints(options, scan);
   options.densify_max_gap_meters = 0.0;
@@ -181,7 +201,7 @@ TEST(PrepareScanPointsTest, DensifyFillsGapsAlongASurfaceOnly) {
 }
 
 TEST(DegeneracyAwarePoseTest, KeepsThePredictionAlongTheWeakDirectionOnly) {
-  ScanMatchingSlamOptions options;
+  LocalSlamOptions options;
   options.degenerate_eigenvalue_ratio = 0.05;
   ScanMatchResult match;
   match.converged = true;

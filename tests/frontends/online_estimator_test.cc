@@ -1,4 +1,4 @@
-#include "frontends/pose_graph_slam.h"
+#include "frontends/online_estimator.h"
 
 #include <random>
 
@@ -39,7 +39,9 @@ struct PipelineRun {
   sim::SimulationResult simulation;
   std::vector<StampedPose2> trajectory;
   std::vector<LoopClosureReport> loops;
-  PoseGraphSlamStats stats;
+  OnlineEstimatorStats stats;
+  SubmapGraphStats graph;
+  LoopCloserStats loop;
 };
 
 sim::SimulationResult Simulate(uint64_t seed) {
@@ -53,29 +55,42 @@ sim::SimulationResult Simulate(uint64_t seed) {
   return simulation;
 }
 
-PoseGraphSlamOptions TestOptions() {
-  PoseGraphSlamOptions options;
-  options.scans_per_submap = 20;
+OnlineEstimatorOptions TestOptions() {
+  OnlineEstimatorOptions options;
+  options.local.scans_per_submap = 20;
   return options;
 }
 
-PipelineRun RunPipeline(const sim::SimulationResult& simulation, const PoseGraphSlamOptions& options) {
+void Feed(const sim::SimulationResult& simulation, OnlineEstimator* estimator) {
+  for (const LaserReading& reading : simulation.log.lasers) {
+    const Status status = estimator->Add(reading);
+    ASSERT_TRUE(status.ok()) << status.message();
+  }
+}
+
+void Collect(const OnlineEstimator& estimator, PipelineRun* run) {
+  run->trajectory = estimator.Trajectory();
+  run->loops = estimator.graph().LoopClosures();
+  run->stats = estimator.stats();
+  run->graph = estimator.graph().stats();
+  run->loop = estimator.loop_closer().stats();
+}
+
+PipelineRun RunPipeline(const sim::SimulationResult& simulation, const OnlineEstimatorOptions& options) {
   PipelineRun run;
   run.simulation = simulation;
-  PoseGraphSlam slam(options);
-  for (const LaserReading& reading : simulation.log.lasers) slam.AddScan(reading.scan);
-  slam.Finish();
-  run.trajectory = slam.trajectory();
-  run.loops = slam.LoopClosures();
-  run.stats = slam.stats();
+  OnlineEstimator estimator(options);
+  Feed(simulation, &estimator);
+  estimator.Finish();
+  Collect(estimator, &run);
   return run;
 }
 
-TEST(PoseGraphSlamTest, ClosesTheRingAndMatchesTruth) {
+TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
   const PipelineRun run = RunPipeline(Simulate(5), TestOptions());
   ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
   EXPECT_EQ(0, run.stats.match_failures);
-  EXPECT_GT(run.stats.loop_closures_accepted, 5);
+  EXPECT_GT(run.graph.loop_closures_accepted, 5);
   const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(run.trajectory, run.simulation.truth);
   EXPECT_LT(ate.translation_rmse_meters, 0.08);
   EXPECT_LT(ate.rotation_rmse_degrees, 1.0);
@@ -85,14 +100,14 @@ TEST(PoseGraphSlamTest, ClosesTheRingAndMatchesTruth) {
   for (const LoopClosureReport& loop : run.loops) {
     if (loop.removed) continue;
     ++kept;
-    const Pose2 error = Between(loop.measured_submap_T_node, loop.final_submap_T_node);
+    const Pose2 error = Between(loop.measured_submap_T_node, loop.estimated_submap_T_node);
     precise += error.translation().norm() < 0.2 && std::abs(error.theta()) < M_PI / 180;
   }
   ASSERT_GT(kept, 0);
   EXPECT_GE(static_cast<double>(precise) / kept, 0.95);
 }
 
-TEST(PoseGraphSlamTest, SameInputSameTrajectory) {
+TEST(OnlineEstimatorTest, SameInputSameTrajectory) {
   const sim::SimulationResult simulation = Simulate(6);
   const PipelineRun a = RunPipeline(simulation, TestOptions());
   const PipelineRun b = RunPipeline(simulation, TestOptions());
@@ -102,32 +117,33 @@ TEST(PoseGraphSlamTest, SameInputSameTrajectory) {
     ASSERT_EQ(a.trajectory[i].pose.y(), b.trajectory[i].pose.y()) << i;
     ASSERT_EQ(a.trajectory[i].pose.theta(), b.trajectory[i].pose.theta()) << i;
   }
-  EXPECT_EQ(a.stats.loop_closures_accepted, b.stats.loop_closures_accepted);
+  EXPECT_EQ(a.graph.loop_closures_accepted, b.graph.loop_closures_accepted);
 }
 
 // A wrong closure (2 m and 20 degrees off) among correct ones is removed by the consistency
 // check and leaves the trajectory as accurate as without it.
-TEST(PoseGraphSlamTest, RejectsWrongLoopClosure) {
+TEST(OnlineEstimatorTest, RejectsWrongLoopClosure) {
   const sim::SimulationResult simulation = Simulate(5);
-  PoseGraphSlam slam(TestOptions());
-  for (const LaserReading& reading : simulation.log.lasers) slam.AddScan(reading.scan);
-  const int node = slam.num_nodes() - 1;
+  OnlineEstimator estimator(TestOptions());
+  Feed(simulation, &estimator);
+  SubmapGraph& graph = estimator.mutable_graph();
+  const NodeId node{0, graph.num_nodes(0) - 1};
   const Pose2 truth_submap0_T_node = Between(simulation.truth.front().pose, simulation.truth.back().pose);
-  ASSERT_FALSE(slam.AddLoopClosure(slam.num_submaps(), node, Pose2(), 0.9));
-  ASSERT_TRUE(slam.AddLoopClosure(0, node, truth_submap0_T_node * Pose2(2.0, 0.0, 0.35), 0.9));
-  slam.Finish();
-  const std::vector<LoopClosureReport> loops = slam.LoopClosures();
+  ASSERT_FALSE(graph.AddConstraint({{0, graph.num_submaps(0)}, node, Pose2(), 0.9}));
+  ASSERT_TRUE(graph.AddConstraint({{0, 0}, node, truth_submap0_T_node * Pose2(2.0, 0.0, 0.35), 0.9}));
+  estimator.Finish();
+  const std::vector<LoopClosureReport> loops = graph.LoopClosures();
   ASSERT_FALSE(loops.empty());
   bool found = false;
   for (const LoopClosureReport& loop : loops) {
-    if (loop.node == node && loop.submap == 0 && (loop.measured_submap_T_node.translation() -
+    if (loop.node == node && loop.submap.index == 0 && (loop.measured_submap_T_node.translation() -
                                                   truth_submap0_T_node.translation()).norm() > 1.5) {
       found = true;
       EXPECT_TRUE(loop.removed);
     }
   }
   EXPECT_TRUE(found);
-  const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(slam.trajectory(), simulation.truth);
+  const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(estimator.Trajectory(), simulation.truth);
   EXPECT_LT(ate.translation_rmse_meters, 0.08);
 }
 
@@ -138,14 +154,15 @@ TEST(PoseGraphSlamTest, RejectsWrongLoopClosure) {
 // the wide search runs, finds the start again, and its closures bring the estimate close
 // enough for the standard search to take over; without it the loop stays open.
 PipelineRun RunDeadReckoning(const sim::SimulationResult& simulation, bool wide_search) {
-  PoseGraphSlamOptions options = TestOptions();
+  OnlineEstimatorOptions options = TestOptions();
   options.local.prediction = MotionPrediction::kOdometry;
+  options.use_odometry = true;
   options.local.matcher.min_correlative_score = 0.999;  // every front-end match "fails"
-  options.loop_matcher.linear_search_window_meters = 1.0;
-  options.loop_wide_search = wide_search;
+  options.loop.matcher.linear_search_window_meters = 1.0;
+  options.loop.wide_search = wide_search;
   PipelineRun run;
   run.simulation = simulation;
-  PoseGraphSlam slam(options);
+  OnlineEstimator estimator(options);
   Pose2 biased;
   for (size_t i = 0; i < simulation.log.lasers.size(); ++i) {
     const LaserReading& reading = simulation.log.lasers[i];
@@ -153,12 +170,13 @@ PipelineRun RunDeadReckoning(const sim::SimulationResult& simulation, bool wide_
       const Pose2 step = Between(simulation.log.lasers[i - 1].odometry_pose, reading.odometry_pose);
       biased = biased * Pose2(1.12 * step.translation(), step.theta() + 0.12 * M_PI / 180);
     }
-    slam.AddScan(reading.scan, biased);
+    LaserReading dead_reckoned = reading;
+    dead_reckoned.odometry_pose = biased;
+    dead_reckoned.has_odometry_pose = true;
+    EXPECT_TRUE(estimator.Add(dead_reckoned).ok());
   }
-  slam.Finish();
-  run.trajectory = slam.trajectory();
-  run.loops = slam.LoopClosures();
-  run.stats = slam.stats();
+  estimator.Finish();
+  Collect(estimator, &run);
   return run;
 }
 
@@ -179,42 +197,42 @@ double LoopError(const PipelineRun& run) {
   return (estimate.translation() - truth_delta.translation()).norm();
 }
 
-TEST(PoseGraphSlamTest, WideSearchClosesALoopBeyondTheStandardWindow) {
+TEST(OnlineEstimatorTest, WideSearchClosesALoopBeyondTheStandardWindow) {
   const sim::SimulationResult simulation = Simulate(5);
   ASSERT_FALSE(simulation.log.lasers.empty());
   ASSERT_TRUE(simulation.log.lasers.front().has_odometry_pose);
 
   const PipelineRun narrow = RunDeadReckoning(simulation, /*wide_search=*/false);
-  EXPECT_EQ(0, narrow.stats.loop_wide_searches);
+  EXPECT_EQ(0, narrow.loop.wide_searches);
   EXPECT_GT(LoopError(narrow), 1.5);
 
   const PipelineRun wide = RunDeadReckoning(simulation, /*wide_search=*/true);
-  EXPECT_GT(wide.stats.loop_wide_searches, 0);
-  EXPECT_GE(wide.stats.loop_closures_accepted_wide, 2);
-  EXPECT_GT(wide.stats.loop_closures_accepted, wide.stats.loop_closures_accepted_wide);  // the standard search took over
+  EXPECT_GT(wide.loop.wide_searches, 0);
+  EXPECT_GE(wide.loop.wide_accepted, 2);
+  EXPECT_GT(wide.graph.loop_closures_accepted, wide.loop.wide_accepted);  // the standard search took over
   EXPECT_LT(LoopError(wide), 0.2);
   LOG(INFO) << "dead reckoning: loop error " << LoopError(narrow) << " m without the wide search, " << LoopError(wide)
-            << " m with it (" << wide.stats.loop_wide_searches << " wide matches, " << wide.stats.loop_wide_candidates
-            << " candidates, " << wide.stats.loop_closures_accepted_wide << " wide closures, "
-            << wide.stats.loop_closures_accepted << " closures in all)";
+            << " m with it (" << wide.loop.wide_searches << " wide matches, " << wide.loop.wide_candidates
+            << " candidates, " << wide.loop.wide_accepted << " wide closures, "
+            << wide.graph.loop_closures_accepted << " closures in all)";
 }
 
-TEST(PoseGraphSlamOptionsTest, RejectsBadValues) {
-  PoseGraphSlamOptions options;
+TEST(OnlineEstimatorOptionsTest, RejectsBadValues) {
+  OnlineEstimatorOptions options;
   std::string error;
   EXPECT_TRUE(options.IsValid(&error)) << error;
-  options.scans_per_submap = 1;
-  options.loop_min_score = 2;
+  options.local.scans_per_submap = 1;
+  options.loop.min_score = 2;
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("scans_per_submap"));
-  EXPECT_NE(std::string::npos, error.find("loop_min_score"));
+  EXPECT_NE(std::string::npos, error.find("min_score"));
 
-  PoseGraphSlamOptions wide;
-  wide.loop_wide_window_meters = 0;
-  wide.loop_wide_min_score = 1.5;
+  OnlineEstimatorOptions wide;
+  wide.loop.wide_window_meters = 0;
+  wide.loop.wide_min_score = 1.5;
   EXPECT_FALSE(wide.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("wide search windows"));
-  EXPECT_NE(std::string::npos, error.find("loop_wide_min_score"));
+  EXPECT_NE(std::string::npos, error.find("wide_min_score"));
 }
 
 }  // namespace

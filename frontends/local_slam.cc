@@ -1,5 +1,6 @@
-#include "frontends/scan_matching_slam.h"
+#include "frontends/local_slam.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -21,7 +22,7 @@ bool ParseMotionPrediction(const std::string& name, MotionPrediction* prediction
   return true;
 }
 
-ScanMatcherOptions ScanMatchingSlamOptions::DefaultFrontEndMatcherOptions() {
+ScanMatcherOptions LocalSlamOptions::DefaultFrontEndMatcherOptions() {
   ScanMatcherOptions options;
   options.narrow_linear_search_window_meters = 0.4;
   options.narrow_angular_search_window_radians = 10.0 * M_PI / 180.0;
@@ -29,7 +30,7 @@ ScanMatcherOptions ScanMatchingSlamOptions::DefaultFrontEndMatcherOptions() {
   return options;
 }
 
-bool ScanMatchingSlamOptions::IsValid(std::string* error) const {
+bool LocalSlamOptions::IsValid(std::string* error) const {
   std::string sub;
   std::ostringstream msg;
   if (!grid.IsValid(&sub)) msg << "grid: " << sub;
@@ -46,18 +47,13 @@ bool ScanMatchingSlamOptions::IsValid(std::string* error) const {
     msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
   if (!(matching_voxel_meters >= 0)) msg << "matching_voxel_meters must be >= 0; ";
   if (min_points < 1) msg << "min_points must be >= 1; ";
+  if (scans_per_submap != 0 && scans_per_submap < 2) msg << "scans_per_submap must be 0 or >= 2; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
 
-ScanMatchingSlam::ScanMatchingSlam(const ScanMatchingSlamOptions& options)
-    : options_(options), matcher_(options.matcher), map_(options.grid, options.field) {
-  std::string error;
-  CHECK(options_.IsValid(&error)) << "invalid ScanMatchingSlamOptions: " << error;
-}
-
-Pose2 PredictNextPose(const ScanMatchingSlamOptions& options, const std::vector<StampedPose2>& trajectory,
-                      const std::optional<Pose2>& last_odometry, const std::optional<Pose2>& odometry) {
+Pose2 PredictNextPose(const LocalSlamOptions& options, const std::vector<StampedPose2>& trajectory,
+                      const std::optional<Pose2>& last_motion, const std::optional<Pose2>& motion) {
   if (trajectory.empty()) return Pose2::Identity();
   const Pose2& last = trajectory.back().pose;
   switch (options.prediction) {
@@ -70,24 +66,22 @@ Pose2 PredictNextPose(const ScanMatchingSlamOptions& options, const std::vector<
                           options.angular_velocity_fraction * delta.theta());
     }
     case MotionPrediction::kOdometry:
-      CHECK(odometry.has_value()) << "odometry prediction needs an odometry pose with every scan";
-      if (!last_odometry.has_value()) return last;
-      return last * Between(*last_odometry, *odometry);
+      if (!last_motion.has_value() || !motion.has_value()) return last;
+      return last * Between(*last_motion, *motion);
   }
   return last;
 }
 
-bool NarrowSearchTrusted(const ScanMatchingSlamOptions& options, const std::vector<StampedPose2>& trajectory) {
+bool NarrowSearchTrusted(const LocalSlamOptions& options, const std::vector<StampedPose2>& trajectory) {
   const ScanMatcherOptions& m = options.matcher;
   if (m.narrow_linear_search_window_meters <= 0.0 || m.narrow_angular_search_window_radians <= 0.0) return false;
-  if (options.prediction == MotionPrediction::kOdometry) return true;
   if (trajectory.size() < 2) return false;
   const Pose2 delta = Between(trajectory[trajectory.size() - 2].pose, trajectory.back().pose);
   return delta.translation().norm() <= 0.5 * m.narrow_linear_search_window_meters &&
          std::abs(delta.theta()) <= 0.5 * m.narrow_angular_search_window_radians;
 }
 
-Pose2 DegeneracyAwarePose(const ScanMatchingSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
+Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
                           bool* degenerate) {
   if (degenerate != nullptr) *degenerate = false;
   const Eigen::Matrix3d& info = match.information;
@@ -104,7 +98,7 @@ Pose2 DegeneracyAwarePose(const ScanMatchingSlamOptions& options, const Pose2& p
   return Pose2(predicted.translation() + strong.dot(correction) * strong, match.pose.theta());
 }
 
-ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const LaserScan& scan,
+ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
                              const std::optional<BodyAttitude>& attitude) {
   ScanPoints points;
   const float max_range = static_cast<float>(options.max_point_range_meters);
@@ -121,13 +115,21 @@ ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const Laser
     if (max_gap > 0 && p.beam_index == previous_beam + 1) {
       // Neighbouring beams on one surface: fill the gap at the grid resolution.
       const Eigen::Vector2f from = points.all.back();
+      const float from_z = points.heights_meters.back();
       const float gap = (p.p_robot - from).norm();
       if (gap > step && gap <= max_gap) {
         const int n = static_cast<int>(gap / step);
-        for (int k = 1; k <= n; ++k) points.all.push_back(from + (p.p_robot - from) * (static_cast<float>(k) / (n + 1)));
+        for (int k = 1; k <= n; ++k) {
+          const float f = static_cast<float>(k) / (n + 1);
+          points.all.push_back(from + (p.p_robot - from) * f);
+          points.heights_meters.push_back(from_z + (p.z_meters - from_z) * f);
+          points.labels.push_back(PointLabel::kStructure);
+        }
       }
     }
     points.all.push_back(p.p_robot);
+    points.heights_meters.push_back(attitude.has_value() ? p.z_meters : 0.0f);
+    points.labels.push_back(PointLabel::kStructure);
     previous_beam = p.beam_index;
   }
   points.matching = options.matching_voxel_meters > 0
@@ -137,36 +139,69 @@ ScanPoints PrepareScanPoints(const ScanMatchingSlamOptions& options, const Laser
   return points;
 }
 
-ScanResult ScanMatchingSlam::AddScan(const LaserScan& scan, const std::optional<Pose2>& odometry_pose,
-                                     const std::optional<BodyAttitude>& attitude) {
-  ScanResult result;
-  result.stamp_seconds = scan.stamp_seconds;
-  ++stats_.scans;
-  if (!trajectory_.empty() && scan.stamp_seconds < trajectory_.back().stamp_seconds) ++stats_.timestamps_backwards;
 
-  const ScanPoints points = PrepareScanPoints(options_, scan, attitude);
-  stats_.floor_points += points.floor_points;
-  result.predicted = PredictNextPose(options_, trajectory_, last_odometry_, odometry_pose);
-  result.pose = result.predicted;
-  if (static_cast<int>(points.all.size()) < options_.min_points) {
-    ++stats_.skipped_too_few_points;
-    return result;
+LocalSlam::LocalSlam(const LocalSlamOptions& options) : options_(options), matcher_(options.matcher) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid LocalSlamOptions: " << error;
+}
+
+Prediction LocalSlam::Predict(const std::optional<Pose2>& odometry) const {
+  Prediction prediction;
+  prediction.pose = PredictNextPose(options_, state_.recent, state_.last_odometry, odometry);
+  if (options_.prediction == MotionPrediction::kOdometry && odometry.has_value()) {
+    prediction.external = true;
+    prediction.motion = odometry;
   }
-  if (map_.num_scans_inserted() > 0) {
-    result.match = matcher_.Match(map_, result.predicted, points.matching, {},
-                                  NarrowSearchTrusted(options_, trajectory_));
+  return prediction;
+}
+
+LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction) {
+  LocalResult result;
+  result.stamp_seconds = stamp_seconds;
+  result.predicted = prediction.pose;
+  result.local_pose = prediction.pose;
+  if (static_cast<int>(points.all.size()) < options_.min_points) return result;
+  LocalSlamState& state = state_;
+  // Match against the oldest active submap, in its frame.
+  if (!state.active.empty() && state.active.front().num_scans > 0) {
+    const ActiveSubmap& target = state.active.front();
+    const Pose2 predicted_submap = target.local_T_submap.inverse() * prediction.pose;
+    result.matched = true;
+    result.match = matcher_.Match(target.map, predicted_submap, points.matching, points.matching_weights,
+                                  prediction.external || NarrowSearchTrusted(options_, state.recent));
     if (result.match.converged) {
-      bool degenerate = false;
-      result.pose = DegeneracyAwarePose(options_, result.predicted, result.match, &degenerate);
-      stats_.degenerate_matches += degenerate;
-    } else {
-      ++stats_.match_failures;
+      result.local_pose = target.local_T_submap *
+                          (prediction.external ? DegeneracyAwarePose(options_, predicted_submap, result.match,
+                                                                     &result.degenerate)
+                                               : result.match.pose);
     }
   }
-  map_.InsertScan(result.pose, points.sensor_robot, points.all);
+  if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
+  state.recent.push_back({stamp_seconds, result.local_pose});
+  if (state.recent.size() > 2) state.recent.erase(state.recent.begin());
+  ++state.num_inserted;
+
+  // Submap bookkeeping: a new submap every scans_per_submap / 2 scans (one, ever, for 0).
+  const int half = options_.scans_per_submap > 0 ? std::max(1, options_.scans_per_submap / 2) : 0;
+  if (state.active.empty() || (half > 0 && state.active.back().num_scans >= half)) {
+    ActiveSubmap submap{state.next_submap_index++, result.local_pose, LaserMap(options_.grid, options_.field), 0};
+    result.new_submaps.push_back({submap.index, submap.local_T_submap});
+    state.active.push_back(std::move(submap));
+  }
+  for (ActiveSubmap& submap : state.active) {
+    const Pose2 submap_T_node = submap.local_T_submap.inverse() * result.local_pose;
+    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all);
+    ++submap.num_scans;
+    result.insertions.push_back({submap.index, submap_T_node});
+  }
+  if (options_.scans_per_submap > 0 && state.active.front().num_scans >= options_.scans_per_submap) {
+    ActiveSubmap& done = state.active.front();
+    done.map.Freeze();  // matched against only from now on
+    result.finished = LocalResult::FinishedSubmap{done.index, std::make_shared<const LaserMap>(std::move(done.map))};
+    state.active.erase(state.active.begin());
+  }
   result.inserted = true;
-  trajectory_.push_back({scan.stamp_seconds, result.pose});
-  if (odometry_pose.has_value()) last_odometry_ = odometry_pose;
+  result.points = std::move(points);
   return result;
 }
 

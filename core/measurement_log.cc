@@ -1,0 +1,178 @@
+#include "core/measurement_log.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "core/carmen_log.h"
+#include "core/robot_log.h"
+
+namespace hetslam {
+
+const char* MeasurementKindName(const Measurement& m) {
+  static constexpr std::array<const char*, std::variant_size_v<Measurement>> kNames = {
+      "laser", "odometry", "marg", "attitude", "altitude", "command", "image"};
+  return kNames[m.index()];
+}
+
+const char* LogFormatName(LogFormat format) {
+  return format == LogFormat::kRobotLog ? "hetslam robot log" : "CARMEN log";
+}
+
+Status DetectLogFormat(const std::string& path, LogFormat* format) {
+  std::ifstream in(path);
+  if (!in) return Status::Error("cannot open '" + path + "' for reading");
+  *format = LogFormat::kCarmen;
+  std::string line;
+  while (std::getline(in, line)) {
+    const size_t start = line.find_first_not_of(" \t\r");
+    if (start == std::string::npos || line[start] == '#') continue;
+    if (line.compare(start, 5, "HSLOG") == 0) *format = LogFormat::kRobotLog;
+    break;
+  }
+  return Status::Ok();
+}
+
+bool MeasurementLogOptions::IsValid(std::string* error) const {
+  std::ostringstream why;
+  if (!(flaser_fov_radians > 0 && flaser_fov_radians <= 2 * M_PI)) {
+    why << "flaser_fov_radians must be in (0, 2 pi], got " << flaser_fov_radians;
+  } else if (!(flaser_max_range_meters > 0 && std::isfinite(flaser_max_range_meters))) {
+    why << "flaser_max_range_meters must be > 0 and finite, got " << flaser_max_range_meters;
+  } else if (max_warnings_kept < 0) {
+    why << "max_warnings_kept must be >= 0, got " << max_warnings_kept;
+  }
+  if (error != nullptr) *error = why.str();
+  return why.str().empty();
+}
+
+double MeasurementLog::ScanDurationSeconds() const {
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (const Measurement& m : measurements) {
+    if (const auto* laser = std::get_if<LaserReading>(&m)) {
+      first = std::min(first, laser->scan.stamp_seconds);
+      last = std::max(last, laser->scan.stamp_seconds);
+    }
+  }
+  return last >= first ? last - first : 0.0;
+}
+
+namespace {
+
+// Merge priority at equal stamps (see the header): lower first.
+int TiePriority(const Measurement& m) {
+  struct Visitor {
+    int operator()(const OdometryReading&) const { return 0; }
+    int operator()(const VelocityCommand&) const { return 1; }
+    int operator()(const MargSample&) const { return 2; }
+    int operator()(const AttitudeReading&) const { return 3; }
+    int operator()(const AltitudeReading&) const { return 4; }
+    int operator()(const LaserReading&) const { return 5; }
+    int operator()(const CameraImage&) const { return 6; }
+  };
+  return std::visit(Visitor(), m);
+}
+
+// Appends the k-way merge of `streams` (each kept in its own order) to *out: at every step the
+// head with the smallest (stamp, priority) is taken.
+void MergeByStamp(std::vector<std::vector<Measurement>>* streams, std::vector<Measurement>* out) {
+  size_t total = 0;
+  for (const auto& s : *streams) total += s.size();
+  out->reserve(out->size() + total);
+  std::vector<size_t> next(streams->size(), 0);
+  for (size_t n = 0; n < total; ++n) {
+    int best = -1;
+    double best_stamp = 0.0;
+    int best_priority = 0;
+    for (size_t k = 0; k < streams->size(); ++k) {
+      if (next[k] >= (*streams)[k].size()) continue;
+      const Measurement& m = (*streams)[k][next[k]];
+      const double stamp = StampOf(m);
+      const int priority = TiePriority(m);
+      if (best < 0 || stamp < best_stamp || (stamp == best_stamp && priority < best_priority)) {
+        best = static_cast<int>(k);
+        best_stamp = stamp;
+        best_priority = priority;
+      }
+    }
+    out->push_back(std::move((*streams)[best][next[best]++]));
+  }
+}
+
+template <typename T>
+std::vector<Measurement> AsMeasurements(std::vector<T>* readings) {
+  std::vector<Measurement> out;
+  out.reserve(readings->size());
+  for (T& r : *readings) out.emplace_back(std::move(r));
+  readings->clear();
+  return out;
+}
+
+Status ReadCarmen(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
+  CarmenReadOptions read;
+  read.lenient = options.lenient;
+  read.flaser_fov_radians = options.flaser_fov_radians;
+  read.flaser_max_range_meters = options.flaser_max_range_meters;
+  read.max_warnings_kept = options.max_warnings_kept;
+  CarmenLog carmen;
+  const Status status = ReadCarmenLog(path, read, &carmen);
+  if (!status.ok()) return status;
+  log->params = std::move(carmen.params);
+  log->warnings = std::move(carmen.warnings);
+  log->malformed_lines_skipped = carmen.stats.malformed_lines_skipped;
+  std::vector<std::vector<Measurement>> streams;
+  streams.push_back(AsMeasurements(&carmen.odometry));
+  streams.push_back(AsMeasurements(&carmen.lasers));
+  MergeByStamp(&streams, &log->measurements);
+  return Status::Ok();
+}
+
+Status ReadHetslamRobotLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
+  RobotLogReadOptions read;
+  read.lenient = options.lenient;
+  read.max_warnings_kept = options.max_warnings_kept;
+  RobotLog robot;
+  const Status status = ReadRobotLog(path, read, &robot);
+  if (!status.ok()) return status;
+  log->params = std::move(robot.params);
+  log->warnings = std::move(robot.warnings);
+  log->malformed_lines_skipped = robot.stats.malformed_lines_skipped;
+  for (const StampedPose3& pose : robot.truth) {
+    const Eigen::Vector3d rpy = RollPitchYawFromRotation(pose.pose.linear());
+    log->truth.push_back(
+        {pose.stamp_seconds, Pose2(pose.pose.translation().x(), pose.pose.translation().y(), rpy.z())});
+  }
+  // Image paths become relative to the working directory's view of the log.
+  for (CameraImage& image : robot.images) image.path = robot.ImagePath(image);
+  std::vector<std::vector<Measurement>> streams;
+  streams.push_back(AsMeasurements(&robot.odometry));
+  streams.push_back(AsMeasurements(&robot.commands));
+  streams.push_back(AsMeasurements(&robot.marg));
+  streams.push_back(AsMeasurements(&robot.attitudes));
+  streams.push_back(AsMeasurements(&robot.altitudes));
+  streams.push_back(AsMeasurements(&robot.lasers));
+  streams.push_back(AsMeasurements(&robot.images));
+  MergeByStamp(&streams, &log->measurements);
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
+  *log = MeasurementLog();
+  log->path = path;
+  std::string invalid;
+  if (!options.IsValid(&invalid)) return Status::Error("invalid MeasurementLogOptions: " + invalid);
+  const Status detected = DetectLogFormat(path, &log->format);
+  if (!detected.ok()) return detected;
+  const Status status = log->format == LogFormat::kRobotLog ? ReadHetslamRobotLog(path, options, log)
+                                                            : ReadCarmen(path, options, log);
+  if (!status.ok()) return status;
+  for (const Measurement& m : log->measurements) log->num_scans += std::holds_alternative<LaserReading>(m);
+  return Status::Ok();
+}
+
+}  // namespace hetslam

@@ -1,0 +1,60 @@
+// One reader entry point for every log format: a file becomes a single time-ordered stream of
+// measurements (core/measurement.h), the input of an online estimator. Format detection lives
+// here: a file whose first non-blank, non-comment line starts with `HSLOG` is a hetslam robot
+// log (core/robot_log.h), anything else is read as a CARMEN log (core/carmen_log.h).
+//
+// Order: the messages of each kind stay in file order (a kind whose stamps go backwards is not
+// re-sorted; the readers count and report that), and the kinds are merged by stamp; at equal
+// stamps in the order odometry, command, MARG, attitude, altitude, laser, image (a scan sees the
+// motion and attitude readings stamped with it). A CARMEN scan keeps the odometry pose its line
+// stores; the log's ODOM lines become odometry readings.
+#ifndef HETSLAM_CORE_MEASUREMENT_LOG_H_
+#define HETSLAM_CORE_MEASUREMENT_LOG_H_
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/measurement.h"
+#include "core/status.h"
+#include "core/trajectory_io.h"
+
+namespace hetslam {
+
+enum class LogFormat { kCarmen, kRobotLog };
+const char* LogFormatName(LogFormat format);  // "CARMEN log", "hetslam robot log"
+
+// Which format `path` is in (see above); an error naming the file if it cannot be opened.
+Status DetectLogFormat(const std::string& path, LogFormat* format);
+
+struct MeasurementLogOptions {
+  bool lenient = false;  // skip malformed lines with a count instead of failing
+  // CARMEN FLASER lines record neither field of view nor max range (PARAM lines override).
+  double flaser_fov_radians = M_PI;
+  double flaser_max_range_meters = 81.0;
+  int max_warnings_kept = 10;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct MeasurementLog {
+  std::string path;
+  LogFormat format = LogFormat::kCarmen;
+  std::map<std::string, std::string> params;
+  std::vector<Measurement> measurements;  // merged by stamp, see above
+  // The log's ground truth as planar world_T_body (x, y, yaw of a robot log's TRUTH); empty
+  // for CARMEN logs.
+  std::vector<StampedPose2> truth;
+  std::vector<std::string> warnings;  // first few, "file:line: message"
+  int malformed_lines_skipped = 0;    // lenient mode only
+  int num_scans = 0;
+
+  // The time span of the laser scans (0 without scans).
+  double ScanDurationSeconds() const;
+};
+
+Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_MEASUREMENT_LOG_H_

@@ -1,0 +1,208 @@
+// Local SLAM: one robot's scan-to-submap front end (paper §III-C/§III-E, DESIGN.md "local SLAM").
+//
+// Each scan arrives as prepared points (PrepareScanPoints: 2.5D projection, floor hits
+// dropped, labels, matching subset with weights) with a predicted pose in the front end's own
+// drifting "local" frame. It is matched (frontends/scan_matcher.h) against the older of the (up
+// to) two active submaps and inserted into both. A submap is a LaserMap in its own frame, that
+// of the local pose of its first scan; a new one starts every scans_per_submap / 2 scans and a
+// submap is finished (frozen, handed out in the result) after scans_per_submap scans. With
+// scans_per_submap = 0 there is one submap that never finishes: the front end matches against
+// one global map.
+//
+// AddScan returns a LocalResult (the pose, the match with its information matrix, the points,
+// the submaps the scan went into, a submap that just finished): the submap graph
+// (frontends/submap_graph.h) takes it as a node. Everything a scan changes lives in one
+// copyable value, LocalSlamState (the active submaps with their maps, the recent poses), so a
+// particle of a particle filter can be one LocalSlam.
+#ifndef HETSLAM_FRONTENDS_LOCAL_SLAM_H_
+#define HETSLAM_FRONTENDS_LOCAL_SLAM_H_
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/laser_map.h"
+#include "core/laser_scan.h"
+#include "core/se2.h"
+#include "core/trajectory_io.h"
+#include "frontends/scan_matcher.h"
+
+namespace hetslam {
+
+enum class MotionPrediction {
+  kStationary,        // predict the last pose
+  kConstantVelocity,  // last pose ∘ (fraction of the last scan-to-scan motion)
+  kOdometry,          // last pose ∘ increment of an external motion source (odometry, the EKF)
+};
+
+// Parses "stationary", "constant_velocity", "odometry"; false on anything else.
+bool ParseMotionPrediction(const std::string& name, MotionPrediction* prediction);
+
+struct LocalSlamOptions {
+  OccupancyGridOptions grid;
+  LikelihoodFieldOptions field;
+  ScanMatcherOptions matcher = DefaultFrontEndMatcherOptions();
+  // Scans per submap (a new submap starts every half of it); 0: one global map.
+  int scans_per_submap = 40;
+  MotionPrediction prediction = MotionPrediction::kConstantVelocity;
+  // Fractions of the last scan-to-scan translation (in the robot frame) and heading change
+  // extrapolated by kConstantVelocity (0 = stationary). Heading changes of robots without
+  // odometry come in bursts (turn, then go straight), so by default only translation is
+  // extrapolated.
+  double velocity_fraction = 0.5;
+  double angular_velocity_fraction = 0.0;
+  // Points farther than this are not used (long ranges amplify yaw error and cost time).
+  double max_point_range_meters = 30.0;
+  // Points used for matching are thinned to one per voxel of this size (0 = all points);
+  // the map always receives every point.
+  double matching_voxel_meters = 0.20;
+  // Scans with fewer valid points are not matched or inserted (counted as skipped).
+  int min_points = 20;
+  // With a known body attitude (a tilting head, a UAV), the scan is projected under the 2.5D
+  // assumption (core/laser_scan.h ProjectScan, paper §III-D) and end points lower than this
+  // above the floor are floor hits: neither matched nor mapped (walls are vertical, so a wall
+  // hit at any other height projects onto the wall).
+  double floor_max_height_meters = 0.08;
+  // Degenerate scans (a corridor's two parallel walls, a tilted head seeing side walls only):
+  // when the smaller eigenvalue of the match's translational information (J^T J of the scan
+  // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps
+  // the prediction along the weak direction and takes the match's correction only along the
+  // strong one (solution remapping; there the score is flat and the matched position is
+  // noise). Applied only to external predictions (odometry, the EKF: see Prediction): the
+  // front end's own extrapolation carries no information of its own. 0 = always take the
+  // whole match.
+  double degenerate_eigenvalue_ratio = 0.3;
+  // End points of neighbouring beams closer than this are joined by points at the grid
+  // resolution (0 = off): a wall seen at a grazing angle then is a line in the map, not a
+  // dotted one whose gaps bias matching towards where the wall was mapped densely.
+  double densify_max_gap_meters = 0.0;
+
+  // ScanMatcherOptions with a narrow first try of ±0.4 m, ±10° accepted from a score of 0.4:
+  // scan-to-scan motion is far below the full windows on most logs.
+  static ScanMatcherOptions DefaultFrontEndMatcherOptions();
+  bool IsValid(std::string* error) const;
+};
+
+// What a scan point is (paper §III-E). Today PrepareScanPoints labels what the 2.5D
+// projection tells: floor hits (dropped from `all`) and structure; the semantics issue adds
+// floor obstacles and walls.
+enum class PointLabel : uint8_t { kStructure = 0, kFloor = 1, kFloorObstacle = 2, kWall = 3 };
+
+// A scan's valid end points in the robot frame within max_point_range_meters (for the map),
+// one label and one height each, and their voxel-thinned subset (for matching) with a matching
+// weight each. With an attitude: the 2.5D projection, floor hits removed (counted); without,
+// the scan is taken as level (height 0).
+struct ScanPoints {
+  std::vector<Eigen::Vector2f> all;
+  std::vector<PointLabel> labels;    // one per point of `all`
+  std::vector<float> heights_meters; // one per point of `all`: height above the floor
+  int floor_points = 0;              // removed as floor hits
+  std::vector<Eigen::Vector2f> matching;
+  // Scan matcher weights, one per point of `matching`; empty = every weight 1.
+  std::vector<float> matching_weights;
+  Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();  // sensor origin, robot frame
+};
+
+ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
+                             const std::optional<BodyAttitude>& attitude = std::nullopt);
+
+// The next pose predicted from the trajectory so far (and, for kOdometry, the odometry
+// increment from `last_motion` at the last pose to `motion` now; without both, the last pose).
+// Identity for an empty trajectory.
+Pose2 PredictNextPose(const LocalSlamOptions& options, const std::vector<StampedPose2>& trajectory,
+                      const std::optional<Pose2>& last_motion, const std::optional<Pose2>& motion);
+
+// Whether the front end may try the matcher's narrow windows first (external predictions
+// always, see Prediction); otherwise when the last scan-to-scan motion was at most half the narrow
+// windows (then the constant-velocity prediction is close). False when the narrow try is off.
+bool NarrowSearchTrusted(const LocalSlamOptions& options, const std::vector<StampedPose2>& trajectory);
+
+// The matched pose with the correction from `predicted` removed along a degenerate direction
+// (see degenerate_eigenvalue_ratio); `match.pose` itself when the match constrains both
+// directions, the ratio is 0 or the match carries no information matrix. Both poses in the
+// frame the match was made in. `*degenerate` (optional) tells whether a direction was held.
+Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
+                          bool* degenerate = nullptr);
+
+// An active submap: its map (owned: copying the state copies it) and where it sits.
+struct ActiveSubmap {
+  int index = 0;          // this robot's submap number, in creation order
+  Pose2 local_T_submap;   // front end frame
+  LaserMap map;           // in the submap frame
+  int num_scans = 0;
+};
+
+// Everything AddScan changes: one copyable value.
+struct LocalSlamState {
+  std::vector<ActiveSubmap> active;           // oldest first
+  std::vector<StampedPose2> recent;           // the last (up to) two inserted local poses
+  std::optional<Pose2> last_odometry;         // odometry pose at the last inserted scan
+  int next_submap_index = 0;
+  int num_inserted = 0;
+};
+
+struct LocalResult {
+  double stamp_seconds = 0.0;
+  bool inserted = false;       // false: too few points (nothing else below is set)
+  Pose2 predicted;             // local frame
+  Pose2 local_pose;            // local frame, after matching
+  bool matched = false;        // a match was tried (not on the first scan)
+  bool degenerate = false;     // the weak direction kept the prediction
+  ScanMatchResult match;
+  ScanPoints points;
+  // Submaps this scan started (their local pose) and went into (with its pose in each).
+  struct NewSubmap {
+    int index = 0;
+    Pose2 local_T_submap;
+  };
+  std::vector<NewSubmap> new_submaps;
+  struct Insertion {
+    int submap = 0;
+    Pose2 submap_T_node;
+  };
+  std::vector<Insertion> insertions;
+  // A submap that this scan completed: frozen, no longer active.
+  struct FinishedSubmap {
+    int index = 0;
+    std::shared_ptr<const LaserMap> map;
+  };
+  std::optional<FinishedSubmap> finished;
+};
+
+// A scan's predicted pose (local frame). `external`: it comes from a motion source (odometry,
+// the EKF with commands or MARG rates): then the narrow first search is always tried and a
+// degenerate match keeps it along the weak direction (see degenerate_eigenvalue_ratio);
+// otherwise it is the front end's own extrapolation. `motion`: the odometry pose at the scan
+// when the prediction is kOdometry (kept for the next prediction).
+struct Prediction {
+  Pose2 pose;
+  bool external = false;
+  std::optional<Pose2> motion;
+};
+
+class LocalSlam {
+ public:
+  // CHECK-fails on invalid options (validate user input with IsValid first).
+  explicit LocalSlam(const LocalSlamOptions& options);
+
+  // The front end's own prediction for a scan now (options.prediction), given the odometry
+  // pose at the scan for kOdometry (without one: the last pose).
+  Prediction Predict(const std::optional<Pose2>& odometry) const;
+  // Matches and inserts one prepared scan.
+  LocalResult AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction);
+
+  const LocalSlamState& state() const { return state_; }
+  void set_state(LocalSlamState state) { state_ = std::move(state); }
+  const LocalSlamOptions& options() const { return options_; }
+
+ private:
+  LocalSlamOptions options_;
+  ScanMatcher matcher_;
+  LocalSlamState state_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FRONTENDS_LOCAL_SLAM_H_

@@ -1,0 +1,177 @@
+#include "frontends/loop_closer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <sstream>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+
+ScanMatcherOptions LoopCloserOptions::DefaultMatcherOptions() {
+  ScanMatcherOptions options;
+  options.linear_search_window_meters = 2.0;                    // paper §III-A: 2 m radius
+  options.angular_search_window_radians = 45.0 * M_PI / 180.0;  // paper §III-A: ±45°
+  options.min_correlative_score = 0.5;
+  options.branch_and_bound_depth = 5;
+  // The window is the whole loop-closure search: no wider retry.
+  options.fallback_linear_search_window_meters = 0.0;
+  options.fallback_angular_search_window_radians = 0.0;
+  return options;
+}
+
+ScanMatcherOptions LoopCloserOptions::DefaultWideMatcherOptions() {
+  ScanMatcherOptions options = DefaultMatcherOptions();
+  // No motion prior: the point of the wide search is a pose far from the estimate.
+  options.translation_penalty_per_square_meter = 0.0;
+  options.rotation_penalty_per_square_radian = 0.0;
+  options.branch_and_bound_depth = 6;
+  return options;
+}
+
+bool LoopCloserOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  std::string sub;
+  if (!matcher.IsValid(&sub)) msg << "matcher: " << sub;
+  if (!wide_matcher.IsValid(&sub)) msg << "wide_matcher: " << sub;
+  if (!(wide_window_meters > 0 && wide_angular_window_radians > 0 && wide_search_spacing_meters >= 0 &&
+        wide_agreement_meters > 0 && wide_agreement_radians > 0))
+    msg << "wide search windows and agreement bounds must be > 0, its spacing >= 0; ";
+  if (!(wide_min_score >= 0 && wide_min_score < 1)) msg << "wide_min_score must be in [0, 1); ";
+  if (!(min_score >= 0 && min_score < 1)) msg << "min_score must be in [0, 1); ";
+  if (!(search_min_travel_meters >= 0 && search_min_turn_radians >= 0))
+    msg << "search travel/turn thresholds must be >= 0; ";
+  if (min_node_separation < 0) msg << "min_node_separation must be >= 0; ";
+  if (!(gate_base_meters >= 0 && gate_meters_per_meter >= 0 && gate_base_radians >= 0 && gate_radians_per_meter >= 0))
+    msg << "gate parameters must be >= 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+LoopCloser::LoopCloser(const LoopCloserOptions& options)
+    : options_(options), matcher_(options.matcher), wide_matcher_(options.wide_matcher) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid LoopCloserOptions: " << error;
+}
+
+void LoopCloser::AddTravel(double meters) {
+  travel_since_solve_meters_ += meters;
+  travel_since_wide_search_meters_ += meters;
+}
+
+LoopSearchResult LoopCloser::Search(const SubmapGraph& graph, const NodeId& node) {
+  LoopSearchResult result;
+  const Pose2& local_pose = graph.NodeLocalPose(node);
+  if (last_search_pose_.has_value()) {
+    const Pose2 moved = Between(*last_search_pose_, local_pose);
+    if (moved.translation().norm() < options_.search_min_travel_meters &&
+        std::abs(moved.theta()) < options_.search_min_turn_radians) {
+      return result;
+    }
+  }
+  last_search_pose_ = local_pose;
+  const auto start = std::chrono::steady_clock::now();
+  // The gate rejects any closure farther from the estimate than the drift since the last
+  // solve allows, so the search window need not reach beyond it (same result, less work).
+  const double travel = travel_since_solve_meters_;
+  const double gate_meters = options_.gate_base_meters + options_.gate_meters_per_meter * travel;
+  const double gate_radians = options_.gate_base_radians + options_.gate_radians_per_meter * travel;
+  const double linear_window = std::min(options_.matcher.linear_search_window_meters, gate_meters);
+  const double angular_window = std::min(options_.matcher.angular_search_window_radians, gate_radians);
+  SearchSubmaps(graph, node, linear_window, angular_window, gate_meters, gate_radians, options_.min_score,
+                options_.matcher.linear_search_window_meters, &result.closures, nullptr);
+  if (!result.closures.empty()) {
+    pending_wide_.reset();
+  } else if (options_.wide_search && gate_meters > options_.matcher.linear_search_window_meters &&
+             travel_since_wide_search_meters_ >= options_.wide_search_spacing_meters) {
+    WideSearch(graph, node, gate_meters, gate_radians, &result);
+  }
+  stats_.search_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+void LoopCloser::WideSearch(const SubmapGraph& graph, const NodeId& node, double gate_meters, double gate_radians,
+                            LoopSearchResult* result) {
+  travel_since_wide_search_meters_ = 0.0;
+  std::optional<WideCandidate> best;
+  const double window = std::min(gate_meters, options_.wide_window_meters);
+  SearchSubmaps(graph, node, window, std::min(gate_radians, options_.wide_angular_window_radians), gate_meters,
+                gate_radians, options_.wide_min_score, window, nullptr, &best);
+  if (!best.has_value()) return;
+  ++stats_.wide_candidates;
+  // One wide match may be an alias (a corridor, a repeated room); two matches of different
+  // nodes that call for the same correction of the drifting estimate are taken as real.
+  if (pending_wide_.has_value() && pending_wide_->closure.node != node) {
+    const Pose2 disagreement = Between(pending_wide_->world_correction, best->world_correction);
+    if (disagreement.translation().norm() <= options_.wide_agreement_meters &&
+        std::abs(disagreement.theta()) <= options_.wide_agreement_radians) {
+      // Confirmed closures enter without robust loss: they are metres from the estimate, where
+      // the Huber loss of ordinary closures would leave them almost no pull. Alone against
+      // the whole chain they leave a few degrees of residual, so the solve that brings them in
+      // does not check them; the ordinary closures the corrected estimate then finds decide.
+      for (ConstraintCandidate closure : {pending_wide_->closure, best->closure}) {
+        closure.robust = false;
+        closure.exempt_from_next_check = true;
+        result->closures.push_back(closure);
+      }
+      stats_.wide_accepted += 2;
+      pending_wide_.reset();
+      result->solve_now = true;
+      return;
+    }
+  }
+  pending_wide_ = best;
+}
+
+void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, double linear_window,
+                               double angular_window, double gate_meters, double gate_radians, double min_score,
+                               double margin_meters, std::vector<ConstraintCandidate>* closures,
+                               std::optional<WideCandidate>* wide_best) {
+  const Pose2 robot_T_node = graph.NodePose(node);
+  const std::vector<Eigen::Vector2f>& points = graph.NodePoints(node).matching;
+  const std::vector<float>& weights = graph.NodePoints(node).matching_weights;
+  const int num_submaps = graph.num_submaps(node.robot);
+  for (int s = 0; s < num_submaps; ++s) {
+    const SubmapId submap{node.robot, s};
+    const LaserMap* map = graph.FinishedSubmapMap(submap);
+    if (map == nullptr) continue;
+    // The front end built this submap moments ago: the intra-submap chain already ties the
+    // node to it, a closure would add little but cost a search.
+    if (node.index - graph.SubmapLastNode(submap) < options_.min_node_separation) continue;
+    // Only submaps the node could be inside: its estimated position within the box of the
+    // submap's own trajectory, grown by the search window.
+    const Pose2 robot_T_submap = graph.SubmapPose(submap);
+    const Pose2 predicted = robot_T_submap.inverse() * robot_T_node;
+    Eigen::Vector2d box_min, box_max;
+    graph.SubmapBox(submap, &box_min, &box_max);
+    const Eigen::Vector2d p = predicted.translation();
+    if ((p.array() < box_min.array() - margin_meters).any() || (p.array() > box_max.array() + margin_meters).any()) {
+      continue;
+    }
+    const ScanMatcher& matcher = wide_best != nullptr ? wide_matcher_ : matcher_;
+    ++(wide_best != nullptr ? stats_.wide_searches : stats_.searches);
+    const ScanMatchResult match =
+        matcher.MatchWithinWindow(*map, predicted, points, linear_window, angular_window, weights);
+    if (!match.converged || match.score < min_score) continue;
+    const Pose2 correction = Between(predicted, match.pose);
+    if (correction.translation().norm() > gate_meters || std::abs(correction.theta()) > gate_radians) {
+      ++stats_.rejected_by_gate;
+      continue;
+    }
+    ConstraintCandidate closure;
+    closure.submap = submap;
+    closure.node = node;
+    closure.submap_T_node = match.pose;
+    closure.score = match.score;
+    if (wide_best != nullptr) {
+      if (!wide_best->has_value() || match.score > (*wide_best)->closure.score) {
+        const Pose2 matched = robot_T_submap * match.pose;
+        *wide_best = WideCandidate{closure, matched * robot_T_node.inverse()};
+      }
+      continue;
+    }
+    closures->push_back(closure);
+  }
+}
+
+}  // namespace hetslam

@@ -1,0 +1,115 @@
+// Loop closure search (paper §III-A: "loop closure ... by scan-matching" within a bounded
+// window): matches a new node against the finished submaps of its robot and returns the
+// closures it finds as candidates; the caller adds them to the submap graph.
+//
+// Standard search: every finished submap at least `min_node_separation` nodes old whose box
+// (grown by the window) holds the node's estimate, within ±window around the graph's estimate,
+// narrowed to the drift gate: a closure is accepted only if it moves the node by at most
+// base + rate * (distance travelled since the graph was last solved) — drift grows with travel,
+// aliases (corridors, repeated rooms) need not. Searches run again only after the robot moved
+// `search_min_travel_meters` or turned `search_min_turn_radians`.
+//
+// Wide search (long corridors): once the drift bound exceeds the window and the standard search
+// found nothing, the node is also searched over ±min(drift bound, wide_window_meters) and
+// ±min(angular bound, wide_angular_window_radians) without motion prior, at most once per
+// wide_search_spacing_meters of travel. A wide result (score >= wide_min_score, within the
+// bound) is only a candidate until a wide result of a later node confirms it: their
+// corrections of the graph's estimate (world frame) agree within wide_agreement_*; then both
+// are returned without robust loss, exempt from the next consistency check, and the caller is
+// asked to solve at once (a correction of metres must reach the next nodes' estimates).
+#ifndef HETSLAM_FRONTENDS_LOOP_CLOSER_H_
+#define HETSLAM_FRONTENDS_LOOP_CLOSER_H_
+
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "frontends/scan_matcher.h"
+#include "frontends/submap_graph.h"
+
+namespace hetslam {
+
+struct LoopCloserOptions {
+  ScanMatcherOptions matcher = DefaultMatcherOptions();
+  double min_score = 0.55;                // mean likelihood at the refined pose
+  double search_min_travel_meters = 0.3;  // search again only after moving this far
+  double search_min_turn_radians = 0.35;  // ... or turning this much
+  // Submaps whose last scan is fewer than this many nodes old are not searched.
+  int min_node_separation = 40;
+  double gate_base_meters = 0.3;
+  double gate_meters_per_meter = 0.1;
+  double gate_base_radians = 0.1;
+  double gate_radians_per_meter = 0.02;
+  bool wide_search = true;
+  ScanMatcherOptions wide_matcher = DefaultWideMatcherOptions();
+  double wide_window_meters = 8.0;
+  double wide_angular_window_radians = M_PI;
+  double wide_min_score = 0.6;
+  double wide_search_spacing_meters = 1.0;
+  double wide_agreement_meters = 0.3;
+  double wide_agreement_radians = 0.05;
+
+  // ±2 m / ±45° (paper §III-A), no wider retry.
+  static ScanMatcherOptions DefaultMatcherOptions();
+  // The same without motion prior, one level deeper branch and bound.
+  static ScanMatcherOptions DefaultWideMatcherOptions();
+  bool IsValid(std::string* error) const;
+};
+
+struct LoopCloserStats {
+  int searches = 0;            // (node, submap) matches attempted
+  int rejected_by_gate = 0;
+  int wide_searches = 0;       // (node, submap) matches over the wide window
+  int wide_candidates = 0;     // wide results above the score, within the bound
+  int wide_accepted = 0;       // confirmed wide candidates
+  double search_seconds = 0.0;
+};
+
+struct LoopSearchResult {
+  std::vector<ConstraintCandidate> closures;
+  bool solve_now = false;  // a confirmed wide correction: solve before the next node
+};
+
+class LoopCloser {
+ public:
+  // CHECK-fails on invalid options.
+  explicit LoopCloser(const LoopCloserOptions& options);
+
+  // Distance the robot moved (grows the drift gate) and that a solve happened (resets it).
+  void AddTravel(double meters);
+  void OnSolve() { travel_since_solve_meters_ = 0.0; }
+
+  // Searches for closures of `node` (just added to `graph`) against its robot's finished submaps.
+  LoopSearchResult Search(const SubmapGraph& graph, const NodeId& node);
+
+  const LoopCloserStats& stats() const { return stats_; }
+  const LoopCloserOptions& options() const { return options_; }
+
+ private:
+  struct WideCandidate {
+    ConstraintCandidate closure;
+    Pose2 world_correction;  // matched pose relative to the graph's estimate, robot frame
+  };
+  // Matches the node against every finished, old-enough submap whose box (grown by
+  // `margin_meters`) holds its estimate. Appends closures scoring >= min_score within the gate
+  // to *closures; with `wide_best`, uses the wide matcher and keeps only the best result there.
+  void SearchSubmaps(const SubmapGraph& graph, const NodeId& node, double linear_window, double angular_window,
+                     double gate_meters, double gate_radians, double min_score, double margin_meters,
+                     std::vector<ConstraintCandidate>* closures, std::optional<WideCandidate>* wide_best);
+  void WideSearch(const SubmapGraph& graph, const NodeId& node, double gate_meters, double gate_radians,
+                  LoopSearchResult* result);
+
+  LoopCloserOptions options_;
+  ScanMatcher matcher_;
+  ScanMatcher wide_matcher_;
+  std::optional<Pose2> last_search_pose_;  // local frame
+  double travel_since_solve_meters_ = 0.0;
+  double travel_since_wide_search_meters_ = 0.0;
+  std::optional<WideCandidate> pending_wide_;
+  LoopCloserStats stats_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FRONTENDS_LOOP_CLOSER_H_

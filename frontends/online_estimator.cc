@@ -1,0 +1,349 @@
+#include "frontends/online_estimator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+namespace {
+
+bool Finite(const Pose2& pose) { return std::isfinite(pose.x()) && std::isfinite(pose.y()) && std::isfinite(pose.theta()); }
+
+std::string StampText(double stamp_seconds) {
+  std::ostringstream out;
+  out.precision(17);
+  out << stamp_seconds;
+  return out.str();
+}
+
+// "line N: " when the measurement came from a file line.
+std::string Where(int line_number) { return line_number > 0 ? "line " + std::to_string(line_number) + ": " : ""; }
+
+// The latest element of a stamp-ordered deque at or before `stamp`, if any.
+template <typename T>
+const T* LatestAtOrBefore(const std::deque<T>& history, double stamp_seconds) {
+  auto it = std::upper_bound(history.begin(), history.end(), stamp_seconds,
+                             [](double stamp, const T& item) { return stamp < item.stamp_seconds; });
+  return it == history.begin() ? nullptr : &*(it - 1);
+}
+
+}  // namespace
+
+bool ParseAttitudeSource(const std::string& name, AttitudeSource* source) {
+  if (name == "level") {
+    *source = AttitudeSource::kLevel;
+  } else if (name == "marg") {
+    *source = AttitudeSource::kMargFilter;
+  } else if (name == "logged") {
+    *source = AttitudeSource::kLogged;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+bool OnlineEstimatorOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  std::string sub;
+  if (!local.IsValid(&sub)) msg << "local: " << sub;
+  if (!loop.IsValid(&sub)) msg << "loop: " << sub;
+  if (!graph.IsValid(&sub)) msg << "graph: " << sub;
+  if (!marg.IsValid(&sub)) msg << "marg: " << sub << "; ";
+  if (!ekf.IsValid(&sub)) msg << "ekf: " << sub << "; ";
+  if (loop_closure && local.scans_per_submap < 2)
+    msg << "loop closure needs local.scans_per_submap >= 2 (got " << local.scans_per_submap << "); ";
+  if (solve_every_n_loop_closures < 1) msg << "solve_every_n_loop_closures must be >= 1; ";
+  if (solve_min_new_nodes < 0) msg << "solve_min_new_nodes must be >= 0; ";
+  if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
+  if (!(attitude_max_age_seconds >= 0 && altitude_max_age_seconds >= 0 && odometry_max_age_seconds >= 0))
+    msg << "attitude, altitude and odometry ages must be >= 0; ";
+  if (!(scan_match_translation_sigma_meters > 0 && scan_match_rotation_sigma_radians > 0))
+    msg << "scan-match sigmas must be > 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+OnlineEstimator::OnlineEstimator(const OnlineEstimatorOptions& options)
+    : options_(options),
+      local_(options.local),
+      graph_(std::make_unique<SubmapGraph>(options.graph)),
+      loop_(options.loop),
+      marg_filter_(options.marg),
+      ekf_(options.ekf) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid OnlineEstimatorOptions: " << error;
+}
+
+OnlineEstimator::~OnlineEstimator() = default;
+
+Status OnlineEstimator::Add(const Measurement& measurement) {
+  if (finished_) return Status::Error("OnlineEstimator::Add after Finish()");
+  const double stamp = StampOf(measurement);
+  if (!std::isfinite(stamp)) {
+    return Status::Error(Where(LineOf(measurement)) + MeasurementKindName(measurement) + " stamp is not finite");
+  }
+  // The EKF runs in the local frame from the first measurement it uses.
+  const bool ekf_input = std::holds_alternative<LaserReading>(measurement) ||
+                         std::holds_alternative<MargSample>(measurement) ||
+                         (options_.use_commands && std::holds_alternative<VelocityCommand>(measurement)) ||
+                         std::holds_alternative<AltitudeReading>(measurement);
+  if (ekf_input && !ekf_.initialized()) {
+    StateEstimate initial;
+    initial.stamp_seconds = stamp;
+    initial.covariance = EkfMatrix::Identity();
+    for (int i : {kX, kY, kZ, kYaw}) initial.covariance(i, i) = 1e-6;
+    ekf_.Initialize(initial);
+  }
+  Status status;
+  if (const auto* laser = std::get_if<LaserReading>(&measurement)) {
+    status = AddScan(*laser);
+  } else if (const auto* marg = std::get_if<MargSample>(&measurement)) {
+    status = AddMarg(*marg);
+  } else if (const auto* command = std::get_if<VelocityCommand>(&measurement)) {
+    if (options_.use_commands) {
+      if (!first_motion_stamp_.has_value() || stamp < *first_motion_stamp_) first_motion_stamp_ = stamp;
+      status = ekf_.AddCommand(*command);
+      if (!status.ok()) ++stats_.ekf_errors;
+    }
+  } else if (const auto* attitude = std::get_if<AttitudeReading>(&measurement)) {
+    if (!(std::isfinite(attitude->roll_radians) && std::isfinite(attitude->pitch_radians))) {
+      return Status::Error(Where(attitude->line_number) + "attitude is not finite");
+    }
+    if (!logged_attitudes_.empty() && stamp < logged_attitudes_.back().stamp_seconds) {
+      return Status::Error(Where(attitude->line_number) + "attitude stamp " + StampText(stamp) +
+                           " is before the previous one");
+    }
+    logged_attitudes_.push_back(*attitude);
+  } else if (const auto* altitude = std::get_if<AltitudeReading>(&measurement)) {
+    if (!std::isfinite(altitude->height_meters)) {
+      return Status::Error(Where(altitude->line_number) + "altitude is not finite");
+    }
+    if (!altitudes_.empty() && stamp < altitudes_.back().stamp_seconds) {
+      return Status::Error(Where(altitude->line_number) + "altitude stamp " + StampText(stamp) +
+                           " is before the previous one");
+    }
+    altitudes_.push_back(*altitude);
+    status = ekf_.AddAltitude({stamp, altitude->height_meters, 1e-4});
+    if (!status.ok()) ++stats_.ekf_errors;
+  } else if (const auto* odometry = std::get_if<OdometryReading>(&measurement)) {
+    if (!options_.use_odometry) return Status::Ok();
+    if (!Finite(odometry->pose)) return Status::Error(Where(odometry->line_number) + "odometry pose is not finite");
+    if (!odometry_.empty() && stamp < odometry_.back().stamp_seconds) {
+      return Status::Error(Where(odometry->line_number) + "odometry stamp " + StampText(stamp) +
+                           " is before the previous one");
+    }
+    odometry_.push_back(*odometry);
+  }
+  // Camera images: the team merger's (tag sightings); nothing for a single robot's SLAM.
+  Prune(stamp);
+  return status;
+}
+
+void OnlineEstimator::Prune(double newest_stamp_seconds) {
+  const double keep_after = newest_stamp_seconds - options_.ekf.history_window_seconds - 1.0;
+  auto prune = [keep_after](auto* history) {
+    // Keep the newest entry before the window too: it is "the latest at or before" for a scan
+    // at the window's start.
+    while (history->size() > 1 && (*history)[1].stamp_seconds < keep_after) history->pop_front();
+  };
+  prune(&marg_attitudes_);
+  prune(&logged_attitudes_);
+  prune(&altitudes_);
+  prune(&odometry_);
+}
+
+Status OnlineEstimator::AddMarg(const MargSample& sample) {
+  ++stats_.marg_samples;
+  MargAttitude attitude;
+  const Status status = marg_filter_.Add(sample, &attitude);
+  if (!status.ok()) {
+    ++stats_.marg_errors;
+    return Status::Error(Where(sample.line_number) + status.message());
+  }
+  if (!first_motion_stamp_.has_value() || sample.stamp_seconds < *first_motion_stamp_) {
+    first_motion_stamp_ = sample.stamp_seconds;
+  }
+  marg_attitudes_.push_back(attitude);
+  const Status ekf = ekf_.AddMarg(MargMeasurementFromAttitude(attitude, /*use_heading=*/false, 0.0));
+  if (!ekf.ok()) {
+    ++stats_.ekf_errors;
+    return Status::Error(Where(sample.line_number) + ekf.message());
+  }
+  return Status::Ok();
+}
+
+std::optional<BodyAttitude> OnlineEstimator::AttitudeAt(double stamp_seconds) const {
+  BodyAttitude attitude;
+  switch (options_.attitude_source) {
+    case AttitudeSource::kLevel:
+      return std::nullopt;
+    case AttitudeSource::kMargFilter: {
+      const MargAttitude* latest = LatestAtOrBefore(marg_attitudes_, stamp_seconds);
+      if (latest == nullptr || stamp_seconds - latest->stamp_seconds > options_.attitude_max_age_seconds) {
+        return std::nullopt;
+      }
+      // Carried to the scan's stamp with the filter's Euler rates (at most one sample period).
+      const double dt = stamp_seconds - latest->stamp_seconds;
+      attitude.roll_radians = latest->roll_radians + dt * latest->euler_rates_radps.x();
+      attitude.pitch_radians = latest->pitch_radians + dt * latest->euler_rates_radps.y();
+      break;
+    }
+    case AttitudeSource::kLogged: {
+      const AttitudeReading* latest = LatestAtOrBefore(logged_attitudes_, stamp_seconds);
+      if (latest == nullptr || stamp_seconds - latest->stamp_seconds > options_.attitude_max_age_seconds) {
+        return std::nullopt;
+      }
+      attitude.roll_radians = latest->roll_radians;
+      attitude.pitch_radians = latest->pitch_radians;
+      break;
+    }
+  }
+  const AltitudeReading* altitude = LatestAtOrBefore(altitudes_, stamp_seconds);
+  if (altitude != nullptr && stamp_seconds - altitude->stamp_seconds <= options_.altitude_max_age_seconds) {
+    attitude.base_height_meters = altitude->height_meters;
+  }
+  return attitude;
+}
+
+Status OnlineEstimator::AddScan(const LaserReading& reading) {
+  const double stamp = reading.scan.stamp_seconds;
+  ++stats_.scans;
+  // A log's clock glitch (a scan stamped before its predecessor) is processed in arrival order
+  // and counted: the file order is the order the scans were taken in.
+  if (last_scan_stamp_.has_value() && stamp < *last_scan_stamp_) ++stats_.scans_stamped_backwards;
+  // The EKF's estimate at the scan: from the measurements stamped at or before it.
+  StateEstimate at_scan;
+  const Status ekf_status = ekf_.EstimateAt(stamp, &at_scan);
+  if (!ekf_status.ok()) {
+    ++stats_.scans_refused;
+    return Status::Error(Where(reading.line_number) + "scan at " + StampText(stamp) +
+                         " arrived too late for the EKF history: " + ekf_status.message());
+  }
+  last_scan_stamp_ = last_scan_stamp_.has_value() ? std::max(*last_scan_stamp_, stamp) : stamp;
+
+  const std::optional<BodyAttitude> attitude = AttitudeAt(stamp);
+  if (!attitude.has_value() && (!marg_attitudes_.empty() || !logged_attitudes_.empty())) {
+    ++stats_.scans_without_attitude;
+  }
+  ScanPoints points = PrepareScanPoints(options_.local, reading.scan, attitude);
+  stats_.floor_points += points.floor_points;
+
+  // Prediction: odometry, else the EKF when motion inputs reach the scan, else extrapolation.
+  std::optional<Pose2> odometry;
+  if (options_.use_odometry) {
+    if (reading.has_odometry_pose) {
+      odometry = reading.odometry_pose;
+    } else if (const OdometryReading* latest = LatestAtOrBefore(odometry_, stamp)) {
+      if (stamp - latest->stamp_seconds <= options_.odometry_max_age_seconds) odometry = latest->pose;
+    }
+  }
+  Prediction prediction = local_.Predict(odometry);
+  if (!prediction.external && first_motion_stamp_.has_value() && *first_motion_stamp_ <= stamp) {
+    prediction.pose = at_scan.pose();
+    prediction.external = true;
+    ++stats_.ekf_predicted_scans;
+  }
+  LocalResult result = local_.AddScan(stamp, std::move(points), prediction);
+  if (!result.inserted) {
+    ++stats_.skipped_too_few_points;
+    return Status::Ok();
+  }
+  if (result.matched && !result.match.converged) ++stats_.match_failures;
+  if (result.match.converged) match_scores_.push_back(result.match.score);
+  stats_.degenerate_matches += result.degenerate;
+  const Pose2 local_pose = result.local_pose;
+  const std::vector<StampedPose2>& recent = local_.state().recent;
+  const double step = recent.size() >= 2 ? (recent[1].pose.translation() - recent[0].pose.translation()).norm() : 0.0;
+
+  ScanMatchPose update;
+  update.stamp_seconds = stamp;
+  update.world_T_robot = local_pose;
+  const double st = options_.scan_match_translation_sigma_meters, sr = options_.scan_match_rotation_sigma_radians;
+  update.covariance = Eigen::Vector3d(st * st, st * st, sr * sr).asDiagonal();
+  if (!ekf_.AddScanMatchPose(update).ok()) ++stats_.ekf_errors;
+
+  const NodeId node = graph_->AddNode(options_.robot, std::move(result));
+  if (options_.loop_closure) {
+    loop_.AddTravel(step);
+    const LoopSearchResult found = loop_.Search(*graph_, node);
+    for (const ConstraintCandidate& closure : found.closures) {
+      if (graph_->AddConstraint(closure)) ++loop_closures_since_solve_;
+    }
+    if (found.solve_now) Solve(options_.max_iterations_final);
+    ++nodes_since_solve_;
+    if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures &&
+        nodes_since_solve_ >= options_.solve_min_new_nodes) {
+      Solve(options_.max_iterations_per_solve);
+    }
+  }
+  return Status::Ok();
+}
+
+void OnlineEstimator::Solve(int max_iterations) {
+  loop_closures_since_solve_ = 0;
+  nodes_since_solve_ = 0;
+  // The estimate of new nodes is corrected from here on: drift is counted afresh. (Closures
+  // accepted but not yet solved do not correct it, so the gate keeps growing until a solve.)
+  loop_.OnSolve();
+  if (!graph_->Solve(max_iterations).ok()) ++stats_.loop_solves_failed;
+}
+
+void OnlineEstimator::Finish() {
+  if (finished_) return;
+  finished_ = true;
+  if (options_.loop_closure && graph_->num_nodes(options_.robot) > 0) Solve(options_.max_iterations_final);
+}
+
+Pose2 OnlineEstimator::CurrentPose() const {
+  const int n = graph_->num_nodes(options_.robot);
+  if (n == 0) return Pose2::Identity();
+  if (ekf_.initialized()) return graph_->LocalToRobot(options_.robot) * ekf_.latest().pose();
+  return graph_->NodePose({options_.robot, n - 1});
+}
+
+Status OnlineEstimator::PoseAt(double stamp_seconds, Pose2* pose) const {
+  const int n = graph_->num_nodes(options_.robot);
+  if (n == 0) return Status::Error("PoseAt: no scan inserted yet");
+  StateEstimate estimate;
+  if (ekf_.initialized() && ekf_.EstimateAt(stamp_seconds, &estimate).ok()) {
+    *pose = graph_->LocalToRobot(options_.robot) * estimate.pose();
+    return Status::Ok();
+  }
+  const std::vector<StampedPose2> trajectory = Trajectory();
+  auto it = std::lower_bound(trajectory.begin(), trajectory.end(), stamp_seconds,
+                             [](const StampedPose2& p, double t) { return p.stamp_seconds < t; });
+  if (it == trajectory.begin()) {
+    *pose = it->pose;
+  } else if (it == trajectory.end()) {
+    *pose = trajectory.back().pose;
+  } else {
+    const StampedPose2& a = *(it - 1);
+    const StampedPose2& b = *it;
+    const double f = b.stamp_seconds > a.stamp_seconds ? (stamp_seconds - a.stamp_seconds) / (b.stamp_seconds - a.stamp_seconds) : 0.0;
+    const Pose2 delta = Between(a.pose, b.pose);
+    *pose = a.pose * Pose2(f * delta.translation(), f * delta.theta());
+  }
+  return Status::Ok();
+}
+
+std::vector<StampedPose2> OnlineEstimator::Trajectory() const { return graph_->Trajectory(options_.robot); }
+
+std::vector<StampedPose2> OnlineEstimator::LocalTrajectory() const {
+  std::vector<StampedPose2> trajectory;
+  const int n = graph_->num_nodes(options_.robot);
+  trajectory.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    const NodeId id{options_.robot, i};
+    trajectory.push_back({graph_->NodeStamp(id), graph_->NodeLocalPose(id)});
+  }
+  return trajectory;
+}
+
+std::unique_ptr<OccupancyGrid> OnlineEstimator::RenderMap() const {
+  return graph_->RenderMap(options_.robot, WithFieldMargin(options_.local.grid, options_.local.field));
+}
+
+}  // namespace hetslam

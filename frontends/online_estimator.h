@@ -1,0 +1,177 @@
+// One robot's online SLAM estimator: fed measurements (core/measurement.h) one at a time as
+// they arrive, it can say its pose, its map and its graph at any moment. Batch programs
+// (examples/hetslam_run.cc) are a loop over Add().
+//
+// Inside, per measurement kind:
+//   MARG sample  -> the MARG attitude filter (frontends/marg_filter.h): roll and pitch for the
+//                   2.5D projection of scans (attitude_source kMargFilter), and the attitude and
+//                   Euler rates (no heading) as an EKF update;
+//   attitude     -> kept for the projection when attitude_source is kLogged;
+//   altitude     -> the height of the body for the projection (UAV), and an EKF update;
+//   command      -> the EKF's prediction (paper eq. 3);
+//   odometry     -> kept for the front end's odometry prediction (use_odometry);
+//   laser scan   -> prepared (2.5D projection with the attitude at the scan's stamp, floor hits
+//                   dropped), predicted, matched by local SLAM (frontends/local_slam.h), its
+//                   node added to the submap graph (frontends/submap_graph.h), loop closures
+//                   searched (frontends/loop_closer.h) and the graph solved now and then; the
+//                   match then updates the EKF.
+//
+// The EKF state updater (frontends/ekf_state_updater.h) runs in the front end's local frame.
+// It predicts each scan's pose when the stream carries commands or MARG samples (else the
+// front end extrapolates its own motion, or uses odometry with use_odometry). Scans may arrive
+// later than the MARG samples, commands and altitudes stamped after them (a laser driver's
+// latency): everything about a scan at t is computed from the measurements stamped at or
+// before t (the EKF's estimate at t, the latest attitude at or before t), and the scan-match
+// update is inserted into the EKF's history at t and the newer measurements replayed. So the
+// result is the same whatever the delay within the EKF's history window, bit for bit, as long as
+// the scans keep their order among themselves. Scans are processed in arrival order; one stamped
+// before its predecessor (a log's clock glitch) is processed and counted; one older than the
+// EKF's history is refused.
+//
+// Errors are returned, never CHECK-failed, for bad data: non-finite values, a MARG sample not
+// after the previous one, a scan older than the EKF's history. The
+// estimator's state is then unchanged and the next measurement may be added.
+#ifndef HETSLAM_FRONTENDS_ONLINE_ESTIMATOR_H_
+#define HETSLAM_FRONTENDS_ONLINE_ESTIMATOR_H_
+
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/measurement.h"
+#include "core/occupancy_grid.h"
+#include "core/status.h"
+#include "core/trajectory_io.h"
+#include "frontends/ekf_state_updater.h"
+#include "frontends/local_slam.h"
+#include "frontends/loop_closer.h"
+#include "frontends/marg_filter.h"
+#include "frontends/submap_graph.h"
+
+namespace hetslam {
+
+enum class AttitudeSource {
+  kLevel,       // every scan is level (plain 2D)
+  kMargFilter,  // roll/pitch of our MARG filter on the raw MARG samples
+  kLogged,      // the log's ATTITUDE readings (a sensor's own filter)
+};
+// "level", "marg", "logged"; false on anything else.
+bool ParseAttitudeSource(const std::string& name, AttitudeSource* source);
+
+struct OnlineEstimatorOptions {
+  int robot = 0;  // this robot's id in the submap graph
+  LocalSlamOptions local;
+  bool loop_closure = true;  // false: the front end alone against one global map
+  LoopCloserOptions loop;
+  SubmapGraphOptions graph;
+  // Solve once this many loop closures were accepted and solve_min_new_nodes scans added since
+  // the last solve (the latter bounds the solves of dense logs, where closures arrive at almost
+  // every scan); bounded iterations, more at Finish().
+  int solve_every_n_loop_closures = 10;
+  int solve_min_new_nodes = 20;
+  int max_iterations_per_solve = 10;
+  int max_iterations_final = 50;
+
+  AttitudeSource attitude_source = AttitudeSource::kMargFilter;
+  MargFilterOptions marg;
+  // The attitude (and altitude) for a scan is the latest at or before its stamp, if at most
+  // this old; else the scan is taken as level (at height 0).
+  double attitude_max_age_seconds = 0.1;
+  double altitude_max_age_seconds = 0.3;
+
+  EkfStateUpdaterOptions ekf;
+  bool use_commands = true;    // commands drive the EKF prediction
+  bool use_odometry = false;   // predict scans from odometry (the scan's own pose, else the latest reading)
+  double odometry_max_age_seconds = 0.05;
+  // Uncertainty (1 sigma) of a scan-match pose as an EKF measurement.
+  double scan_match_translation_sigma_meters = 0.01;
+  double scan_match_rotation_sigma_radians = 0.005;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct OnlineEstimatorStats {
+  int scans = 0;                    // laser scans added
+  int scans_refused = 0;            // older than the EKF history (an error was returned)
+  int scans_stamped_backwards = 0;  // stamped before the previous scan (processed)
+  int skipped_too_few_points = 0;
+  int match_failures = 0;           // inserted at the prediction
+  int degenerate_matches = 0;       // weak direction kept the prediction
+  long long floor_points = 0;       // end points dropped as floor hits
+  int scans_without_attitude = 0;   // the stream has attitudes, but none near the scan: level
+  int ekf_predicted_scans = 0;      // scans predicted by the EKF
+  int marg_samples = 0;
+  int marg_errors = 0;              // samples the MARG filter refused
+  int ekf_errors = 0;               // EKF updates refused
+  int loop_solves_failed = 0;
+};
+
+class OnlineEstimator {
+ public:
+  // CHECK-fails on invalid options (validate user input with IsValid first).
+  explicit OnlineEstimator(const OnlineEstimatorOptions& options);
+  ~OnlineEstimator();
+
+  // Processes one measurement. Errors (the measurement is ignored, the estimator unchanged)
+  // as described above. After Finish(), every Add is an error.
+  Status Add(const Measurement& measurement);
+  // Final solve (loop closure on). Idempotent.
+  void Finish();
+
+  // The latest pose estimate (robot frame = world frame of a lone robot): the EKF's, else the
+  // last node's. Identity before the first scan.
+  Pose2 CurrentPose() const;
+  // The pose at a past stamp: the EKF's filtered estimate within its history window, else the
+  // nodes' poses interpolated (or the nearest end). Error before the first scan.
+  Status PoseAt(double stamp_seconds, Pose2* pose) const;
+  // Optimised poses of every inserted scan (robot frame).
+  std::vector<StampedPose2> Trajectory() const;
+  // The front end's (drifting, never corrected) poses of the inserted scans.
+  std::vector<StampedPose2> LocalTrajectory() const;
+  // An occupancy grid of every inserted scan at its optimised pose.
+  std::unique_ptr<OccupancyGrid> RenderMap() const;
+  const SubmapGraph& graph() const { return *graph_; }
+  // For constraints found by other means (a fiducial, a teammate): added like loop closures.
+  SubmapGraph& mutable_graph() { return *graph_; }
+  const LocalSlam& local_slam() const { return local_; }
+  const LoopCloser& loop_closer() const { return loop_; }
+  const EkfStateUpdater& ekf() const { return ekf_; }
+  const OnlineEstimatorStats& stats() const { return stats_; }
+  const OnlineEstimatorOptions& options() const { return options_; }
+  // Match scores of the converged front-end matches, in scan order.
+  const std::vector<double>& match_scores() const { return match_scores_; }
+
+ private:
+  Status AddScan(const LaserReading& reading);
+  Status AddMarg(const MargSample& sample);
+  std::optional<BodyAttitude> AttitudeAt(double stamp_seconds) const;
+  void Solve(int max_iterations);
+  void Prune(double newest_stamp_seconds);
+
+  OnlineEstimatorOptions options_;
+  LocalSlam local_;
+  std::unique_ptr<SubmapGraph> graph_;
+  LoopCloser loop_;
+  MargFilter marg_filter_;
+  EkfStateUpdater ekf_;
+  // Histories of the last ekf.history_window_seconds (attitude at a scan's stamp).
+  std::deque<MargAttitude> marg_attitudes_;
+  std::deque<AttitudeReading> logged_attitudes_;
+  std::deque<AltitudeReading> altitudes_;
+  std::deque<OdometryReading> odometry_;
+  std::optional<VelocityCommand> pending_command_;  // latest command before the EKF started
+  // Stamp of the earliest command or MARG sample: the EKF predicts the scans stamped after it.
+  std::optional<double> first_motion_stamp_;
+  std::optional<double> last_scan_stamp_;
+  int loop_closures_since_solve_ = 0;
+  int nodes_since_solve_ = 0;
+  bool finished_ = false;
+  std::vector<double> match_scores_;
+  OnlineEstimatorStats stats_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FRONTENDS_ONLINE_ESTIMATOR_H_

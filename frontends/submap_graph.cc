@@ -1,0 +1,293 @@
+#include "frontends/submap_graph.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "factors/sqrt_information.h"
+#include "glog/logging.h"
+
+namespace hetslam {
+namespace {
+
+// Elimination groups: nodes first, then submaps and anchors (the graph is bipartite like a
+// bundle adjustment, so eliminating the many nodes leaves a small sparse system).
+constexpr int kNodeGroup = 0;
+constexpr int kSubmapGroup = 1;
+
+}  // namespace
+
+bool SubmapGraphOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  for (double sigma : {intra_translation_sigma_meters, intra_rotation_sigma_radians, loop_translation_sigma_meters,
+                       loop_rotation_sigma_radians, loop_loss_scale}) {
+    if (!(sigma > 0)) {
+      msg << "constraint sigmas and loop_loss_scale must be > 0; ";
+      break;
+    }
+  }
+  if (!(loop_consistency_translation_meters > 0 && loop_consistency_rotation_radians > 0))
+    msg << "loop consistency bounds must be > 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+SubmapGraph::SubmapGraph(const SubmapGraphOptions& options) : options_(options) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid SubmapGraphOptions: " << error;
+}
+
+NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
+  CHECK(result.inserted) << "SubmapGraph::AddNode with a scan that was not inserted";
+  if (first_robot_ < 0) first_robot_ = robot_id;
+  Robot& robot = robots_[robot_id];
+  for (const LocalResult::NewSubmap& s : result.new_submaps) {
+    CHECK(robot.submaps.count(s.index) == 0) << "submap " << s.index << " of robot " << robot_id << " added twice";
+    Submap submap;
+    submap.pose = problem_.AddPose(robot.robot_T_local * s.local_T_submap, kSubmapGroup);
+    // Gauge: the robot's first submap fixes its frame.
+    if (robot.submaps.empty()) problem_.SetConstant(submap.pose, true);
+    robot.submaps[s.index] = submap;
+    ++stats_.submaps;
+  }
+  const NodeId id{robot_id, static_cast<int>(robot.nodes.size())};
+  Node node;
+  node.stamp_seconds = result.stamp_seconds;
+  node.local_pose = result.local_pose;
+  node.pose = problem_.AddPose(robot.robot_T_local * result.local_pose, kNodeGroup);
+  node.points = std::move(result.points);
+  robot.nodes.push_back(std::move(node));
+  ++stats_.nodes;
+
+  const Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(
+      options_.intra_translation_sigma_meters, options_.intra_translation_sigma_meters,
+      options_.intra_rotation_sigma_radians);
+  for (const LocalResult::Insertion& insertion : result.insertions) {
+    auto it = robot.submaps.find(insertion.submap);
+    CHECK(it != robot.submaps.end()) << "scan inserted into unknown submap " << insertion.submap;
+    Submap& submap = it->second;
+    Constraint c;
+    c.submap = {robot_id, insertion.submap};
+    c.node = id;
+    c.submap_T_node = insertion.submap_T_node;
+    c.kind = EdgeKind::kSequential;
+    c.edge = problem_.AddEdge(EdgeKind::kSequential, submap.pose, robot.nodes.back().pose, c.submap_T_node,
+                              sqrt_information);
+    constraints_.push_back(c);
+    submap.last_node = id.index;
+    submap.min_submap = submap.min_submap.cwiseMin(insertion.submap_T_node.translation());
+    submap.max_submap = submap.max_submap.cwiseMax(insertion.submap_T_node.translation());
+  }
+  if (result.finished.has_value()) {
+    auto it = robot.submaps.find(result.finished->index);
+    CHECK(it != robot.submaps.end()) << "unknown finished submap " << result.finished->index;
+    it->second.map = result.finished->map;
+  }
+  return id;
+}
+
+int SubmapGraph::EnsureAnchor(int robot_id) {
+  Robot& robot = robots_.at(robot_id);
+  if (robot.anchor < 0) {
+    robot.anchor = problem_.AddPose(Pose2::Identity(), kSubmapGroup);
+    // Gauge: the first robot's frame is the team's world.
+    if (robot_id == first_robot_) problem_.SetConstant(robot.anchor, true);
+  }
+  return robot.anchor;
+}
+
+bool SubmapGraph::AddConstraint(const ConstraintCandidate& candidate) {
+  const auto submap_robot = robots_.find(candidate.submap.robot);
+  const auto node_robot = robots_.find(candidate.node.robot);
+  if (submap_robot == robots_.end() || node_robot == robots_.end()) return false;
+  const auto submap = submap_robot->second.submaps.find(candidate.submap.index);
+  if (submap == submap_robot->second.submaps.end()) return false;
+  if (candidate.node.index < 0 || candidate.node.index >= static_cast<int>(node_robot->second.nodes.size())) {
+    return false;
+  }
+  const Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(
+      options_.loop_translation_sigma_meters, options_.loop_translation_sigma_meters,
+      options_.loop_rotation_sigma_radians);
+  const double loss = candidate.robust ? options_.loop_loss_scale : 0.0;
+  const int node_pose = node_robot->second.nodes[candidate.node.index].pose;
+  Constraint c;
+  c.submap = candidate.submap;
+  c.node = candidate.node;
+  c.submap_T_node = candidate.submap_T_node;
+  c.score = candidate.score;
+  c.exempt_from_next_check = candidate.exempt_from_next_check;
+  if (candidate.submap.robot == candidate.node.robot) {
+    c.kind = EdgeKind::kLoopClosure;
+    c.edge = problem_.AddEdge(EdgeKind::kLoopClosure, submap->second.pose, node_pose, c.submap_T_node,
+                              sqrt_information, loss);
+    ++stats_.loop_closures_accepted;
+  } else {
+    c.kind = EdgeKind::kInterRobot;
+    const int anchor_a = EnsureAnchor(candidate.submap.robot);
+    const int anchor_b = EnsureAnchor(candidate.node.robot);
+    c.edge = problem_.AddAnchoredEdge(anchor_a, submap->second.pose, anchor_b, node_pose, c.submap_T_node,
+                                      sqrt_information, loss);
+    ++stats_.inter_robot_constraints;
+  }
+  constraints_.push_back(c);
+  return true;
+}
+
+Status SubmapGraph::Solve(int max_iterations) {
+  if (robots_.empty()) return Status::Ok();
+  PoseGraphSolveOptions solve_options;
+  solve_options.max_num_iterations = max_iterations;
+  Status status;
+  for (int round = 0; round < 2; ++round) {
+    PoseGraphSolveSummary summary;
+    status = problem_.Solve(solve_options, &summary);
+    ++stats_.solves;
+    stats_.solver_iterations += summary.num_iterations;
+    stats_.solve_seconds += summary.solve_time_seconds;
+    if (!status.ok()) {
+      ++stats_.failed_solves;
+      break;
+    }
+    // Consistency check: remove closures the optimised graph disagrees with, then solve once more.
+    int removed = 0;
+    for (Constraint& c : constraints_) {
+      if (c.kind == EdgeKind::kSequential || problem_.edge_removed(c.edge) || c.exempt_from_next_check) continue;
+      const Pose2 error = Between(c.submap_T_node, problem_.EdgeEstimate(c.edge));
+      if (error.translation().norm() > options_.loop_consistency_translation_meters ||
+          std::abs(error.theta()) > options_.loop_consistency_rotation_radians) {
+        problem_.RemoveEdge(c.edge);
+        ++removed;
+        ++stats_.loop_closures_rejected_after_solve;
+      }
+    }
+    if (removed == 0) break;
+  }
+  for (Constraint& c : constraints_) c.exempt_from_next_check = false;
+  for (auto& [id, robot] : robots_) {
+    if (robot.nodes.empty()) continue;
+    const Node& last = robot.nodes.back();
+    robot.robot_T_local = problem_.pose(last.pose) * last.local_pose.inverse();
+  }
+  return status;
+}
+
+int SubmapGraph::num_nodes(int robot) const {
+  const auto it = robots_.find(robot);
+  return it == robots_.end() ? 0 : static_cast<int>(it->second.nodes.size());
+}
+
+int SubmapGraph::num_submaps(int robot) const {
+  const auto it = robots_.find(robot);
+  return it == robots_.end() ? 0 : static_cast<int>(it->second.submaps.size());
+}
+
+Pose2 SubmapGraph::NodePose(const NodeId& node) const {
+  return problem_.pose(robots_.at(node.robot).nodes.at(node.index).pose);
+}
+
+Pose2 SubmapGraph::SubmapPose(const SubmapId& submap) const {
+  return problem_.pose(robots_.at(submap.robot).submaps.at(submap.index).pose);
+}
+
+Pose2 SubmapGraph::LocalToRobot(int robot) const {
+  const auto it = robots_.find(robot);
+  return it == robots_.end() ? Pose2::Identity() : it->second.robot_T_local;
+}
+
+Pose2 SubmapGraph::Anchor(int robot) const {
+  const auto it = robots_.find(robot);
+  return it == robots_.end() || it->second.anchor < 0 ? Pose2::Identity() : problem_.pose(it->second.anchor);
+}
+
+double SubmapGraph::NodeStamp(const NodeId& node) const { return robots_.at(node.robot).nodes.at(node.index).stamp_seconds; }
+
+const ScanPoints& SubmapGraph::NodePoints(const NodeId& node) const {
+  return robots_.at(node.robot).nodes.at(node.index).points;
+}
+
+const Pose2& SubmapGraph::NodeLocalPose(const NodeId& node) const {
+  return robots_.at(node.robot).nodes.at(node.index).local_pose;
+}
+
+const LaserMap* SubmapGraph::FinishedSubmapMap(const SubmapId& submap) const {
+  return robots_.at(submap.robot).submaps.at(submap.index).map.get();
+}
+
+bool SubmapGraph::SubmapBox(const SubmapId& id, Eigen::Vector2d* min, Eigen::Vector2d* max) const {
+  const auto robot = robots_.find(id.robot);
+  if (robot == robots_.end()) return false;
+  const auto submap = robot->second.submaps.find(id.index);
+  if (submap == robot->second.submaps.end()) return false;
+  *min = submap->second.min_submap;
+  *max = submap->second.max_submap;
+  return true;
+}
+
+int SubmapGraph::SubmapLastNode(const SubmapId& submap) const {
+  return robots_.at(submap.robot).submaps.at(submap.index).last_node;
+}
+
+std::vector<StampedPose2> SubmapGraph::Trajectory(int robot_id) const {
+  std::vector<StampedPose2> trajectory;
+  const auto it = robots_.find(robot_id);
+  if (it == robots_.end()) return trajectory;
+  trajectory.reserve(it->second.nodes.size());
+  for (const Node& node : it->second.nodes) trajectory.push_back({node.stamp_seconds, problem_.pose(node.pose)});
+  return trajectory;
+}
+
+std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const OccupancyGridOptions& grid_options) const {
+  auto grid = std::make_unique<OccupancyGrid>(grid_options);
+  const auto it = robots_.find(robot_id);
+  if (it == robots_.end()) return grid;
+  std::vector<Eigen::Vector2d> points_world;
+  for (const Node& node : it->second.nodes) {
+    const Pose2 world_T_node = problem_.pose(node.pose);
+    points_world.clear();
+    for (const Eigen::Vector2f& p : node.points.all) points_world.push_back(world_T_node * p.cast<double>());
+    grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr);
+  }
+  return grid;
+}
+
+PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
+  PoseGraph2d graph;
+  const auto it = robots_.find(robot_id);
+  if (it == robots_.end()) return graph;
+  const Robot& robot = it->second;
+  std::map<int, int> submap_vertex;
+  for (const auto& [index, submap] : robot.submaps) {
+    submap_vertex[index] = static_cast<int>(graph.vertices.size());
+    graph.vertices.push_back({submap_vertex[index], problem_.pose(submap.pose)});
+  }
+  const int first_node_vertex = static_cast<int>(graph.vertices.size());
+  for (int i = 0; i < static_cast<int>(robot.nodes.size()); ++i) {
+    graph.vertices.push_back({first_node_vertex + i, problem_.pose(robot.nodes[i].pose)});
+  }
+  for (const Constraint& c : constraints_) {
+    if (problem_.edge_removed(c.edge) || c.kind == EdgeKind::kInterRobot || c.node.robot != robot_id) continue;
+    PoseGraph2dEdge edge;
+    edge.id_from = submap_vertex.at(c.submap.index);
+    edge.id_to = first_node_vertex + c.node.index;
+    edge.from_T_to_measured = c.submap_T_node;
+    const bool loop = c.kind == EdgeKind::kLoopClosure;
+    const double st = loop ? options_.loop_translation_sigma_meters : options_.intra_translation_sigma_meters;
+    const double sr = loop ? options_.loop_rotation_sigma_radians : options_.intra_rotation_sigma_radians;
+    edge.information = Eigen::Vector3d(1 / (st * st), 1 / (st * st), 1 / (sr * sr)).asDiagonal();
+    graph.edges.push_back(edge);
+  }
+  if (!robot.submaps.empty()) graph.fixed_vertex_ids.push_back(0);
+  return graph;
+}
+
+std::vector<LoopClosureReport> SubmapGraph::LoopClosures() const {
+  std::vector<LoopClosureReport> reports;
+  for (const Constraint& c : constraints_) {
+    if (c.kind == EdgeKind::kSequential) continue;
+    reports.push_back({c.submap, c.node, c.kind, c.score, c.submap_T_node, problem_.EdgeEstimate(c.edge),
+                       problem_.edge_removed(c.edge)});
+  }
+  return reports;
+}
+
+}  // namespace hetslam

@@ -1,0 +1,190 @@
+// The submap pose graph of one robot or a team (paper §III-A loop closure, DESIGN.md
+// "submap graph"; Cartographer's PoseGraph2D::AddNode(data, trajectory_id, submaps) shape).
+//
+// Variables (factors/pose_graph_problem.h): for every robot r, robot_T_submap for each of its
+// submaps and robot_T_node for each inserted scan (node), in r's own frame (its first submap's
+// frame: the world frame for a lone robot); per robot one anchor world_T_r, created when the
+// first inter-robot constraint reaches r.
+// Constraints, all submap_T_node, each carrying its kind:
+//   intra-submap  (sequential) from the LocalResult: the node's pose in each submap it entered;
+//                 no robust loss: the backbone;
+//   loop closure  a node matched against a finished submap of its own robot (LoopCloser, a
+//                 fiducial): Huber loss unless the candidate says otherwise;
+//   inter-robot   a node of one robot against a submap of another: the anchored cost.
+// Gauge: each robot's first submap is held constant in its own frame; the first robot's
+// anchor is held constant at identity (its frame is the team's world).
+//
+// Solve(): a warm-started, bounded, single-threaded, deterministic Ceres solve (nodes
+// eliminated first, SPARSE_SCHUR over submaps and anchors), then a consistency check that
+// removes loop closures the graph disagrees with (and solves once more). New nodes enter
+// through their robot's latest local -> robot-frame correction.
+#ifndef HETSLAM_FRONTENDS_SUBMAP_GRAPH_H_
+#define HETSLAM_FRONTENDS_SUBMAP_GRAPH_H_
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/g2o_io.h"
+#include "core/laser_map.h"
+#include "core/occupancy_grid.h"
+#include "core/se2.h"
+#include "core/status.h"
+#include "core/trajectory_io.h"
+#include "factors/pose_graph_problem.h"
+#include "frontends/local_slam.h"
+
+namespace hetslam {
+
+struct NodeId {
+  int robot = 0;
+  int index = 0;  // in the robot's insertion order
+  bool operator==(const NodeId& o) const { return robot == o.robot && index == o.index; }
+  bool operator!=(const NodeId& o) const { return !(*this == o); }
+};
+struct SubmapId {
+  int robot = 0;
+  int index = 0;  // the robot's submap number (LocalResult)
+  bool operator==(const SubmapId& o) const { return robot == o.robot && index == o.index; }
+};
+
+struct SubmapGraphOptions {
+  // Constraint uncertainties (1 sigma) and the loop closure loss scale (in sigmas).
+  double intra_translation_sigma_meters = 0.02;
+  double intra_rotation_sigma_radians = 0.005;
+  double loop_translation_sigma_meters = 0.05;
+  double loop_rotation_sigma_radians = 0.01;
+  // Huber: quadratic within this many sigmas, linear beyond, so a closure far from the current
+  // estimate still pulls (drift correction) but with bounded force.
+  double loop_loss_scale = 3.0;
+  // After a solve, a loop closure the graph disagrees with by more than this is removed.
+  double loop_consistency_translation_meters = 0.3;
+  double loop_consistency_rotation_radians = 0.06;
+
+  bool IsValid(std::string* error) const;
+};
+
+// A constraint proposed for the graph (a loop closure found by the LoopCloser, a place
+// recognised by other means, an inter-robot match).
+struct ConstraintCandidate {
+  SubmapId submap;
+  NodeId node;
+  Pose2 submap_T_node;
+  double score = 0.0;
+  bool robust = true;  // Huber loss (else none: a confirmed correction of metres)
+  // Not checked for consistency by the solve that first includes it (see LoopCloser's wide
+  // search); checked from the next solve on.
+  bool exempt_from_next_check = false;
+};
+
+// One accepted loop-closure or inter-robot constraint, for precision reports: the measured
+// submap_T_node and what the graph says now.
+struct LoopClosureReport {
+  SubmapId submap;
+  NodeId node;
+  EdgeKind kind = EdgeKind::kLoopClosure;
+  double score = 0.0;
+  Pose2 measured_submap_T_node;
+  Pose2 estimated_submap_T_node;
+  bool removed = false;
+};
+
+struct SubmapGraphStats {
+  int nodes = 0;
+  int submaps = 0;
+  int loop_closures_accepted = 0;
+  int loop_closures_rejected_after_solve = 0;
+  int inter_robot_constraints = 0;
+  int solves = 0;            // Ceres solves (a Solve() call may run two)
+  int solver_iterations = 0;
+  int failed_solves = 0;     // solutions Ceres reported unusable (poses kept)
+  double solve_seconds = 0.0;
+};
+
+class SubmapGraph {
+ public:
+  // CHECK-fails on invalid options (validate user input with IsValid first).
+  explicit SubmapGraph(const SubmapGraphOptions& options);
+
+  // Adds the node of an inserted scan (result.inserted must be true) with its intra-submap
+  // constraints, the submaps the scan started, and the map of a submap it finished.
+  NodeId AddNode(int robot, LocalResult result);
+  // Adds a loop closure (same robot) or an inter-robot constraint (different robots). Returns
+  // false and adds nothing for an unknown submap or node.
+  bool AddConstraint(const ConstraintCandidate& candidate);
+  // Solves; an error when Ceres reports the solution unusable (the poses keep their values).
+  Status Solve(int max_iterations);
+
+  // Queries. Poses are in the robot's own frame (RobotPose...) or in the world (anchor applied).
+  int num_robots() const { return static_cast<int>(robots_.size()); }
+  bool HasRobot(int robot) const { return robots_.count(robot) > 0; }
+  int num_nodes(int robot) const;
+  int num_submaps(int robot) const;
+  Pose2 NodePose(const NodeId& node) const;      // robot frame
+  Pose2 SubmapPose(const SubmapId& submap) const;  // robot frame
+  Pose2 LocalToRobot(int robot) const;             // latest local -> robot frame correction
+  Pose2 Anchor(int robot) const;                   // world_T_robot (identity before any link)
+  double NodeStamp(const NodeId& node) const;
+  const ScanPoints& NodePoints(const NodeId& node) const;
+  const Pose2& NodeLocalPose(const NodeId& node) const;
+  // A finished submap's map (null while it is active) and the box of its nodes' positions in
+  // its own frame; the index of the last node inserted into it.
+  const LaserMap* FinishedSubmapMap(const SubmapId& submap) const;
+  bool SubmapBox(const SubmapId& submap, Eigen::Vector2d* min, Eigen::Vector2d* max) const;
+  int SubmapLastNode(const SubmapId& submap) const;
+
+  // Optimised poses of a robot's nodes, robot frame.
+  std::vector<StampedPose2> Trajectory(int robot) const;
+  // An occupancy grid of every scan of `robot` inserted at its optimised pose (robot frame).
+  std::unique_ptr<OccupancyGrid> RenderMap(int robot, const OccupancyGridOptions& grid) const;
+  // The graph of one robot: its submaps then its nodes as vertices, intra then loop edges.
+  PoseGraph2d ExportGraph(int robot) const;
+  std::vector<LoopClosureReport> LoopClosures() const;
+
+  const SubmapGraphStats& stats() const { return stats_; }
+  const SubmapGraphOptions& options() const { return options_; }
+
+ private:
+  struct Node {
+    double stamp_seconds = 0.0;
+    Pose2 local_pose;
+    int pose = -1;  // in problem_
+    ScanPoints points;
+  };
+  struct Submap {
+    int pose = -1;
+    std::shared_ptr<const LaserMap> map;  // set when finished
+    int last_node = 0;
+    Eigen::Vector2d min_submap = Eigen::Vector2d::Zero(), max_submap = Eigen::Vector2d::Zero();
+  };
+  struct Robot {
+    std::deque<Node> nodes;
+    std::map<int, Submap> submaps;  // by submap index
+    Pose2 robot_T_local;
+    int anchor = -1;  // pose index, -1 until linked
+  };
+  struct Constraint {
+    SubmapId submap;
+    NodeId node;
+    Pose2 submap_T_node;
+    EdgeKind kind = EdgeKind::kSequential;
+    double score = 0.0;
+    bool exempt_from_next_check = false;
+    int edge = -1;
+  };
+  int EnsureAnchor(int robot);
+
+  SubmapGraphOptions options_;
+  PoseGraphProblem problem_;
+  std::map<int, Robot> robots_;
+  int first_robot_ = -1;
+  std::deque<Constraint> constraints_;
+  SubmapGraphStats stats_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FRONTENDS_SUBMAP_GRAPH_H_
