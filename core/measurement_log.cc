@@ -130,22 +130,19 @@ Status ReadCarmen(const std::string& path, const MeasurementLogOptions& options,
   return Status::Ok();
 }
 
-Status ReadHetslamRobotLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
-  RobotLogReadOptions read;
-  read.lenient = options.lenient;
-  read.max_warnings_kept = options.max_warnings_kept;
-  RobotLog robot;
-  const Status status = ReadRobotLog(path, read, &robot);
-  if (!status.ok()) return status;
-  log->params = std::move(robot.params);
-  log->warnings = std::move(robot.warnings);
-  log->malformed_lines_skipped = robot.stats.malformed_lines_skipped;
+}  // namespace
+
+MeasurementLog MeasurementLogFromRobotLog(RobotLog robot) {
+  MeasurementLog log;
+  log.path = robot.path;
+  log.format = LogFormat::kRobotLog;
+  log.params = std::move(robot.params);
+  log.warnings = std::move(robot.warnings);
+  log.malformed_lines_skipped = robot.stats.malformed_lines_skipped;
   for (const StampedPose3& pose : robot.truth) {
     const Eigen::Vector3d rpy = RollPitchYawFromRotation(pose.pose.linear());
-    log->truth.push_back(
-        {pose.stamp_seconds, Pose2(pose.pose.translation().x(), pose.pose.translation().y(), rpy.z())});
+    log.truth.push_back({pose.stamp_seconds, Pose2(pose.pose.translation().x(), pose.pose.translation().y(), rpy.z())});
   }
-  // Image paths become relative to the working directory's view of the log.
   for (CameraImage& image : robot.images) image.path = robot.ImagePath(image);
   std::vector<std::vector<Measurement>> streams;
   streams.push_back(AsMeasurements(&robot.odometry));
@@ -155,7 +152,22 @@ Status ReadHetslamRobotLog(const std::string& path, const MeasurementLogOptions&
   streams.push_back(AsMeasurements(&robot.altitudes));
   streams.push_back(AsMeasurements(&robot.lasers));
   streams.push_back(AsMeasurements(&robot.images));
-  MergeByStamp(&streams, &log->measurements);
+  MergeByStamp(&streams, &log.measurements);
+  for (const Measurement& m : log.measurements) log.num_scans += std::holds_alternative<LaserReading>(m);
+  return log;
+}
+
+namespace {
+
+Status ReadHetslamRobotLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
+  RobotLogReadOptions read;
+  read.lenient = options.lenient;
+  read.max_warnings_kept = options.max_warnings_kept;
+  RobotLog robot;
+  const Status status = ReadRobotLog(path, read, &robot);
+  if (!status.ok()) return status;
+  *log = MeasurementLogFromRobotLog(std::move(robot));
+  log->path = path;
   return Status::Ok();
 }
 
@@ -171,6 +183,7 @@ Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& 
   const Status status = log->format == LogFormat::kRobotLog ? ReadHetslamRobotLog(path, options, log)
                                                             : ReadCarmen(path, options, log);
   if (!status.ok()) return status;
+  log->num_scans = 0;
   for (const Measurement& m : log->measurements) log->num_scans += std::holds_alternative<LaserReading>(m);
   return Status::Ok();
 }

@@ -55,6 +55,11 @@ struct MeasurementLog {
 
 Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log);
 
+struct RobotLog;
+// The stream of a robot log already in memory (a simulator's output): `robot` is consumed.
+// Image paths become `robot.directory`/path; params, warnings and the planar truth are kept.
+MeasurementLog MeasurementLogFromRobotLog(RobotLog robot);
+
 }  // namespace hetslam
 
 #endif  // HETSLAM_CORE_MEASUREMENT_LOG_H_

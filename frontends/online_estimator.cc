@@ -138,7 +138,7 @@ Status OnlineEstimator::Add(const Measurement& measurement) {
     odometry_.push_back(*odometry);
   }
   // Camera images: the team merger's (tag sightings); nothing for a single robot's SLAM.
-  Prune(stamp);
+  if (status.ok()) Prune(stamp);
   return status;
 }
 

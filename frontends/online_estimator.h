@@ -86,8 +86,8 @@ struct OnlineEstimatorOptions {
   bool use_odometry = false;   // predict scans from odometry (the scan's own pose, else the latest reading)
   double odometry_max_age_seconds = 0.05;
   // Uncertainty (1 sigma) of a scan-match pose as an EKF measurement.
-  double scan_match_translation_sigma_meters = 0.01;
-  double scan_match_rotation_sigma_radians = 0.005;
+  double scan_match_translation_sigma_meters = 0.001;
+  double scan_match_rotation_sigma_radians = 0.0005;
 
   bool IsValid(std::string* error) const;
 };
