@@ -5,14 +5,17 @@
 // world_T_robot = [x, y, yaw] (metres, metres, radians):
 //   r_i = w_i / sqrt(N) * (1 - L(R(yaw) p_i + [x y]^T)),
 // where L is the likelihood field (core/likelihood_field.h) interpolated bicubically between
-// cell centres. Maximising the summed likelihood (eq. 1) is minimising sum r_i^2. The
-// 1/sqrt(N) keeps a scan's pull independent of its beam count. A point with w_i = 0 (a floor
-// obstacle) contributes nothing; walls may carry w_i > 1 (paper §III-E).
+// cell centres (ceres::BiCubicInterpolator: Catmull-Rom, C1, exact at cell centres). Outside
+// the grid L takes the nearest border cell's value, which is 0 on a LaserMap's grid (its border
+// margin exceeds the likelihood window). Maximising the summed likelihood (eq. 1) is
+// minimising sum r_i^2. The 1/sqrt(N) keeps a scan's pull independent of its beam count. A
+// point with w_i = 0 (a floor obstacle) contributes nothing itself but still counts in N;
+// walls may carry w_i > 1 (paper §III-E).
 //
 // No robust loss: the field is already bounded in [0, 1].
 //
-// Lifetime: the cost keeps a pointer to `field.values()` and to `field.geometry()` — the
-// field must outlive the cost function and must not be modified or resized (no scan
+// Lifetime: the cost keeps a pointer to `field.values()` (and a copy of `field.geometry()`) —
+// the field must outlive the cost function and must not be modified or resized (no scan
 // insertion) while the cost is used. The points and weights are copied.
 #ifndef HETSLAM_FACTORS_SCAN_COST_H_
 #define HETSLAM_FACTORS_SCAN_COST_H_
