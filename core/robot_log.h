@@ -132,31 +132,6 @@ struct RobotLog {
 
 Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options, RobotLog* log);
 
-// What a SLAM front end takes with each LASER scan of a robot log, looked up by time.
-struct RobotScanInputs {
-  // ODOM pose nearest to the scan within the odometry tolerance.
-  std::optional<Pose2> odometry;
-  // The COMMAND velocities (body frame, each holding until the next) integrated from the first
-  // COMMAND up to the scan (10 ms steps); empty for scans before the first COMMAND; a scan
-  // stamped before its predecessor keeps the pose integrated so far.
-  std::optional<Pose2> command_pose;
-  // Roll and pitch of the nearest ATTITUDE within the attitude tolerance, with the height of
-  // the nearest ALTITUDE within the altitude tolerance (else 0: a body standing on the
-  // floor); empty when no ATTITUDE is near.
-  std::optional<BodyAttitude> attitude;
-};
-
-struct RobotScanInputsOptions {
-  double odometry_tolerance_seconds = 0.05;
-  double attitude_tolerance_seconds = 0.05;
-  double altitude_tolerance_seconds = 0.2;
-};
-
-// One entry per log.lasers element (whose messages must be in time order, as ReadRobotLog
-// returns them).
-std::vector<RobotScanInputs> ScanInputsFromRobotLog(const RobotLog& log,
-                                                    const RobotScanInputsOptions& options = RobotScanInputsOptions());
-
 // Writes every message of `log` merged by time stamp (at equal stamps in the order MOUNT,
 // ODOM, MARG, ATTITUDE, ALTITUDE, COMMAND, TRUTH, LASER, IMAGE; within a type in vector
 // order), after the HSLOG line, `comment_lines` as '#' lines and the PARAMs (sorted by name).

@@ -733,53 +733,5 @@ TEST(TeamManifestTest, WriterRejectsInvalidManifests) {
   EXPECT_THAT(WriteTeamManifest(path, size, {}).message(), HasSubstr("positive size"));
 }
 
-TEST(ScanInputsFromRobotLogTest, IntegratesCommandsAndLooksUpAttitudeOdometryAltitude) {
-  RobotLog log;
-  for (double t : {0.5, 1.0, 2.0, 3.0}) {
-    LaserReading laser;
-    laser.scan.stamp_seconds = t;
-    log.lasers.push_back(laser);
-  }
-  // 1 m/s straight from t = 0.75, then turning at 0.5 rad/s on the spot from t = 2.
-  log.commands = {{0.75, 1.0, 0.0, 0.0, 0}, {2.0, 0.0, 0.0, 0.5, 0}};
-  log.attitudes = {{0.98, 0.01, 0.2, 0.0, 0}, {2.04, 0.03, 0.4, 0.0, 0}, {2.5, 0.05, 0.6, 0.0, 0}};
-  log.altitudes = {{1.1, 1.5, 0}};
-  log.odometry = {{0.49, Pose2(0.1, 0, 0), 0}, {2.96, Pose2(0.3, 0, 0), 0}};
-
-  const std::vector<RobotScanInputs> inputs = ScanInputsFromRobotLog(log);
-  ASSERT_EQ(4u, inputs.size());
-  EXPECT_FALSE(inputs[0].command_pose.has_value());  // before the first command
-  ASSERT_TRUE(inputs[1].command_pose.has_value());
-  EXPECT_NEAR(0.25, inputs[1].command_pose->x(), 1e-9);
-  EXPECT_NEAR(1.25, inputs[2].command_pose->x(), 1e-9);
-  EXPECT_NEAR(0.0, inputs[2].command_pose->theta(), 1e-12);
-  EXPECT_NEAR(1.25, inputs[3].command_pose->x(), 1e-9);  // turning on the spot
-  EXPECT_NEAR(0.0, inputs[3].command_pose->y(), 1e-9);
-  EXPECT_NEAR(0.5, inputs[3].command_pose->theta(), 1e-9);
-
-  ASSERT_TRUE(inputs[0].odometry.has_value());
-  EXPECT_DOUBLE_EQ(0.1, inputs[0].odometry->x());
-  EXPECT_FALSE(inputs[1].odometry.has_value());  // nearest ODOM 0.49 s away
-  EXPECT_DOUBLE_EQ(0.3, inputs[3].odometry->x());
-
-  EXPECT_FALSE(inputs[0].attitude.has_value());  // no ATTITUDE within 50 ms
-  ASSERT_TRUE(inputs[1].attitude.has_value());
-  EXPECT_DOUBLE_EQ(0.01, inputs[1].attitude->roll_radians);
-  EXPECT_DOUBLE_EQ(0.2, inputs[1].attitude->pitch_radians);
-  EXPECT_DOUBLE_EQ(1.5, inputs[1].attitude->base_height_meters);  // ALTITUDE 0.1 s away
-  ASSERT_TRUE(inputs[2].attitude.has_value());
-  EXPECT_DOUBLE_EQ(0.4, inputs[2].attitude->pitch_radians);
-  EXPECT_DOUBLE_EQ(0.0, inputs[2].attitude->base_height_meters);  // no ALTITUDE near: on the floor
-  EXPECT_FALSE(inputs[3].attitude.has_value());
-
-  // A backwards-stamped scan after the first command holds the pose integrated so far.
-  LaserReading late;
-  late.scan.stamp_seconds = 2.5;
-  log.lasers.push_back(late);
-  const std::vector<RobotScanInputs> with_backwards = ScanInputsFromRobotLog(log);
-  ASSERT_TRUE(with_backwards[4].command_pose.has_value());
-  EXPECT_NEAR(0.5, with_backwards[4].command_pose->theta(), 1e-9);
-}
-
 }  // namespace
 }  // namespace hetslam

@@ -1,0 +1,108 @@
+#include "core/measurement_log.h"
+
+#include <fstream>
+#include <string>
+
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string WriteText(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "/measurement_log_test_" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::vector<std::string> Kinds(const MeasurementLog& log) {
+  std::vector<std::string> kinds;
+  for (const Measurement& m : log.measurements) kinds.push_back(MeasurementKindName(m));
+  return kinds;
+}
+
+// A robot log whose messages are out of stamp order in the file, with ties: the stream is
+// merged by stamp, ties in the documented order (odometry, command, MARG, attitude, altitude,
+// laser, image), each kind in file order.
+TEST(MeasurementLogTest, RobotLogIsMergedByStampWithTheDocumentedTieOrder) {
+  const std::string path = WriteText("robot.txt",
+                                     "# comment\n"
+                                     "HSLOG 1\n"
+                                     "PARAM robot_name nao\n"
+                                     "LASER 0.1 3 -0.1 0.1 0.05 5 1 2 3\n"
+                                     "MARG 0.1 0 0 0 0 0 9.81 20 0 -40\n"
+                                     "COMMAND 0.1 0.2 0 0.1\n"
+                                     "MARG 0.0 0 0 0 0 0 9.81 20 0 -40\n"
+                                     "ATTITUDE 0.1 0.01 0.02 0.3\n"
+                                     "ALTITUDE 0.05 1.5\n"
+                                     "IMAGE 0.1 images/000001.png\n"
+                                     "ODOM 0.1 1 2 0.5\n"
+                                     "TRUTH 0.1 1 2 0 0 0 0.5\n");
+  MeasurementLog log;
+  const Status status = ReadMeasurementLog(path, MeasurementLogOptions(), &log);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(LogFormat::kRobotLog, log.format);
+  EXPECT_EQ(1, log.num_scans);
+  EXPECT_EQ("nao", log.params.at("robot_name"));
+  // The MARG at 0.0 comes after the one at 0.1 in the file: a kind keeps its file order, so it
+  // follows its predecessor (the reader reports the backwards stamp).
+  EXPECT_EQ((std::vector<std::string>{"altitude", "odometry", "command", "marg", "marg", "attitude", "laser", "image"}),
+            Kinds(log));
+  const auto& image = std::get<CameraImage>(log.measurements.back());
+  EXPECT_THAT(image.path, HasSubstr("images/000001.png"));
+  EXPECT_FALSE(log.warnings.empty());  // MARG stamps going backwards
+  EXPECT_NE(std::string::npos, image.path.find(::testing::TempDir()));  // relative to the log's folder
+  const auto& command = std::get<VelocityCommand>(log.measurements[2]);
+  EXPECT_EQ(0.2, command.forward_mps);
+  EXPECT_EQ(0.1, command.yaw_rate_radps);
+  EXPECT_EQ(6, command.line_number);
+  ASSERT_EQ(1u, log.truth.size());
+  EXPECT_NEAR(0.5, log.truth[0].pose.theta(), 1e-12);
+  EXPECT_NEAR(0.0, log.ScanDurationSeconds(), 0.0);
+}
+
+// A CARMEN log: FLASER scans keep their odometry pose, ODOM lines become odometry readings,
+// and a backwards stamp keeps file order within its kind.
+TEST(MeasurementLogTest, CarmenLogKeepsScanOdometryAndFileOrderWithinAKind) {
+  const std::string path = WriteText("carmen.clf",
+                                     "ODOM 0 0 0 0 0 0 1.0 host 1.0\n"
+                                     "FLASER 3 1 2 3 0.5 0.25 0.1 0.5 0.25 0.1 1.0 host 1.0\n"
+                                     "ODOM 1 0 0 0 0 0 2.0 host 2.0\n"
+                                     "FLASER 3 1 2 3 1.5 0.25 0.1 1.5 0.25 0.1 3.0 host 3.0\n"
+                                     "FLASER 3 1 2 3 2.5 0.25 0.1 2.5 0.25 0.1 2.5 host 2.5\n");
+  MeasurementLog log;
+  const Status status = ReadMeasurementLog(path, MeasurementLogOptions(), &log);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(LogFormat::kCarmen, log.format);
+  EXPECT_EQ(3, log.num_scans);
+  EXPECT_EQ((std::vector<std::string>{"odometry", "laser", "odometry", "laser", "laser"}), Kinds(log));
+  const auto& first = std::get<LaserReading>(log.measurements[1]);
+  EXPECT_TRUE(first.has_odometry_pose);
+  EXPECT_EQ(0.5, first.odometry_pose.x());
+  EXPECT_EQ(2.5, std::get<LaserReading>(log.measurements[4]).scan.stamp_seconds);  // file order kept
+  EXPECT_EQ(2.0, log.ScanDurationSeconds());
+  EXPECT_TRUE(log.truth.empty());
+}
+
+TEST(MeasurementLogTest, ErrorsNameTheFile) {
+  MeasurementLog log;
+  Status status = ReadMeasurementLog(::testing::TempDir() + "/no_such_log.clf", MeasurementLogOptions(), &log);
+  EXPECT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("no_such_log.clf"));
+  const std::string bad = WriteText("bad.txt", "HSLOG 1\nMARG 0.1 1 2\n");
+  status = ReadMeasurementLog(bad, MeasurementLogOptions(), &log);
+  EXPECT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("bad.txt:2"));
+  MeasurementLogOptions lenient;
+  lenient.lenient = true;
+  ASSERT_TRUE(ReadMeasurementLog(bad, lenient, &log).ok());
+  EXPECT_EQ(1, log.malformed_lines_skipped);
+  MeasurementLogOptions invalid;
+  invalid.flaser_fov_radians = -1;
+  EXPECT_THAT(ReadMeasurementLog(bad, invalid, &log).message(), HasSubstr("flaser_fov_radians"));
+}
+
+}  // namespace
+}  // namespace hetslam
