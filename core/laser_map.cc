@@ -15,12 +15,16 @@ LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
     : grid_(WithFieldMargin(grid_options, field_options)), field_(field_options) {}
 
 void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
-                          const std::vector<Eigen::Vector2f>& points_robot) {
+                          const std::vector<Eigen::Vector2f>& points_robot, const std::vector<PointLabel>* labels) {
   points_world_.clear();
   points_world_.reserve(points_robot.size());
   for (const Eigen::Vector2f& p : points_robot) points_world_.push_back(world_T_robot * p.cast<double>());
   changed_cells_.clear();
-  grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_);
+  if (labels != nullptr) {
+    labels_.clear();
+    for (PointLabel label : *labels) labels_.push_back(static_cast<uint8_t>(label));
+  }
+  grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_, labels != nullptr ? &labels_ : nullptr);
   field_.ApplyChanges(grid_, changed_cells_);
   ++num_scans_inserted_;
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "core/laser_scan.h"
 #include "core/likelihood_field.h"
 #include "core/occupancy_grid.h"
 #include "core/se2.h"
@@ -23,8 +24,10 @@ class LaserMap {
 
   // Inserts points given in the robot frame, seen from `sensor_robot` (sensor origin in the
   // robot frame), with the robot at `world_T_robot`.
+  // `labels` (optional, one PointLabel per point) feeds the grid's label layer.
   void InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
-                  const std::vector<Eigen::Vector2f>& points_robot);
+                  const std::vector<Eigen::Vector2f>& points_robot,
+                  const std::vector<PointLabel>* labels = nullptr);
 
   // Keeps only what matching needs (cell states, likelihood values); no more insertion.
   void Freeze() {
@@ -41,6 +44,7 @@ class LaserMap {
   LikelihoodField field_;
   std::vector<int> changed_cells_;  // scratch
   std::vector<Eigen::Vector2d> points_world_;  // scratch
+  std::vector<uint8_t> labels_;                // scratch
   int num_scans_inserted_ = 0;
 };
 

@@ -6,6 +6,7 @@
 #ifndef HETSLAM_CORE_LASER_SCAN_H_
 #define HETSLAM_CORE_LASER_SCAN_H_
 
+#include <cstdint>
 #include <vector>
 
 #include "Eigen/Core"
@@ -40,6 +41,12 @@ struct ProjectedPoint {
   float z_meters;
   int beam_index;
 };
+
+// What a scan point is (paper §III-E), as the front end labels it and the map's label layer
+// (core/occupancy_grid.h) records it; values are bit positions of that layer. Today the 2.5D
+// projection tells floor hits (dropped) from structure; the semantics work adds floor
+// obstacles and walls.
+enum class PointLabel : uint8_t { kStructure = 0, kFloor = 1, kFloorObstacle = 2, kWall = 3 };
 
 // Attitude and height of the robot body used by the 2.5D projection. A level wheeled
 // robot uses the defaults.

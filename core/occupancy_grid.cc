@@ -76,6 +76,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   std::vector<Eigen::Vector2f> hit_sum(n, Eigen::Vector2f::Zero());
   std::vector<uint32_t> hit_count(n, 0);
   std::vector<uint32_t> last_update(n, 0);
+  std::vector<uint8_t> labels(labels_.empty() ? 0 : n, 0);
   // Offset of the old grid inside the new one, in cells.
   const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / g.resolution_meters()));
   const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / g.resolution_meters()));
@@ -88,6 +89,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
       hit_sum[to] = hit_sum_[from];
       hit_count[to] = hit_count_[from];
       last_update[to] = last_update_[from];
+      if (!labels.empty()) labels[to] = labels_[from];
     }
   }
   if (observed_max_.x >= observed_min_.x) {
@@ -100,6 +102,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   hit_sum_.swap(hit_sum);
   hit_count_.swap(hit_count);
   last_update_.swap(last_update);
+  labels_.swap(labels);
 }
 
 void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cells) {
@@ -130,7 +133,9 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
 
 void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
                                const std::vector<Eigen::Vector2d>& points_world,
-                               std::vector<int>* changed_cells) {
+                               std::vector<int>* changed_cells, const std::vector<uint8_t>* labels) {
+  CHECK(labels == nullptr || labels->size() == points_world.size())
+      << "InsertScan: " << labels->size() << " labels for " << points_world.size() << " points";
   Eigen::Vector2d lo = sensor_world, hi = sensor_world;
   for (const Eigen::Vector2d& p : points_world) {
     CHECK(p.allFinite()) << "non-finite scan point";
@@ -138,6 +143,7 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     hi = hi.cwiseMax(p);
   }
   EnsureContains(lo, hi);
+  if (labels != nullptr && labels_.empty()) labels_.assign(geometry_.num_cells(), 0);
   ++scan_counter_;
   if (scan_counter_ == 0) {  // wrapped after 4e9 scans: restart the stamps
     std::fill(last_update_.begin(), last_update_.end(), 0);
@@ -146,9 +152,11 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
   const float hit = static_cast<float>(options_.hit_log_odds);
   const float miss = static_cast<float>(options_.miss_log_odds);
   // End points first, so that a ray never clears a cell this same scan hits.
-  for (const Eigen::Vector2d& p : points_world) {
+  for (size_t k = 0; k < points_world.size(); ++k) {
+    const Eigen::Vector2d& p = points_world[k];
     const CellIndex c = geometry_.WorldToCell(p);
     const int i = geometry_.LinearIndex(c);
+    if (labels != nullptr) labels_[i] |= static_cast<uint8_t>(1u << ((*labels)[k] & 7u));
     const bool first_this_scan = last_update_[i] != scan_counter_;
     if (first_this_scan) UpdateCell(i, hit, changed_cells);
     if (IsOccupied(i)) {

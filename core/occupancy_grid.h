@@ -57,9 +57,11 @@ class OccupancyGrid {
   // hit point accumulated. The grid grows to contain all points. `changed_cells` (optional)
   // receives the linear indices (in the geometry after growth) of the cells whose state went
   // to or from occupied, or whose hit point was updated while occupied.
+  // `labels` (optional, one per point, each < 8: what the point is, e.g. the front end's
+  // PointLabel) feeds the label layer: each end cell ORs in bit (1 << label).
   void InsertScan(const Eigen::Vector2d& sensor_world,
                   const std::vector<Eigen::Vector2d>& points_world,
-                  std::vector<int>* changed_cells);
+                  std::vector<int>* changed_cells, const std::vector<uint8_t>* labels = nullptr);
 
   CellState State(int linear_index) const {
     if (!observed_[linear_index]) return CellState::kUnknown;
@@ -83,6 +85,10 @@ class OccupancyGrid {
   CellIndex observed_min() const { return observed_min_; }
   CellIndex observed_max() const { return observed_max_; }
 
+  // Label layer: the bits (1 << label) of every label that hit the cell; 0 for cells never hit
+  // by a labelled point (and everywhere before the first labelled insertion: no memory).
+  uint8_t LabelMask(int linear_index) const { return labels_.empty() ? 0 : labels_[linear_index]; }
+  bool has_labels() const { return !labels_.empty(); }
   // Occupancy probability in [0, 1], 0.5 for unknown.
   float Probability(int linear_index) const;
 
@@ -106,6 +112,7 @@ class OccupancyGrid {
   std::vector<uint32_t> hit_count_;
   // Scan counter stamps so that a cell is updated at most once per scan.
   std::vector<uint32_t> last_update_;
+  std::vector<uint8_t> labels_;  // label layer; empty until the first labelled insertion
   uint32_t scan_counter_ = 0;
   bool frozen_ = false;
   CellIndex observed_min_{1, 1};

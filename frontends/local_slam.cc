@@ -190,7 +190,7 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   }
   for (ActiveSubmap& submap : state.active) {
     const Pose2 submap_T_node = submap.local_T_submap.inverse() * result.local_pose;
-    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all);
+    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all, &points.labels);
     ++submap.num_scans;
     result.insertions.push_back({submap.index, submap_T_node});
   }

@@ -85,13 +85,10 @@ struct LocalSlamOptions {
   bool IsValid(std::string* error) const;
 };
 
-// What a scan point is (paper §III-E). Today PrepareScanPoints labels what the 2.5D
-// projection tells: floor hits (dropped from `all`) and structure; the semantics issue adds
-// floor obstacles and walls.
-enum class PointLabel : uint8_t { kStructure = 0, kFloor = 1, kFloorObstacle = 2, kWall = 3 };
 
 // A scan's valid end points in the robot frame within max_point_range_meters (for the map),
-// one label and one height each, and their voxel-thinned subset (for matching) with a matching
+// one label (core/laser_scan.h PointLabel, kept in the map's label layer) and one height each,
+// and their voxel-thinned subset (for matching) with a matching
 // weight each. With an attitude: the 2.5D projection, floor hits removed (counted); without,
 // the scan is taken as level (height 0).
 struct ScanPoints {

@@ -241,11 +241,14 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   const auto it = robots_.find(robot_id);
   if (it == robots_.end()) return grid;
   std::vector<Eigen::Vector2d> points_world;
+  std::vector<uint8_t> labels;
   for (const Node& node : it->second.nodes) {
     const Pose2 world_T_node = problem_.pose(node.pose);
     points_world.clear();
     for (const Eigen::Vector2f& p : node.points.all) points_world.push_back(world_T_node * p.cast<double>());
-    grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr);
+    labels.clear();
+    for (PointLabel label : node.points.labels) labels.push_back(static_cast<uint8_t>(label));
+    grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels);
   }
   return grid;
 }

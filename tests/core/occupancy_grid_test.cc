@@ -1,0 +1,36 @@
+#include "core/occupancy_grid.h"
+
+#include <vector>
+
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+// The label layer: each end cell ORs in (1 << label) of the points that hit it, keeps its bits
+// when the grid grows, and costs nothing until the first labelled insertion.
+TEST(OccupancyGridTest, LabelLayerRecordsEveryLabelThatHitACellAndSurvivesGrowth) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  const Eigen::Vector2d sensor(0.0, 0.0);
+  grid.InsertScan(sensor, {{1.0, 0.0}}, nullptr);
+  EXPECT_FALSE(grid.has_labels());
+  const int wall = grid.geometry().LinearIndex(grid.geometry().WorldToCell({1.0, 0.0}));
+  EXPECT_EQ(0, grid.LabelMask(wall));
+
+  const std::vector<uint8_t> labels = {0, 2};  // structure and floor obstacle in one cell
+  grid.InsertScan(sensor, {{1.01, 0.01}, {1.02, 0.02}}, nullptr, &labels);
+  ASSERT_TRUE(grid.has_labels());
+  EXPECT_EQ((1 << 0) | (1 << 2), grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell({1.0, 0.0}))));
+  const int free_cell = grid.geometry().LinearIndex(grid.geometry().WorldToCell({0.5, 0.0}));
+  EXPECT_EQ(0, grid.LabelMask(free_cell));  // rays do not label the cells they cross
+
+  // A point 30 m away grows the grid (linear indices change); the labelled cell keeps its bits.
+  const std::vector<uint8_t> far_label = {3};
+  ASSERT_TRUE(grid.EnsureContains({-30.0, -30.0}, {30.0, 30.0}));
+  grid.InsertScan(sensor, {{25.0, 0.0}}, nullptr, &far_label);
+  EXPECT_EQ((1 << 0) | (1 << 2), grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell({1.0, 0.0}))));
+  EXPECT_EQ(1 << 3, grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell({25.0, 0.0}))));
+}
+
+}  // namespace
+}  // namespace hetslam
