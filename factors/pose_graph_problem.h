@@ -1,0 +1,131 @@
+// One builder for every planar pose-graph Ceres problem of hetslam: the submap graph of the
+// online estimator (frontends/submap_graph.h), several robots joined through anchors, and
+// `OptimizePoseGraph2d` (g2o files, hetslam_posegraph).
+//
+// Variables: [x, y, yaw] pose blocks with the Se2Manifold, handed out by AddPose in creation
+// order at increasing addresses (Ceres orders blocks within an elimination group by address,
+// so the elimination order, and the result, is the same on every run). Each pose belongs to an
+// elimination group (0 first); with SPARSE_SCHUR the lowest group is eliminated first.
+//
+// Edges (factors/relative_pose_cost.h), each with a kind carried in the graph data:
+//   kSequential   a_T_b between two poses of one frame, no robust loss (the backbone);
+//   kLoopClosure  the same cost, a Huber loss unless `loss_scale` is 0;
+//   kInterRobot   the anchored cost of Kim et al. 2010 between poses of two robots' frames,
+//                 each placed in the world by its robot's anchor pose (world_T_robot_origin).
+// Gauge: the caller holds poses constant on purpose (SetConstant): the first pose of each
+// robot in its own frame, and one anchor of the team.
+#ifndef HETSLAM_FACTORS_POSE_GRAPH_PROBLEM_H_
+#define HETSLAM_FACTORS_POSE_GRAPH_PROBLEM_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "Eigen/Core"
+#include "ceres/types.h"
+#include "core/se2.h"
+#include "core/status.h"
+
+namespace ceres {
+class Problem;
+class Manifold;
+class ResidualBlock;
+}  // namespace ceres
+
+namespace hetslam {
+
+enum class EdgeKind { kSequential = 0, kLoopClosure = 1, kInterRobot = 2 };
+const char* EdgeKindName(EdgeKind kind);  // "sequential", "loop closure", "inter-robot"
+
+struct PoseGraphSolveOptions {
+  int max_num_iterations = 50;
+  // SPARSE_SCHUR eliminates the lowest elimination group first (bipartite submap graphs);
+  // SPARSE_NORMAL_CHOLESKY for general graphs.
+  ceres::LinearSolverType linear_solver_type = ceres::SPARSE_SCHUR;
+  ceres::SparseLinearAlgebraLibraryType sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  double function_tolerance = 1e-6;  // Ceres' default
+  int num_threads = 1;  // 1 keeps runs bit-reproducible
+  bool log_progress = false;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct PoseGraphSolveSummary {
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  int num_iterations = 0;     // iterations after the initial evaluation
+  bool converged = false;     // Ceres reported CONVERGENCE
+  double solve_time_seconds = 0.0;
+  std::string message;        // Ceres' termination message
+  std::string full_report;
+};
+
+class PoseGraphProblem {
+ public:
+  PoseGraphProblem();
+  ~PoseGraphProblem();
+  PoseGraphProblem(const PoseGraphProblem&) = delete;
+  PoseGraphProblem& operator=(const PoseGraphProblem&) = delete;
+
+  // A new pose variable (index = number of poses before it) in `elimination_group` (>= 0).
+  int AddPose(const Pose2& initial, int elimination_group = 0);
+  void SetConstant(int pose, bool constant);
+  bool IsConstant(int pose) const;
+
+  // An edge a_T_b; `loss_scale` (in sigmas of the whitened residual) > 0 adds a Huber loss,
+  // 0 none. Returns the edge index. CHECK-fails on unknown poses or a = b (programmer errors).
+  int AddEdge(EdgeKind kind, int a, int b, const Pose2& a_T_b, const Eigen::Matrix3d& sqrt_information,
+              double loss_scale = 0.0);
+  // An anchored edge between pose a (of the robot whose anchor is `anchor_a`) and pose b (anchor
+  // `anchor_b`), kInterRobot. The four poses must be distinct.
+  int AddAnchoredEdge(int anchor_a, int a, int anchor_b, int b, const Pose2& a_T_b,
+                      const Eigen::Matrix3d& sqrt_information, double loss_scale);
+  // Takes an edge out of the problem (it stays listed, with removed() true).
+  void RemoveEdge(int edge);
+
+  int num_poses() const { return static_cast<int>(poses_.size()); }
+  int num_edges() const { return static_cast<int>(edges_.size()); }
+  Pose2 pose(int index) const;
+  void set_pose(int index, const Pose2& pose);
+  EdgeKind edge_kind(int edge) const { return edges_[edge].kind; }
+  bool edge_removed(int edge) const { return edges_[edge].removed; }
+  // The estimate of the edge's relative pose a_T_b (anchors applied for inter-robot edges).
+  Pose2 EdgeEstimate(int edge) const;
+  const Pose2& edge_measurement(int edge) const { return edges_[edge].a_T_b; }
+  const Eigen::Matrix3d& edge_sqrt_information(int edge) const { return edges_[edge].sqrt_information; }
+  int edge_from(int edge) const { return edges_[edge].a; }
+  int edge_to(int edge) const { return edges_[edge].b; }
+
+  // Solves in place. Errors (poses then restored to their values before the call): invalid
+  // options, or a solution Ceres reports unusable (IsSolutionUsable false: a NaN cost, a
+  // failed linear solve). Hitting the iteration limit is not an error.
+  Status Solve(const PoseGraphSolveOptions& options, PoseGraphSolveSummary* summary = nullptr);
+
+ private:
+  struct Pose {
+    double* block = nullptr;
+    int group = 0;
+    bool in_problem = false;
+    bool constant = false;
+  };
+  struct Edge {
+    EdgeKind kind = EdgeKind::kSequential;
+    int anchor_a = -1, a = -1, anchor_b = -1, b = -1;
+    Pose2 a_T_b;
+    Eigen::Matrix3d sqrt_information = Eigen::Matrix3d::Identity();
+    bool removed = false;
+    ceres::ResidualBlock* residual = nullptr;
+  };
+  void EnsureInProblem(int pose);
+
+  std::vector<std::unique_ptr<double[]>> chunks_;
+  size_t used_in_chunk_ = 0;
+  std::vector<Pose> poses_;
+  std::vector<Edge> edges_;
+  std::unique_ptr<ceres::Manifold> manifold_;
+  std::unique_ptr<ceres::Problem> problem_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_FACTORS_POSE_GRAPH_PROBLEM_H_
