@@ -29,7 +29,9 @@
 namespace ceres {
 class Problem;
 class Manifold;
-class ResidualBlock;
+namespace internal {
+class ResidualBlock;  // ceres::ResidualBlockId is a pointer to it (ceres/problem.h)
+}  // namespace internal
 }  // namespace ceres
 
 namespace hetslam {
@@ -114,7 +116,7 @@ class PoseGraphProblem {
     Pose2 a_T_b;
     Eigen::Matrix3d sqrt_information = Eigen::Matrix3d::Identity();
     bool removed = false;
-    ceres::ResidualBlock* residual = nullptr;
+    ceres::internal::ResidualBlock* residual = nullptr;
   };
   void EnsureInProblem(int pose);
 
