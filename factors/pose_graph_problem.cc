@@ -22,18 +22,6 @@ Pose2 ToPose(const double* block) { return Pose2(block[0], block[1], block[2]); 
 
 }  // namespace
 
-const char* EdgeKindName(EdgeKind kind) {
-  switch (kind) {
-    case EdgeKind::kSequential:
-      return "sequential";
-    case EdgeKind::kLoopClosure:
-      return "loop closure";
-    case EdgeKind::kInterRobot:
-      return "inter-robot";
-  }
-  return "unknown";
-}
-
 bool PoseGraphSolveOptions::IsValid(std::string* error) const {
   std::ostringstream why;
   if (max_num_iterations < 1) why << "max_num_iterations must be >= 1, got " << max_num_iterations;

@@ -23,6 +23,7 @@
 
 #include "Eigen/Core"
 #include "ceres/types.h"
+#include "core/edge_kind.h"  // EdgeKind, EdgeKindName
 #include "core/se2.h"
 #include "core/status.h"
 
@@ -35,9 +36,6 @@ class ResidualBlock;  // ceres::ResidualBlockId is a pointer to it (ceres/proble
 }  // namespace ceres
 
 namespace hetslam {
-
-enum class EdgeKind { kSequential = 0, kLoopClosure = 1, kInterRobot = 2 };
-const char* EdgeKindName(EdgeKind kind);  // "sequential", "loop closure", "inter-robot"
 
 struct PoseGraphSolveOptions {
   int max_num_iterations = 50;

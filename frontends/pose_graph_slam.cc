@@ -475,6 +475,7 @@ PoseGraph2d PoseGraphSlam::ExportGraph() const {
     edge.id_from = c.submap;
     edge.id_to = num_submaps + c.node;
     edge.from_T_to_measured = c.submap_T_node;
+    edge.kind = c.loop ? EdgeKind::kLoopClosure : EdgeKind::kSequential;
     const double st = c.loop ? options_.loop_translation_sigma_meters : options_.intra_translation_sigma_meters;
     const double sr = c.loop ? options_.loop_rotation_sigma_radians : options_.intra_rotation_sigma_radians;
     edge.information = Eigen::Vector3d(1 / (st * st), 1 / (st * st), 1 / (sr * sr)).asDiagonal();
