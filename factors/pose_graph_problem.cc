@@ -146,7 +146,14 @@ Status PoseGraphProblem::Solve(const PoseGraphSolveOptions& options, PoseGraphSo
   std::string invalid;
   if (!options.IsValid(&invalid)) return Status::Error("invalid PoseGraphSolveOptions: " + invalid);
   if (summary != nullptr) *summary = PoseGraphSolveSummary();
-  if (problem_->NumResidualBlocks() == 0) return Status::Ok();
+  if (problem_->NumResidualBlocks() == 0) {
+    // Nothing to solve: the poses are already optimal (Ceres reports CONVERGENCE here too).
+    if (summary != nullptr) {
+      summary->converged = true;
+      summary->message = "no edges: nothing to solve";
+    }
+    return Status::Ok();
+  }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = options.linear_solver_type;
   if (options.linear_solver_type == ceres::SPARSE_SCHUR) {

@@ -54,7 +54,7 @@ struct PoseGraphSolveSummary {
   double initial_cost = 0.0;
   double final_cost = 0.0;
   int num_iterations = 0;     // iterations after the initial evaluation
-  bool converged = false;     // Ceres reported CONVERGENCE
+  bool converged = false;     // Ceres reported CONVERGENCE, or there were no edges to solve
   double solve_time_seconds = 0.0;
   std::string message;        // Ceres' termination message
   std::string full_report;
