@@ -117,6 +117,9 @@ Status ParseG2oPoseGraph2d(std::istream& input, const std::string& source_name,
       if (llt.info() != Eigen::Success) {
         return Status::Error(where + "EDGE_SE2 information matrix is not positive definite");
       }
+      // The file names no kind: consecutive ids are sequential (header).
+      const long id_step = static_cast<long>(edge.id_to) - edge.id_from;
+      edge.kind = id_step == 1 || id_step == -1 ? EdgeKind::kSequential : EdgeKind::kLoopClosure;
       graph->edges.push_back(edge);
       edge_lines.push_back(line_number);
     } else if (tag == "FIX") {

@@ -12,6 +12,10 @@
 //       g2o's EDGE_SE2 convention and the error of factors/relative_pose_cost.h.
 //   FIX id [id ...]
 //       vertices held constant during optimisation.
+// Edge kinds (core/edge_kind.h): g2o files carry none, so the reader applies the convention of
+// the standard benchmark graphs, whose vertex ids number the poses in travel order: an edge
+// between consecutive ids (|i - j| == 1) is kSequential, any other edge kLoopClosure. The writer
+// stores no kind either: reading a written graph labels its edges by that convention again.
 // Blank lines and lines starting with '#' are skipped. Anything else, a wrong field count, a
 // non-finite or non-numeric field, a duplicated vertex id, an edge from a vertex to itself or to
 // an undefined vertex, and an information matrix that is not positive definite are errors whose
@@ -25,6 +29,7 @@
 #include <vector>
 
 #include "Eigen/Core"
+#include "core/edge_kind.h"
 #include "core/se2.h"
 #include "core/status.h"
 
@@ -42,6 +47,9 @@ struct PoseGraph2dEdge {
   // Symmetric positive definite information (inverse covariance) of the edge error; rows and
   // columns in (x metres, y metres, theta radians).
   Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
+  // Decides the robust loss (factors/pose_graph_2d.h). Whoever builds an edge sets it; the g2o
+  // reader applies the id convention above.
+  EdgeKind kind = EdgeKind::kSequential;
 };
 
 struct PoseGraph2d {

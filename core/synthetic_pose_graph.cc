@@ -91,10 +91,11 @@ SyntheticPoseGraph2d GenerateManhattanPoseGraph2d(const ManhattanGraphOptions& o
     return Pose2(exact.x() + st * normal(rng), exact.y() + st * normal(rng),
                  exact.theta() + sr * normal(rng));
   };
-  auto measure = [&](int from, int to) {
+  auto measure = [&](int from, int to, EdgeKind kind) {
     PoseGraph2dEdge edge;
     edge.id_from = from;
     edge.id_to = to;
+    edge.kind = kind;
     const Pose2 exact = Between(truth[from], truth[to]);
     edge.from_T_to_measured = options.add_measurement_noise ? noisy(exact) : exact;
     edge.information = information;
@@ -109,7 +110,7 @@ SyntheticPoseGraph2d GenerateManhattanPoseGraph2d(const ManhattanGraphOptions& o
   std::map<std::pair<int, int>, std::vector<int>> poses_in_cell;
   poses_in_cell[cells[0]].push_back(0);
   for (int k = 1; k < options.num_poses; ++k) {
-    const PoseGraph2dEdge odometry = measure(k - 1, k);
+    const PoseGraph2dEdge odometry = measure(k - 1, k, EdgeKind::kSequential);
     graph.edges.push_back(odometry);
     const Pose2 step = options.add_measurement_noise ? odometry.from_T_to_measured
                                                      : noisy(odometry.from_T_to_measured);
@@ -123,7 +124,7 @@ SyntheticPoseGraph2d GenerateManhattanPoseGraph2d(const ManhattanGraphOptions& o
       if (added >= options.max_loop_closures_per_pose) break;
       if (k - j < options.min_loop_separation_poses) continue;
       if (uniform(rng) < options.loop_closure_probability) {
-        graph.edges.push_back(measure(j, k));
+        graph.edges.push_back(measure(j, k, EdgeKind::kLoopClosure));
         ++added;
       }
     }

@@ -43,7 +43,8 @@ struct SyntheticPoseGraph2d {
   std::vector<Pose2> world_T_vertex_true;    // index = vertex id = index in graph.vertices
 };
 
-// Vertex ids are 0..num_poses-1; edges (k, k+1) are odometry, the others loop closures.
+// Vertex ids are 0..num_poses-1; edges (k, k+1) are odometry (kind kSequential), the others
+// loop closures (kLoopClosure), as the g2o reader would label them.
 // Deterministic for a given (options, seed). CHECK-fails on invalid options.
 SyntheticPoseGraph2d GenerateManhattanPoseGraph2d(const ManhattanGraphOptions& options,
                                                   uint32_t seed);

@@ -2,7 +2,7 @@
 // hetslam factor library and write the optimised graph.
 //
 //   hetslam_posegraph --g2o=in.g2o --out=out.g2o
-//   hetslam_posegraph --g2o=in.g2o --out=out.g2o --robust_loss=cauchy --linear_solver=dense_qr
+//   hetslam_posegraph --g2o=in.g2o --out=out.g2o --robust_loss=huber --linear_solver=sparse_schur
 //
 // It can also write a seeded synthetic Manhattan-world graph (core/synthetic_pose_graph.h) and
 // its ground truth, to have a standard-style benchmark graph with a known answer:
@@ -27,17 +27,18 @@
 DEFINE_string(g2o, "", "Input 2D g2o pose graph (VERTEX_SE2, EDGE_SE2 with upper-triangular information, "
               "FIX). Required unless only --generate_manhattan is given.");
 DEFINE_string(out, "", "Output g2o file: the input graph with optimised vertex poses. Required with --g2o.");
-DEFINE_int32(max_iterations, 100, "Maximum number of Levenberg-Marquardt iterations (>= 0).");
+DEFINE_int32(max_iterations, 100, "Maximum number of Levenberg-Marquardt iterations (>= 1).");
 DEFINE_string(linear_solver, "sparse_normal_cholesky",
               "Ceres linear solver: sparse_normal_cholesky, dense_qr, dense_normal_cholesky, sparse_schur, "
               "iterative_schur or cgnr.");
 DEFINE_string(sparse_library, "suite_sparse",
               "Sparse linear algebra library for the sparse solvers: suite_sparse, eigen_sparse or cx_sparse.");
 DEFINE_string(robust_loss, "none",
-              "Robust loss on loop-closure edges (edges whose vertex ids differ by more than 1; sequential "
-              "edges never get one): none, huber or cauchy.");
+              "Robust loss on loop-closure edges (g2o files name no edge kinds: the reader takes edges whose "
+              "vertex ids differ by more than 1 as loop closures; sequential edges never get a loss): none or "
+              "huber.");
 DEFINE_double(robust_loss_scale, 1.0, "Scale of --robust_loss in standard deviations of the whitened residual (> 0).");
-DEFINE_double(function_tolerance, 1e-8, "Ceres relative cost-change tolerance for convergence (>= 0).");
+DEFINE_double(function_tolerance, 1e-8, "Ceres relative cost-change tolerance for convergence (> 0).");
 DEFINE_bool(progress, false, "Print Ceres' per-iteration table.");
 DEFINE_bool(full_report, false, "Print Ceres' full solver report.");
 DEFINE_string(truth, "", "Optional g2o file whose VERTEX_SE2 poses are the ground truth (same ids): prints the "
@@ -76,7 +77,7 @@ bool OptionsFromFlags(PoseGraph2dOptions* options, std::string* error) {
     return false;
   }
   if (!ParseRobustLossType(FLAGS_robust_loss, &options->loop_closure_loss)) {
-    *error = "unknown --robust_loss '" + FLAGS_robust_loss + "' (none, huber or cauchy)";
+    *error = "unknown --robust_loss '" + FLAGS_robust_loss + "' (none or huber)";
     return false;
   }
   options->loop_closure_loss_scale = FLAGS_robust_loss_scale;
@@ -161,7 +162,7 @@ int Run() {
     if (!PrintErrors("initial", graph, truth, &error)) return Fail(error);
   }
   int loop_closures = 0;
-  for (const PoseGraph2dEdge& e : graph.edges) loop_closures += std::abs(e.id_to - e.id_from) != 1;
+  for (const PoseGraph2dEdge& e : graph.edges) loop_closures += e.kind == EdgeKind::kLoopClosure;
   std::printf("%s: %zu vertices, %zu edges (%d loop closures)\n", FLAGS_g2o.c_str(),
               graph.vertices.size(), graph.edges.size(), loop_closures);
 
@@ -191,7 +192,7 @@ int main(int argc, char** argv) {
   gflags::SetUsageMessage(
       "Optimise a 2D g2o pose graph with hetslam's Ceres factors.\n"
       "  hetslam_posegraph --g2o=IN.g2o --out=OUT.g2o [--max_iterations=N] [--linear_solver=...] "
-      "[--robust_loss=none|huber|cauchy]\n"
+      "[--robust_loss=none|huber]\n"
       "  hetslam_posegraph --generate_manhattan=G.g2o [--generate_truth_out=T.g2o] [--generate_num_poses=N]");
   hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, true);

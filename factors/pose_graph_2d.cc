@@ -1,47 +1,28 @@
 #include "factors/pose_graph_2d.h"
 
-#include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstdlib>
-#include <memory>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
 #include "Eigen/Cholesky"
-#include "ceres/loss_function.h"
-#include "ceres/problem.h"
 #include "ceres/solver.h"
-#include "factors/relative_pose_cost.h"
-#include "factors/se2_manifold.h"
+#include "factors/pose_graph_problem.h"
 #include "factors/sqrt_information.h"
 #include "glog/logging.h"
 
 namespace hetslam {
 namespace {
 
-ceres::Solver::Options SolverOptions(const PoseGraph2dOptions& options) {
-  ceres::Solver::Options solver;
-  solver.max_num_iterations = options.max_num_iterations;
-  solver.linear_solver_type = options.linear_solver_type;
-  solver.sparse_linear_algebra_library_type = options.sparse_linear_algebra_library_type;
-  solver.function_tolerance = options.function_tolerance;
-  solver.num_threads = options.num_threads;
-  solver.minimizer_progress_to_stdout = options.log_progress;
-  return solver;
-}
-
-ceres::LossFunction* MakeLoss(RobustLossType type, double scale) {
-  switch (type) {
-    case RobustLossType::kNone:
-      return nullptr;
-    case RobustLossType::kHuber:
-      return new ceres::HuberLoss(scale);
-    case RobustLossType::kCauchy:
-      return new ceres::CauchyLoss(scale);
-  }
-  LOG(FATAL) << "unknown RobustLossType " << static_cast<int>(type);
-  return nullptr;
+PoseGraphSolveOptions SolveOptions(const PoseGraph2dOptions& options) {
+  PoseGraphSolveOptions solve;
+  solve.max_num_iterations = options.max_num_iterations;
+  solve.linear_solver_type = options.linear_solver_type;
+  solve.sparse_linear_algebra_library_type = options.sparse_linear_algebra_library_type;
+  solve.function_tolerance = options.function_tolerance;
+  solve.num_threads = options.num_threads;
+  solve.log_progress = options.log_progress;
+  return solve;
 }
 
 }  // namespace
@@ -76,15 +57,20 @@ bool PoseGraph2dOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = message;
     return false;
   };
-  if (max_num_iterations < 0) return fail("max_num_iterations must be >= 0");
+  if (loop_closure_loss == RobustLossType::kCauchy) {
+    return fail("loop_closure_loss cauchy is not available: PoseGraphProblem "
+                "(factors/pose_graph_problem.h) puts a Huber loss on loop closures; use huber");
+  }
   if (!(loop_closure_loss_scale > 0.0) || !std::isfinite(loop_closure_loss_scale)) {
     return fail("loop_closure_loss_scale must be finite and > 0");
   }
-  if (!(function_tolerance >= 0.0)) return fail("function_tolerance must be >= 0");
-  if (num_threads < 1) return fail("num_threads must be >= 1");
+  std::string why;
+  if (!SolveOptions(*this).IsValid(&why)) return fail(why);
   // Ceres knows which solver / library combinations this build supports.
-  std::string ceres_error;
-  if (!SolverOptions(*this).IsValid(&ceres_error)) return fail(ceres_error);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = linear_solver_type;
+  solver.sparse_linear_algebra_library_type = sparse_linear_algebra_library_type;
+  if (!solver.IsValid(&why)) return fail(why);
   return true;
 }
 
@@ -97,23 +83,18 @@ Status OptimizePoseGraph2d(const PoseGraph2dOptions& options, PoseGraph2d* graph
   if (!options.IsValid(&error)) return Status::Error("invalid PoseGraph2dOptions: " + error);
   if (graph->vertices.empty()) return Status::Error("pose graph has no vertices");
 
+  // Pose k of the problem is graph->vertices[k].
+  PoseGraphProblem problem;
   std::unordered_map<int, int> index_of_id;
-  std::vector<std::array<double, 3>> blocks(graph->vertices.size());
-  for (size_t k = 0; k < graph->vertices.size(); ++k) {
-    const PoseGraph2dVertex& v = graph->vertices[k];
-    if (!index_of_id.emplace(v.id, static_cast<int>(k)).second) {
+  for (const PoseGraph2dVertex& v : graph->vertices) {
+    if (!index_of_id.emplace(v.id, problem.num_poses()).second) {
       return Status::Error("pose graph has two vertices with id " + std::to_string(v.id));
     }
-    blocks[k] = {v.world_T_vertex.x(), v.world_T_vertex.y(), v.world_T_vertex.theta()};
+    problem.AddPose(v.world_T_vertex);
   }
 
-  ceres::Problem::Options problem_options;
-  // One manifold object is shared by all blocks; we own it, the problem must not delete it.
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  Se2Manifold manifold;
-  for (auto& block : blocks) problem.AddParameterBlock(block.data(), 3, &manifold);
-
+  const double loss_scale =
+      options.loop_closure_loss == RobustLossType::kHuber ? options.loop_closure_loss_scale : 0.0;
   for (const PoseGraph2dEdge& edge : graph->edges) {
     const auto from = index_of_id.find(edge.id_from);
     const auto to = index_of_id.find(edge.id_to);
@@ -126,14 +107,9 @@ Status OptimizePoseGraph2d(const PoseGraph2dOptions& options, PoseGraph2d* graph
       return Status::Error("edge " + std::to_string(edge.id_from) + " -> " +
                            std::to_string(edge.id_to) + " has a non positive definite information");
     }
-    const bool sequential = std::abs(static_cast<long>(edge.id_to) - edge.id_from) == 1;
-    ceres::LossFunction* loss =
-        sequential ? nullptr
-                   : MakeLoss(options.loop_closure_loss, options.loop_closure_loss_scale);
-    problem.AddResidualBlock(
-        CreateRelativePose2Cost(edge.from_T_to_measured,
-                                SqrtInformationFromInformation(edge.information)),
-        loss, blocks[from->second].data(), blocks[to->second].data());
+    problem.AddEdge(edge.kind, from->second, to->second, edge.from_T_to_measured,
+                    SqrtInformationFromInformation(edge.information),
+                    edge.kind == EdgeKind::kSequential ? 0.0 : loss_scale);
   }
 
   // Gauge freedom (see header): FIX vertices, else the first vertex.
@@ -144,30 +120,26 @@ Status OptimizePoseGraph2d(const PoseGraph2dOptions& options, PoseGraph2d* graph
     if (it == index_of_id.end()) {
       return Status::Error("FIX names vertex " + std::to_string(id) + ", which does not exist");
     }
-    if (!problem.IsParameterBlockConstant(blocks[it->second].data())) {
-      problem.SetParameterBlockConstant(blocks[it->second].data());
+    if (!problem.IsConstant(it->second)) {
+      problem.SetConstant(it->second, true);
       ++summary->num_fixed_vertices;
     }
   }
   summary->num_vertices = static_cast<int>(graph->vertices.size());
   summary->num_edges = static_cast<int>(graph->edges.size());
 
-  ceres::Solver::Summary ceres_summary;
-  ceres::Solve(SolverOptions(options), &problem, &ceres_summary);
-  summary->initial_cost = ceres_summary.initial_cost;
-  summary->final_cost = ceres_summary.final_cost;
-  // Ceres lists the initial evaluation as iteration 0; count only the LM steps after it.
-  summary->num_iterations = std::max(0, static_cast<int>(ceres_summary.iterations.size()) - 1);
-  summary->solve_time_seconds = ceres_summary.total_time_in_seconds;
-  summary->converged = ceres_summary.termination_type == ceres::CONVERGENCE;
-  summary->message = ceres_summary.message;
-  summary->full_report = ceres_summary.FullReport();
-  if (!ceres_summary.IsSolutionUsable()) {
-    return Status::Error("pose graph solve failed: " + ceres_summary.message);
-  }
-  for (size_t k = 0; k < blocks.size(); ++k) {
-    graph->vertices[k].world_T_vertex = Pose2(blocks[k][0], blocks[k][1], blocks[k][2]);
-  }
+  PoseGraphSolveSummary solve;
+  const Status status = problem.Solve(SolveOptions(options), &solve);
+  summary->initial_cost = solve.initial_cost;
+  summary->final_cost = solve.final_cost;
+  summary->num_iterations = solve.num_iterations;
+  summary->solve_time_seconds = solve.solve_time_seconds;
+  summary->converged = solve.converged;
+  summary->message = solve.message;
+  summary->full_report = solve.full_report;
+  // An unusable solution (IsSolutionUsable false) is an error; *graph stays as it was.
+  if (!status.ok()) return status;
+  for (int k = 0; k < problem.num_poses(); ++k) graph->vertices[k].world_T_vertex = problem.pose(k);
   return Status::Ok();
 }
 

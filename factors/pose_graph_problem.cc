@@ -22,18 +22,6 @@ Pose2 ToPose(const double* block) { return Pose2(block[0], block[1], block[2]); 
 
 }  // namespace
 
-const char* EdgeKindName(EdgeKind kind) {
-  switch (kind) {
-    case EdgeKind::kSequential:
-      return "sequential";
-    case EdgeKind::kLoopClosure:
-      return "loop closure";
-    case EdgeKind::kInterRobot:
-      return "inter-robot";
-  }
-  return "unknown";
-}
-
 bool PoseGraphSolveOptions::IsValid(std::string* error) const {
   std::ostringstream why;
   if (max_num_iterations < 1) why << "max_num_iterations must be >= 1, got " << max_num_iterations;
@@ -158,7 +146,14 @@ Status PoseGraphProblem::Solve(const PoseGraphSolveOptions& options, PoseGraphSo
   std::string invalid;
   if (!options.IsValid(&invalid)) return Status::Error("invalid PoseGraphSolveOptions: " + invalid);
   if (summary != nullptr) *summary = PoseGraphSolveSummary();
-  if (problem_->NumResidualBlocks() == 0) return Status::Ok();
+  if (problem_->NumResidualBlocks() == 0) {
+    // Nothing to solve: the poses are already optimal (Ceres reports CONVERGENCE here too).
+    if (summary != nullptr) {
+      summary->converged = true;
+      summary->message = "no edges: nothing to solve";
+    }
+    return Status::Ok();
+  }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = options.linear_solver_type;
   if (options.linear_solver_type == ceres::SPARSE_SCHUR) {

@@ -23,6 +23,7 @@
 
 #include "Eigen/Core"
 #include "ceres/types.h"
+#include "core/edge_kind.h"  // EdgeKind, EdgeKindName
 #include "core/se2.h"
 #include "core/status.h"
 
@@ -30,14 +31,11 @@ namespace ceres {
 class Problem;
 class Manifold;
 namespace internal {
-class ResidualBlock;  // ceres::ResidualBlockId points to it
+class ResidualBlock;  // ceres::ResidualBlockId is a pointer to it (ceres/problem.h)
 }  // namespace internal
 }  // namespace ceres
 
 namespace hetslam {
-
-enum class EdgeKind { kSequential = 0, kLoopClosure = 1, kInterRobot = 2 };
-const char* EdgeKindName(EdgeKind kind);  // "sequential", "loop closure", "inter-robot"
 
 struct PoseGraphSolveOptions {
   int max_num_iterations = 50;
@@ -56,7 +54,7 @@ struct PoseGraphSolveSummary {
   double initial_cost = 0.0;
   double final_cost = 0.0;
   int num_iterations = 0;     // iterations after the initial evaluation
-  bool converged = false;     // Ceres reported CONVERGENCE
+  bool converged = false;     // Ceres reported CONVERGENCE, or there were no edges to solve
   double solve_time_seconds = 0.0;
   std::string message;        // Ceres' termination message
   std::string full_report;
@@ -116,7 +114,7 @@ class PoseGraphProblem {
     Pose2 a_T_b;
     Eigen::Matrix3d sqrt_information = Eigen::Matrix3d::Identity();
     bool removed = false;
-    ceres::internal::ResidualBlock* residual = nullptr;  // a ceres::ResidualBlockId
+    ceres::internal::ResidualBlock* residual = nullptr;
   };
   void EnsureInProblem(int pose);
 

@@ -80,8 +80,27 @@ TEST(G2oIoTest, WriteThenReadRoundTripsThroughAFile) {
     EXPECT_NEAR(graph.edges[k].from_T_to_measured.theta(),
                 read.edges[k].from_T_to_measured.theta(), 1e-15);
     EXPECT_EQ(graph.edges[k].information, read.edges[k].information);
+    // The generator labels edges as the reader's id convention does.
+    EXPECT_EQ(graph.edges[k].kind, read.edges[k].kind) << "edge " << k;
   }
   EXPECT_EQ(graph.fixed_vertex_ids, read.fixed_vertex_ids);
+}
+
+TEST(G2oIoTest, EdgesBetweenConsecutiveIdsAreSequentialTheOthersLoopClosures) {
+  const std::string text =
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\nVERTEX_SE2 7 0 1 0\n"
+      "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"   // forward step
+      "EDGE_SE2 2 1 -1 0 0 1 0 0 1 0 1\n"  // backward step: still consecutive
+      "EDGE_SE2 0 2 2 0 0 1 0 0 1 0 1\n"
+      "EDGE_SE2 7 0 0 -1 0 1 0 0 1 0 1\n";
+  PoseGraph2d graph;
+  const Status status = Parse(text, &graph);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_EQ(4u, graph.edges.size());
+  EXPECT_EQ(EdgeKind::kSequential, graph.edges[0].kind);
+  EXPECT_EQ(EdgeKind::kSequential, graph.edges[1].kind);
+  EXPECT_EQ(EdgeKind::kLoopClosure, graph.edges[2].kind);
+  EXPECT_EQ(EdgeKind::kLoopClosure, graph.edges[3].kind);
 }
 
 struct MalformedCase {

@@ -128,6 +128,42 @@ TEST(PoseGraph2dTest, BadInputsAreErrors) {
   EXPECT_THAT(error, HasSubstr("loop_closure_loss_scale"));
 }
 
+// Vertex 0 at the origin (the gauge); two edges 0 -> 1 between consecutive ids: a good one (kind
+// kSequential, 1 m ahead) and one 5 sigmas off in y (1 m ahead, 5 m left; sigma 1 m, 1 rad)
+// of kind `second_kind`. Returns the solved y of vertex 1.
+double SolvedYWithSecondEdgeOfKind(EdgeKind second_kind) {
+  PoseGraph2d graph;
+  graph.vertices = {{0, Pose2()}, {1, Pose2(0.5, 0.5, 0.1)}};
+  graph.edges.push_back({0, 1, Pose2(1, 0, 0), Eigen::Matrix3d::Identity(), EdgeKind::kSequential});
+  graph.edges.push_back({0, 1, Pose2(1, 5, 0), Eigen::Matrix3d::Identity(), second_kind});
+  PoseGraph2dOptions options;
+  options.loop_closure_loss = RobustLossType::kHuber;
+  options.loop_closure_loss_scale = 1.0;
+  options.function_tolerance = 1e-14;  // the default 1e-8 of a cost of a few units stops ~1e-4 m short
+  PoseGraph2dSummary summary;
+  const Status status = OptimizePoseGraph2d(options, &graph, &summary);
+  EXPECT_TRUE(status.ok()) << status.message();
+  EXPECT_TRUE(summary.converged) << summary.full_report;
+  return graph.vertices[1].world_T_vertex.y();
+}
+
+TEST(PoseGraph2dTest, EdgeKindNotIdsDecidesTheLoss) {
+  // Sequential: no loss, min 1/2 y^2 + 1/2 (y - 5)^2 gives y = 2.5. Loop closure or inter-robot:
+  // Huber(1) on the second edge, min 1/2 y^2 + (|y - 5| - 1/2) gives y = 1 (and |1 - 5| > 1,
+  // so the second edge is indeed in Huber's linear zone).
+  EXPECT_NEAR(2.5, SolvedYWithSecondEdgeOfKind(EdgeKind::kSequential), 1e-6);
+  EXPECT_NEAR(1.0, SolvedYWithSecondEdgeOfKind(EdgeKind::kLoopClosure), 1e-6);
+  EXPECT_NEAR(1.0, SolvedYWithSecondEdgeOfKind(EdgeKind::kInterRobot), 1e-6);
+}
+
+TEST(PoseGraph2dTest, CauchyIsRejectedNotSilentlyReplaced) {
+  PoseGraph2dOptions options;
+  options.loop_closure_loss = RobustLossType::kCauchy;
+  std::string error;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_THAT(error, HasSubstr("cauchy"));
+}
+
 TEST(RobustLossTypeTest, NamesRoundTrip) {
   for (const RobustLossType type :
        {RobustLossType::kNone, RobustLossType::kHuber, RobustLossType::kCauchy}) {
