@@ -57,10 +57,6 @@ bool PoseGraph2dOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = message;
     return false;
   };
-  if (loop_closure_loss == RobustLossType::kCauchy) {
-    return fail("loop_closure_loss cauchy is not available: PoseGraphProblem "
-                "(factors/pose_graph_problem.h) puts a Huber loss on loop closures; use huber");
-  }
   if (!(loop_closure_loss_scale > 0.0) || !std::isfinite(loop_closure_loss_scale)) {
     return fail("loop_closure_loss_scale must be finite and > 0");
   }
@@ -93,8 +89,10 @@ Status OptimizePoseGraph2d(const PoseGraph2dOptions& options, PoseGraph2d* graph
     problem.AddPose(v.world_T_vertex);
   }
 
-  const double loss_scale =
-      options.loop_closure_loss == RobustLossType::kHuber ? options.loop_closure_loss_scale : 0.0;
+  const double loss_scale = options.loop_closure_loss == RobustLossType::kNone ? 0.0 : options.loop_closure_loss_scale;
+  const PoseGraphProblem::Loss loss = options.loop_closure_loss == RobustLossType::kCauchy
+                                          ? PoseGraphProblem::Loss::kCauchy
+                                          : PoseGraphProblem::Loss::kHuber;
   for (const PoseGraph2dEdge& edge : graph->edges) {
     const auto from = index_of_id.find(edge.id_from);
     const auto to = index_of_id.find(edge.id_to);
@@ -109,7 +107,7 @@ Status OptimizePoseGraph2d(const PoseGraph2dOptions& options, PoseGraph2d* graph
     }
     problem.AddEdge(edge.kind, from->second, to->second, edge.from_T_to_measured,
                     SqrtInformationFromInformation(edge.information),
-                    edge.kind == EdgeKind::kSequential ? 0.0 : loss_scale);
+                    edge.kind == EdgeKind::kSequential ? 0.0 : loss_scale, loss);
   }
 
   // Gauge freedom (see header): FIX vertices, else the first vertex.

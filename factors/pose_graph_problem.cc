@@ -24,8 +24,8 @@ Pose2 ToPose(const double* block) { return Pose2(block[0], block[1], block[2]); 
 
 bool PoseGraphSolveOptions::IsValid(std::string* error) const {
   std::ostringstream why;
-  if (max_num_iterations < 1) why << "max_num_iterations must be >= 1, got " << max_num_iterations;
-  else if (!(function_tolerance > 0)) why << "function_tolerance must be > 0, got " << function_tolerance;
+  if (max_num_iterations < 0) why << "max_num_iterations must be >= 0, got " << max_num_iterations;
+  else if (!(function_tolerance >= 0)) why << "function_tolerance must be >= 0, got " << function_tolerance;
   else if (num_threads < 1) why << "num_threads must be >= 1, got " << num_threads;
   if (error != nullptr) *error = why.str();
   return why.str().empty();
@@ -87,10 +87,16 @@ void PoseGraphProblem::set_pose(int index, const Pose2& pose) {
 }
 
 int PoseGraphProblem::AddEdge(EdgeKind kind, int a, int b, const Pose2& a_T_b, const Eigen::Matrix3d& sqrt_information,
-                              double loss_scale) {
+                              double loss_scale, Loss loss) {
   CHECK(a >= 0 && a < num_poses() && b >= 0 && b < num_poses() && a != b)
       << "edge between poses " << a << " and " << b << " of " << num_poses();
   CHECK_GE(loss_scale, 0.0);
+  CHECK(kind != EdgeKind::kSequential || loss_scale == 0.0) << "a sequential edge never gets a robust loss";
+  ceres::LossFunction* loss_function = nullptr;
+  if (loss_scale > 0) {
+    loss_function = loss == Loss::kCauchy ? static_cast<ceres::LossFunction*>(new ceres::CauchyLoss(loss_scale))
+                                          : new ceres::HuberLoss(loss_scale);
+  }
   Edge edge;
   edge.kind = kind;
   edge.a = a;
@@ -98,8 +104,7 @@ int PoseGraphProblem::AddEdge(EdgeKind kind, int a, int b, const Pose2& a_T_b, c
   edge.a_T_b = a_T_b;
   edge.sqrt_information = sqrt_information;
   edge.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(a_T_b, sqrt_information),
-                                             loss_scale > 0 ? new ceres::HuberLoss(loss_scale) : nullptr,
-                                             poses_[a].block, poses_[b].block);
+                                             loss_function, poses_[a].block, poses_[b].block);
   edges_.push_back(edge);
   return num_edges() - 1;
 }

@@ -9,7 +9,7 @@
 //
 // Edges (factors/relative_pose_cost.h), each with a kind carried in the graph data:
 //   kSequential   a_T_b between two poses of one frame, no robust loss (the backbone);
-//   kLoopClosure  the same cost, a Huber loss unless `loss_scale` is 0;
+//   kLoopClosure  the same cost, a robust loss (Huber, or Cauchy) unless `loss_scale` is 0;
 //   kInterRobot   the anchored cost of Kim et al. 2010 between poses of two robots' frames,
 //                 each placed in the world by its robot's anchor pose (world_T_robot_origin).
 // Gauge: the caller holds poses constant on purpose (SetConstant): the first pose of each
@@ -38,7 +38,7 @@ class ResidualBlock;  // ceres::ResidualBlockId is a pointer to it (ceres/proble
 namespace hetslam {
 
 struct PoseGraphSolveOptions {
-  int max_num_iterations = 50;
+  int max_num_iterations = 50;  // 0: only evaluate the initial cost
   // SPARSE_SCHUR eliminates the lowest elimination group first (bipartite submap graphs);
   // SPARSE_NORMAL_CHOLESKY for general graphs.
   ceres::LinearSolverType linear_solver_type = ceres::SPARSE_SCHUR;
@@ -72,10 +72,12 @@ class PoseGraphProblem {
   void SetConstant(int pose, bool constant);
   bool IsConstant(int pose) const;
 
-  // An edge a_T_b; `loss_scale` (in sigmas of the whitened residual) > 0 adds a Huber loss,
-  // 0 none. Returns the edge index. CHECK-fails on unknown poses or a = b (programmer errors).
+  // An edge a_T_b; `loss_scale` (in sigmas of the whitened residual) > 0 adds a robust loss of
+  // type `loss`, 0 none. Returns the edge index. CHECK-fails on unknown poses, a = b, or a loss
+  // on a sequential edge (programmer errors: the backbone never gets one).
+  enum class Loss { kHuber, kCauchy };
   int AddEdge(EdgeKind kind, int a, int b, const Pose2& a_T_b, const Eigen::Matrix3d& sqrt_information,
-              double loss_scale = 0.0);
+              double loss_scale = 0.0, Loss loss = Loss::kHuber);
   // An anchored edge between pose a (of the robot whose anchor is `anchor_a`) and pose b (anchor
   // `anchor_b`), kInterRobot. The four poses must be distinct.
   int AddAnchoredEdge(int anchor_a, int a, int anchor_b, int b, const Pose2& a_T_b,

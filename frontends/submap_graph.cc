@@ -273,6 +273,7 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
     edge.id_from = submap_vertex.at(c.submap.index);
     edge.id_to = first_node_vertex + c.node.index;
     edge.from_T_to_measured = c.submap_T_node;
+    edge.kind = c.kind;
     const bool loop = c.kind == EdgeKind::kLoopClosure;
     const double st = loop ? options_.loop_translation_sigma_meters : options_.intra_translation_sigma_meters;
     const double sr = loop ? options_.loop_rotation_sigma_radians : options_.intra_rotation_sigma_radians;
