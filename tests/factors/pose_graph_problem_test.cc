@@ -202,7 +202,7 @@ TEST(PoseGraphProblemTest, InvalidOptionsAreAnErrorAndLeaveThePoses) {
   std::vector<Pose2> before;
   for (int k = 0; k < problem.num_poses(); ++k) before.push_back(problem.pose(k));
   PoseGraphSolveOptions options;
-  options.max_num_iterations = 0;
+  options.max_num_iterations = -1;
   const Status status = problem.Solve(options);
   EXPECT_FALSE(status.ok());
   EXPECT_THAT(status.message(), HasSubstr("max_num_iterations"));
