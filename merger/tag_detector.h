@@ -21,8 +21,8 @@
 //  - tag size: edge of the black square in metres (apriltag's `tagsize`).
 //
 // Deterministic: one detector thread, no hidden state between calls.
-#ifndef HETSLAM_FRONTENDS_TAG_DETECTOR_H_
-#define HETSLAM_FRONTENDS_TAG_DETECTOR_H_
+#ifndef HETSLAM_MERGER_TAG_DETECTOR_H_
+#define HETSLAM_MERGER_TAG_DETECTOR_H_
 
 #include <array>
 #include <string>
@@ -97,4 +97,4 @@ class TagDetector {
 
 }  // namespace hetslam
 
-#endif  // HETSLAM_FRONTENDS_TAG_DETECTOR_H_
+#endif  // HETSLAM_MERGER_TAG_DETECTOR_H_
