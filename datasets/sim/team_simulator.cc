@@ -7,6 +7,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "core/euler.h"
 #include "datasets/sim/sim_random.h"
 #include "datasets/sim/simulator.h"
 #include "datasets/sim/tag_camera.h"
@@ -439,8 +440,8 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
     bool first = true;
     for (double t : SensorStamps(spec.odometry.rate_hz, t_end)) {
       const Eigen::Isometry3d pose = SampleTruth(out->truth, dt, t).world_T_body;
-      const Eigen::Matrix3d& r = pose.linear();
-      const Pose2 truth(pose.translation().x(), pose.translation().y(), std::atan2(r(1, 0), r(0, 0)));
+      const Pose2 truth(pose.translation().x(), pose.translation().y(),
+                        RollPitchYawFromRotation(pose.linear()).z());
       if (!first) odom = StepOdometry(spec.odometry, previous, truth, odom, &odometry_rng);
       first = false;
       previous = truth;

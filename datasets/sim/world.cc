@@ -11,6 +11,7 @@
 #include <sstream>
 #include <utility>
 
+#include "core/euler.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -554,17 +555,10 @@ bool OdometryOptions::IsValid(std::string* error) const {
 
 namespace {
 
-Eigen::Matrix3d RotationZyx(double roll, double pitch, double yaw) {
-  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
-
 Eigen::Isometry3d PoseFromXyzRpy(const Eigen::Vector3d& xyz, double roll, double pitch,
                                  double yaw) {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = RotationZyx(roll, pitch, yaw);
+  pose.linear() = RotationFromRollPitchYaw(roll, pitch, yaw);
   pose.translation() = xyz;
   return pose;
 }
@@ -614,7 +608,7 @@ Eigen::Isometry3d CameraOptions::DefaultLaserTCamera(const Eigen::Vector3d& tran
       -1.0, 0.0, 0.0,               //
       0.0, -1.0, 0.0;
   Eigen::Isometry3d laser_T_camera = Eigen::Isometry3d::Identity();
-  laser_T_camera.linear() = RotationZyx(roll_radians, pitch_radians, yaw_radians) * body_R_optical;
+  laser_T_camera.linear() = RotationFromRollPitchYaw(roll_radians, pitch_radians, yaw_radians) * body_R_optical;
   laser_T_camera.translation() = translation;
   return laser_T_camera;
 }
