@@ -69,6 +69,7 @@
 
 #include "Eigen/Core"
 #include "Eigen/Geometry"
+#include "core/camera_model.h"
 #include "core/euler.h"
 #include "core/laser_scan.h"
 #include "core/se2.h"
@@ -129,11 +130,6 @@ struct ImageReference {
   double stamp_seconds = 0.0;
   std::string path;  // as written in the log (relative to the log's directory)
   int line_number = 0;
-};
-
-struct CameraIntrinsics {
-  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // pixels
-  int width = 0, height = 0;
 };
 
 struct RobotLogReadOptions {

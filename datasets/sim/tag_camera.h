@@ -13,7 +13,7 @@
 // generator: four pixels per draw, no transcendental per pixel (generating per-pixel Box-Muller
 // samples took most of a dataset's generation time).
 // Pixel centres are at integer coordinates (pixel (row i, column j) covers [j - 0.5, j + 0.5] x
-// [i - 0.5, i + 0.5]), the convention of CameraIntrinsics. Occlusion between tags and by walls
+// [i - 0.5, i + 0.5]), the convention of CameraIntrinsics (core/camera_model.h). Occlusion between tags and by walls
 // is the caller's business (pass only the tags it can see); nearer tags are drawn over farther
 // ones; tags behind the camera or partly outside the image are drawn clipped, as a real camera
 // would see them; a tag seen from its back (camera on its -z side) is not drawn.
@@ -31,7 +31,7 @@
 
 #include "Eigen/Core"
 #include "Eigen/Geometry"
-#include "core/robot_log.h"
+#include "core/camera_model.h"
 #include "core/status.h"
 #include "opencv2/core.hpp"
 
