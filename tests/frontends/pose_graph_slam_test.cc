@@ -3,8 +3,8 @@
 #include <random>
 
 #include "core/trajectory_metrics.h"
+#include "datasets/sim/scenario.h"
 #include "datasets/sim/simulator.h"
-#include "datasets/sim/world.h"
 #include "glog/logging.h"
 #include "gtest/gtest.h"
 
