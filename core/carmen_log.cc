@@ -157,13 +157,6 @@ class FieldReader {
   size_t next_ = 1;  // fields_[0] is the message type
 };
 
-// Shorthand: return the status when it is an error.
-#define HETSLAM_RETURN_IF_ERROR(expr)  \
-  do {                                 \
-    Status _status = (expr);           \
-    if (!_status.ok()) return _status; \
-  } while (0)
-
 // ipc_timestamp ipc_hostname logger_timestamp; returns ipc_timestamp.
 Status ReadTimestamps(FieldReader* r, double* ipc_timestamp) {
   std::string host;
@@ -601,7 +594,5 @@ Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
   }
   return Status::Ok();
 }
-
-#undef HETSLAM_RETURN_IF_ERROR
 
 }  // namespace hetslam

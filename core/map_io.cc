@@ -241,8 +241,7 @@ Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_withou
   std::string pgm = "P5\n" + std::to_string(box.width()) + " " + std::to_string(box.height()) +
                     "\n255\n";
   pgm.append(pixels.begin(), pixels.end());
-  Status status = WriteBytes(pgm_path, pgm.data(), pgm.size());
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(WriteBytes(pgm_path, pgm.data(), pgm.size()));
 
   const GridGeometry& g = grid.geometry();
   const Eigen::Vector2d origin =

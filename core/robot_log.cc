@@ -35,12 +35,6 @@ constexpr double kAngleTolerance = 1e-9;
 // A MOUNT in force and a scan's robot_T_sensor must agree this well for the writer.
 constexpr double kMountTolerance = 1e-9;
 
-#define HETSLAM_RETURN_IF_ERROR(expr)  \
-  do {                                 \
-    Status _status = (expr);           \
-    if (!_status.ok()) return _status; \
-  } while (0)
-
 // Shortest decimal text that reads back as the same double (std::to_chars, locale
 // independent). Non-finite values print as "nan", "inf", "-inf".
 std::string FormatDouble(double v) {
@@ -990,8 +984,6 @@ Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
   }
   return CloseWritten(file, path);
 }
-
-#undef HETSLAM_RETURN_IF_ERROR
 
 namespace {
 

@@ -43,8 +43,7 @@ Status ReadTrajectory(const std::string& path, std::vector<StampedPose2>* trajec
   CHECK(trajectory != nullptr) << "ReadTrajectory: trajectory is null";
   trajectory->clear();
   std::vector<NumericRow> rows;
-  const Status status = ReadNumericTable(path, {"timestamp", "x", "y", "theta"}, &rows);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(ReadNumericTable(path, {"timestamp", "x", "y", "theta"}, &rows));
   trajectory->reserve(rows.size());
   for (const NumericRow& row : rows) {
     const std::vector<double>& v = row.values;

@@ -177,9 +177,8 @@ class ScenarioParser {
       const std::vector<std::string> tokens = Tokenize(line);
       if (tokens.empty()) continue;
       const LineContext context{source_, line_number};
-      const Status status =
-          robot_ == nullptr ? TopLevel(tokens, context) : RobotStatement(tokens, context);
-      if (!status.ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(robot_ == nullptr ? TopLevel(tokens, context)
+                                                : RobotStatement(tokens, context));
     }
     if (robot_ != nullptr) {
       return Status::Error(source_ + ":" + std::to_string(robot_->source_line) + ": robot block '" +
@@ -232,10 +231,9 @@ class ScenarioParser {
   Status ParseLaser(const std::vector<std::string>& tokens, const LineContext& context,
                     LaserOptions* laser) {
     std::vector<double> v;
-    Status status = ParseNumbers(
+    HETSLAM_RETURN_IF_ERROR(ParseNumbers(
         tokens, 6, 6, "laser fov_deg num_beams max_range_m noise_std_m dropout_prob rate_hz",
-        context, &v);
-    if (!status.ok()) return status;
+        context, &v));
     if (!IsInteger(v[1]) || std::abs(v[1]) > 1e9) {
       return context.Error("laser num_beams must be an integer, got " + tokens[2]);
     }
@@ -253,11 +251,10 @@ class ScenarioParser {
   Status ParseOdometry(const std::vector<std::string>& tokens, const LineContext& context,
                        OdometryOptions* odometry) {
     std::vector<double> v;
-    Status status = ParseNumbers(tokens, 4, 4,
-                                 "odometry rate_hz trans_noise_m_per_sqrt_m "
-                                 "rot_noise_deg_per_sqrt_m rot_noise_deg_per_sqrt_deg",
-                                 context, &v);
-    if (!status.ok()) return status;
+    HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 4, 4,
+                                         "odometry rate_hz trans_noise_m_per_sqrt_m "
+                                         "rot_noise_deg_per_sqrt_m rot_noise_deg_per_sqrt_deg",
+                                         context, &v));
     odometry->rate_hz = v[0];
     odometry->trans_noise_meters_per_sqrt_meter = v[1];
     odometry->rot_noise_radians_per_sqrt_meter = v[2] * kDegToRad;
@@ -272,8 +269,7 @@ class ScenarioParser {
   Status ParseSpeed(const std::vector<std::string>& tokens, const std::string& usage,
                     const LineContext& context, RobotOptions* motion) {
     std::vector<double> v;
-    Status status = ParseNumbers(tokens, 2, 2, usage, context, &v);
-    if (!status.ok()) return status;
+    HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 2, 2, usage, context, &v));
     motion->max_speed_mps = v[0];
     motion->max_turn_rate_radps = v[1] * kDegToRad;
     std::string why;
@@ -284,8 +280,7 @@ class ScenarioParser {
   // A box-like statement "KEY cx cy w h height [yaw_deg]".
   Status ParseBoxPrism(const std::vector<std::string>& tokens, const std::string& usage,
                        const LineContext& context, std::vector<double>* v) {
-    Status status = ParseNumbers(tokens, 5, 6, usage, context, v);
-    if (!status.ok()) return status;
+    HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 5, 6, usage, context, v));
     if (!((*v)[2] > 0.0 && (*v)[3] > 0.0 && (*v)[4] > 0.0)) {
       return context.Error("'" + tokens[0] + "' width, depth and height must be positive");
     }
@@ -297,19 +292,14 @@ class ScenarioParser {
   Status TopLevel(const std::vector<std::string>& tokens, const LineContext& context) {
     const std::string& keyword = tokens[0];
     std::vector<double> v;
-    Status status;
     World& world = scenario_->world;
     if (keyword == "wall") {
-      if (!(status = ParseNumbers(tokens, 4, 4, "wall x1 y1 x2 y2", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 4, 4, "wall x1 y1 x2 y2", context, &v));
       const Eigen::Vector2d a(v[0], v[1]), b(v[2], v[3]);
       if ((b - a).norm() < 1e-6) return context.Error("wall has zero length");
       world.AddWall(a, b, context.line_number);
     } else if (keyword == "box") {
-      if (!(status = ParseNumbers(tokens, 4, 5, "box cx cy w h [yaw_deg]", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 4, 5, "box cx cy w h [yaw_deg]", context, &v));
       if (!(v[2] > 0.0 && v[3] > 0.0)) {
         return context.Error("box width and height must be positive");
       }
@@ -317,31 +307,25 @@ class ScenarioParser {
       world.AddBox(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]), yaw,
                    context.line_number);
     } else if (keyword == "wall_height") {
-      if (!(status = Once(&seen_, keyword, context)).ok()) return status;
-      if (!(status = ParseNumbers(tokens, 1, 1, "wall_height meters", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "wall_height meters", context, &v));
       if (!(v[0] > 0.0 && v[0] <= 100.0)) {
         return context.Error("wall_height must be in (0, 100] m");
       }
       wall_height_ = v[0];
     } else if (keyword == "ceiling") {
-      if (!(status = Once(&seen_, keyword, context)).ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
       if (tokens.size() == 2 && tokens[1] == "none") {
         ceiling_ = std::numeric_limits<double>::infinity();
         return Status::Ok();
       }
-      if (!(status = ParseNumbers(tokens, 1, 1, "ceiling meters | ceiling none", context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(
+          ParseNumbers(tokens, 1, 1, "ceiling meters | ceiling none", context, &v));
       if (!(v[0] > 0.0 && v[0] <= 100.0)) return context.Error("ceiling must be in (0, 100] m");
       ceiling_ = v[0];
     } else if (keyword == "table") {
-      if (!(status = ParseBoxPrism(tokens, "table cx cy w h height [yaw_deg]", context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(
+          ParseBoxPrism(tokens, "table cx cy w h height [yaw_deg]", context, &v));
       const TableShape shape;
       const double leg_span = 2.0 * (shape.leg_inset_meters + shape.leg_width_meters);
       if (!(v[2] > leg_span && v[3] > leg_span)) {
@@ -355,16 +339,14 @@ class ScenarioParser {
       world.AddTable(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]), v[5] * kDegToRad,
                      v[4], context.line_number, shape);
     } else if (keyword == "obstacle") {
-      if (!(status = ParseBoxPrism(tokens, "obstacle cx cy w h height [yaw_deg]", context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(
+          ParseBoxPrism(tokens, "obstacle cx cy w h height [yaw_deg]", context, &v));
       world.AddBoxPrism(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]),
                         v[5] * kDegToRad, 0.0, v[4], Surface::kObstacle, context.line_number);
     } else if (keyword == "shelf") {
       const std::string usage =
           "shelf x1 y1 x2 y2 lower_depth lower_height upper_depth height";
-      if (!(status = ParseNumbers(tokens, 8, 8, usage, context, &v)).ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 8, 8, usage, context, &v));
       if ((Eigen::Vector2d(v[2], v[3]) - Eigen::Vector2d(v[0], v[1])).norm() < 1e-6) {
         return context.Error("shelf back has zero length");
       }
@@ -374,11 +356,8 @@ class ScenarioParser {
       world.AddShelf(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]), v[4], v[5], v[6],
                      v[7], context.line_number);
     } else if (keyword == "random_obstacles") {
-      if (!(status = ParseNumbers(tokens, 6, 6, "random_obstacles n x0 y0 x1 y1 max_height",
-                                  context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(
+          ParseNumbers(tokens, 6, 6, "random_obstacles n x0 y0 x1 y1 max_height", context, &v));
       if (!IsInteger(v[0]) || v[0] < 1 || v[0] > 1000) {
         return context.Error("random_obstacles count must be an integer in [1, 1000], got " +
                              tokens[1]);
@@ -396,9 +375,7 @@ class ScenarioParser {
       spec.source_line = context.line_number;
       scenario_->random_obstacles.push_back(spec);
     } else if (keyword == "tag") {
-      if (!(status = ParseNumbers(tokens, 6, 6, "tag id size x y z yaw_deg", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 6, 6, "tag id size x y z yaw_deg", context, &v));
       if (!IsInteger(v[0]) || v[0] < 0 || v[0] > 586) {
         return context.Error("tag id must be a tag36h11 id (an integer in [0, 586]), got " +
                              tokens[1]);
@@ -455,35 +432,29 @@ class ScenarioParser {
       return context.Error("'robot_end' without robot_begin");
     } else if (keyword == "waypoint") {
       single_robot_lines_.emplace_back(keyword, context.line_number);
-      if (!(status = ParseNumbers(tokens, 2, 2, "waypoint x y", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 2, 2, "waypoint x y", context, &v));
       scenario_->waypoints.emplace_back(v[0], v[1]);
     } else if (keyword == "start") {
       single_robot_lines_.emplace_back(keyword, context.line_number);
-      if (!(status = Once(&seen_, keyword, context)).ok()) return status;
-      if (!(status = ParseNumbers(tokens, 3, 3, "start x y yaw_deg", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 3, 3, "start x y yaw_deg", context, &v));
       scenario_->has_start_pose = true;
       scenario_->start_pose = Pose2(v[0], v[1], v[2] * kDegToRad);
     } else if (keyword == "laser") {
       single_robot_lines_.emplace_back(keyword, context.line_number);
-      if (!(status = Once(&seen_, keyword, context)).ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
       return ParseLaser(tokens, context, &scenario_->laser);
     } else if (keyword == "robot") {
       single_robot_lines_.emplace_back(keyword, context.line_number);
-      if (!(status = Once(&seen_, keyword, context)).ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
       return ParseSpeed(tokens, "robot speed_mps turn_rate_dps", context, &scenario_->robot);
     } else if (keyword == "odometry") {
       single_robot_lines_.emplace_back(keyword, context.line_number);
-      if (!(status = Once(&seen_, keyword, context)).ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
       return ParseOdometry(tokens, context, &scenario_->odometry);
     } else if (keyword == "duration_limit_s") {
-      if (!(status = Once(&seen_, keyword, context)).ok()) return status;
-      if (!(status = ParseNumbers(tokens, 1, 1, "duration_limit_s seconds", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "duration_limit_s seconds", context, &v));
       if (!(v[0] > 0.0)) return context.Error("duration_limit_s must be positive");
       scenario_->duration_limit_seconds = v[0];
     } else {
@@ -503,14 +474,11 @@ class ScenarioParser {
                            robot.name + "' is " + kind_name);
     };
     std::vector<double> v;
-    Status status;
     static const char* const kSingletons[] = {
         "start", "altitude", "speed", "laser", "laser_mount", "head_joint_height", "marg",
         "camera", "camera_mount", "odometry", "altimeter"};
     for (const char* singleton : kSingletons) {
-      if (keyword == singleton && !(status = Once(&robot_seen_, keyword, context)).ok()) {
-        return status;
-      }
+      if (keyword == singleton) HETSLAM_RETURN_IF_ERROR(Once(&robot_seen_, keyword, context));
     }
     if (keyword == "robot_end") {
       if (tokens.size() != 1) return context.Error("'robot_end' takes no fields");
@@ -520,25 +488,18 @@ class ScenarioParser {
       }
       robot_ = nullptr;
     } else if (keyword == "start") {
-      if (!(status = ParseNumbers(tokens, 3, 3, "start x y yaw_deg", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 3, 3, "start x y yaw_deg", context, &v));
       robot.has_start_pose = true;
       robot.start_pose = Pose2(v[0], v[1], v[2] * kDegToRad);
     } else if (keyword == "altitude") {
-      if (!(status = only_for(RobotKind::kUav)).ok()) return status;
-      if (!(status = ParseNumbers(tokens, 1, 1, "altitude meters", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(only_for(RobotKind::kUav));
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "altitude meters", context, &v));
       if (!(v[0] >= 0.2 && v[0] <= 10.0)) return context.Error("altitude must be in [0.2, 10] m");
       robot.altitude_meters = v[0];
     } else if (keyword == "waypoint") {
       const bool uav = robot.kind == RobotKind::kUav;
-      if (!(status = ParseNumbers(tokens, 2, uav ? 3 : 2,
-                                  uav ? "waypoint x y [altitude]" : "waypoint x y", context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(
+          tokens, 2, uav ? 3 : 2, uav ? "waypoint x y [altitude]" : "waypoint x y", context, &v));
       RouteStep step;
       step.type = RouteStep::Type::kWaypoint;
       step.target = Eigen::Vector2d(v[0], v[1]);
@@ -551,9 +512,7 @@ class ScenarioParser {
       step.source_line = context.line_number;
       robot.route.push_back(step);
     } else if (keyword == "stand") {
-      if (!(status = ParseNumbers(tokens, 1, 1, "stand seconds", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "stand seconds", context, &v));
       if (!(v[0] > 0.0)) return context.Error("stand duration must be positive");
       RouteStep step;
       step.type = RouteStep::Type::kStand;
@@ -561,11 +520,8 @@ class ScenarioParser {
       step.source_line = context.line_number;
       robot.route.push_back(step);
     } else if (keyword == "command") {
-      if (!(status = ParseNumbers(tokens, 4, 4, "command seconds vx_mps vy_mps yaw_rate_dps",
-                                  context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(
+          ParseNumbers(tokens, 4, 4, "command seconds vx_mps vy_mps yaw_rate_dps", context, &v));
       if (!(v[0] > 0.0)) return context.Error("command duration must be positive");
       if (robot.kind == RobotKind::kWheeled && v[2] != 0.0) {
         return context.Error("a wheeled robot cannot move sideways (vy must be 0)");
@@ -586,22 +542,16 @@ class ScenarioParser {
       step.source_line = context.line_number;
       robot.route.push_back(step);
     } else if (keyword == "speed") {
-      if (!(status = ParseSpeed(tokens, "speed max_speed_mps turn_rate_dps", context,
-                                &robot.motion))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(
+          ParseSpeed(tokens, "speed max_speed_mps turn_rate_dps", context, &robot.motion));
       if (robot.kind == RobotKind::kHumanoid && robot.motion.max_speed_mps > 0.15) {
         return context.Error("a humanoid walks at most 0.15 m/s");
       }
     } else if (keyword == "laser") {
       return ParseLaser(tokens, context, &robot.laser);
     } else if (keyword == "laser_mount" || keyword == "camera_mount") {
-      if (!(status = ParseNumbers(tokens, 6, 6,
-                                  keyword + " x y z roll_deg pitch_deg yaw_deg", context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(
+          ParseNumbers(tokens, 6, 6, keyword + " x y z roll_deg pitch_deg yaw_deg", context, &v));
       if (keyword == "laser_mount") {
         robot.body_T_laser = PoseFromXyzRpy(Eigen::Vector3d(v[0], v[1], v[2]), v[3] * kDegToRad,
                                             v[4] * kDegToRad, v[5] * kDegToRad);
@@ -611,31 +561,30 @@ class ScenarioParser {
             v[5] * kDegToRad);
       }
     } else if (keyword == "head_joint_height") {
-      if (!(status = only_for(RobotKind::kHumanoid)).ok()) return status;
-      if (!(status = ParseNumbers(tokens, 1, 1, "head_joint_height meters", context, &v)).ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(only_for(RobotKind::kHumanoid));
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "head_joint_height meters", context, &v));
       if (!(v[0] > 0.0 && v[0] < 5.0)) return context.Error("head_joint_height must be in (0, 5) m");
       robot.head_joint_height_meters = v[0];
     } else if (keyword == "head_level" || keyword == "head_hold" || keyword == "head_move" ||
                keyword == "head_sweep") {
-      if (!(status = only_for(RobotKind::kHumanoid)).ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(only_for(RobotKind::kHumanoid));
       HeadPhase phase;
       if (keyword == "head_level") {
-        status = ParseNumbers(tokens, 1, 1, "head_level seconds", context, &v);
+        HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "head_level seconds", context, &v));
         phase.type = HeadPhase::Type::kLevel;
       } else if (keyword == "head_hold") {
-        status = ParseNumbers(tokens, 2, 2, "head_hold seconds pitch_deg", context, &v);
+        HETSLAM_RETURN_IF_ERROR(
+            ParseNumbers(tokens, 2, 2, "head_hold seconds pitch_deg", context, &v));
         phase.type = HeadPhase::Type::kHold;
       } else if (keyword == "head_move") {
-        status = ParseNumbers(tokens, 2, 2, "head_move seconds pitch_deg", context, &v);
+        HETSLAM_RETURN_IF_ERROR(
+            ParseNumbers(tokens, 2, 2, "head_move seconds pitch_deg", context, &v));
         phase.type = HeadPhase::Type::kMove;
       } else {
-        status = ParseNumbers(tokens, 4, 4, "head_sweep seconds min_deg max_deg period_s",
-                              context, &v);
+        HETSLAM_RETURN_IF_ERROR(ParseNumbers(
+            tokens, 4, 4, "head_sweep seconds min_deg max_deg period_s", context, &v));
         phase.type = HeadPhase::Type::kSweep;
       }
-      if (!status.ok()) return status;
       if (!(v[0] > 0.0)) return context.Error("'" + keyword + "' duration must be positive");
       for (size_t i = 1; i < v.size() && (phase.type != HeadPhase::Type::kSweep || i < 3); ++i) {
         if (!(v[i] >= -30.0 && v[i] <= 60.0)) {
@@ -655,15 +604,12 @@ class ScenarioParser {
       }
       robot.head_profile.push_back(phase);
     } else if (keyword == "marg") {
-      if (!(status = ParseNumbers(tokens, 9, 9,
-                                  "marg rate_hz gyro_noise_dps gyro_bias_dps "
-                                  "gyro_bias_walk_dps_per_sqrt_s accel_noise_mps2 "
-                                  "accel_bias_mps2 mag_noise_ut attitude_noise_deg "
-                                  "attitude_offset_deg",
-                                  context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 9, 9,
+                                           "marg rate_hz gyro_noise_dps gyro_bias_dps "
+                                           "gyro_bias_walk_dps_per_sqrt_s accel_noise_mps2 "
+                                           "accel_bias_mps2 mag_noise_ut attitude_noise_deg "
+                                           "attitude_offset_deg",
+                                           context, &v));
       MargOptions& marg = robot.marg;
       marg.rate_hz = v[0];
       marg.gyro_noise_radps = v[1] * kDegToRad;
@@ -682,12 +628,8 @@ class ScenarioParser {
         camera.enabled = false;
         return Status::Ok();
       }
-      if (!(status = ParseNumbers(tokens, 7, 7,
-                                  "camera rate_hz width height fx fy cx cy | camera none",
-                                  context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(ParseNumbers(
+          tokens, 7, 7, "camera rate_hz width height fx fy cx cy | camera none", context, &v));
       if (!IsInteger(v[1]) || !IsInteger(v[2]) || std::abs(v[1]) > 1e6 || std::abs(v[2]) > 1e6) {
         return context.Error("camera width and height must be integers");
       }
@@ -702,14 +644,12 @@ class ScenarioParser {
       std::string why;
       if (!camera.IsValid(&why)) return context.Error(why);
     } else if (keyword == "odometry") {
-      if (!(status = only_for(RobotKind::kWheeled)).ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(only_for(RobotKind::kWheeled));
       return ParseOdometry(tokens, context, &robot.odometry);
     } else if (keyword == "altimeter") {
-      if (!(status = only_for(RobotKind::kUav)).ok()) return status;
-      if (!(status = ParseNumbers(tokens, 2, 2, "altimeter rate_hz noise_std_m", context, &v))
-               .ok()) {
-        return status;
-      }
+      HETSLAM_RETURN_IF_ERROR(only_for(RobotKind::kUav));
+      HETSLAM_RETURN_IF_ERROR(
+          ParseNumbers(tokens, 2, 2, "altimeter rate_hz noise_std_m", context, &v));
       robot.altimeter.rate_hz = v[0];
       robot.altimeter.noise_std_meters = v[1];
       std::string why;

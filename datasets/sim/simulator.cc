@@ -341,10 +341,8 @@ Status WriteSimulationOutputs(const std::string& directory, const Scenario& scen
           " deg/sqrt(deg); starts at the true initial pose",
       "ground truth is in truth.txt (not in this file); FLASER poses are odometry"};
   comments.insert(comments.end(), comment_lines.begin(), comment_lines.end());
-  Status status = WriteCarmenLog(files->log_path, result.log, comments);
-  if (!status.ok()) return status;
-  status = WriteTrajectory(files->truth_path, result.truth);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(WriteCarmenLog(files->log_path, result.log, comments));
+  HETSLAM_RETURN_IF_ERROR(WriteTrajectory(files->truth_path, result.truth));
 
   FILE* file = std::fopen(files->commands_path.c_str(), "w");
   if (file == nullptr) {

@@ -652,8 +652,7 @@ Status SimulateTeam(const Scenario& scenario, const TeamSimulatorOptions& option
   }
   if (!options.IsValid(&why)) return Status::Error("invalid team simulator options: " + why);
   result->world = scenario.world;
-  Status status = PlaceRandomObstacles(scenario, rng, &result->world);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(PlaceRandomObstacles(scenario, rng, &result->world));
   double t_limit = scenario.duration_limit_seconds;
   if (options.max_duration_seconds > 0.0) t_limit = std::min(t_limit, options.max_duration_seconds);
   const double dt = 1.0 / options.control_rate_hz;
@@ -793,8 +792,7 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
       "each robot's log starts in its own frame; TRUTH and tag lines are in the world frame"};
   manifest_comments.insert(manifest_comments.end(), comment_lines.begin(), comment_lines.end());
   files->manifest_path = (root / "team.txt").string();
-  Status status = WriteTeamManifest(files->manifest_path, manifest, manifest_comments);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(WriteTeamManifest(files->manifest_path, manifest, manifest_comments));
 
   for (size_t r = 0; r < result.robots.size(); ++r) {
     const RobotSimulation& robot = result.robots[r];
@@ -821,8 +819,7 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
                                                : "no wheel odometry")};
     comments.insert(comments.end(), comment_lines.begin(), comment_lines.end());
     const std::string log_path = (robot_dir / "log.txt").string();
-    status = WriteRobotLog(log_path, robot.log, comments);
-    if (!status.ok()) return status;
+    HETSLAM_RETURN_IF_ERROR(WriteRobotLog(log_path, robot.log, comments));
     files->robot_log_paths.push_back(log_path);
 
     if (!options.render_images || robot.frames.empty()) continue;
@@ -836,8 +833,7 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
       for (int index : frame.visible_tags) visible.push_back(all_tags[index]);
       const cv::Mat image = camera.Render(visible, frame.world_T_camera, &noise_rng);
       const std::string image_path = (robot_dir / frame.relative_path).string();
-      const Status status = WriteImageFile(image_path, image, png_params);
-      if (!status.ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(WriteImageFile(image_path, image, png_params));
       ++files->images_written;
     }
   }
