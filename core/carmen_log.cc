@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 
+#include "core/file_io.h"
 #include "core/text_fields.h"
 #include "glog/logging.h"
 
@@ -586,13 +587,7 @@ Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
                  pose.theta(), pose.x(), pose.y(), pose.theta(), scan.stamp_seconds,
                  scan.stamp_seconds);
   }
-  const bool write_failed = std::ferror(file) != 0;
-  const int write_errno = errno;
-  if (std::fclose(file) != 0 || write_failed) {
-    return Status::Error("error writing '" + path + "': " +
-                         std::strerror(write_failed ? write_errno : errno));
-  }
-  return Status::Ok();
+  return CloseWrittenFile(file, path);
 }
 
 }  // namespace hetslam

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "core/euler.h"
+#include "core/file_io.h"
 #include "core/text_fields.h"
 #include "glog/logging.h"
 
@@ -330,16 +331,6 @@ void WriteComments(FILE* file, const std::vector<std::string>& comment_lines) {
     }
     if (!any) std::fprintf(file, "#\n");
   }
-}
-
-Status CloseWritten(FILE* file, const std::string& path) {
-  const bool write_failed = std::ferror(file) != 0;
-  const int write_errno = errno;
-  if (std::fclose(file) != 0 || write_failed) {
-    return Status::Error("error writing '" + path + "': " +
-                         std::strerror(write_failed ? write_errno : errno));
-  }
-  return Status::Ok();
 }
 
 bool AllFinite(std::initializer_list<double> values) {
@@ -835,7 +826,7 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
     const std::string line = kinds[pick].format(next[pick]++);
     std::fprintf(file, "%s\n", line.c_str());
   }
-  return CloseWritten(file, path);
+  return CloseWrittenFile(file, path);
 }
 
 Status ReadTeamManifest(const std::string& path, TeamManifest* manifest) {
@@ -982,7 +973,7 @@ Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
     std::fprintf(file, "tag %d %s %s %s\n", tag.id, tag.family.c_str(),
                  FormatDouble(tag.size_meters).c_str(), FormatPose(tag.world_T_tag).c_str());
   }
-  return CloseWritten(file, path);
+  return CloseWrittenFile(file, path);
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "core/file_io.h"
 #include "core/numeric_table.h"
 #include "glog/logging.h"
 
@@ -30,13 +31,7 @@ Status WriteTrajectory(const std::string& path, const std::vector<StampedPose2>&
     std::fprintf(file, "%.6f %.9f %.9f %.9f\n", p.stamp_seconds, p.pose.x(), p.pose.y(),
                  p.pose.theta());
   }
-  const bool write_failed = std::ferror(file) != 0;
-  const int write_errno = errno;
-  if (std::fclose(file) != 0 || write_failed) {
-    return Status::Error("error writing '" + path + "': " +
-                         std::strerror(write_failed ? write_errno : errno));
-  }
-  return Status::Ok();
+  return CloseWrittenFile(file, path);
 }
 
 Status ReadTrajectory(const std::string& path, std::vector<StampedPose2>* trajectory) {

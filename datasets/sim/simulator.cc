@@ -7,6 +7,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "core/file_io.h"
 #include "datasets/sim/sim_random.h"
 #include "glog/logging.h"
 #include "opencv2/core.hpp"
@@ -354,10 +355,7 @@ Status WriteSimulationOutputs(const std::string& directory, const Scenario& scen
     std::fprintf(file, "%.6f %.9f %.9f\n", c.stamp_seconds, c.forward_velocity_mps,
                  c.yaw_rate_radps);
   }
-  const bool failed = std::ferror(file) != 0;
-  if (std::fclose(file) != 0 || failed) {
-    return Status::Error("error writing '" + files->commands_path + "'");
-  }
+  HETSLAM_RETURN_IF_ERROR(CloseWrittenFile(file, files->commands_path));
 
   std::vector<StampedPose2> odometry_path;
   odometry_path.reserve(result.log.odometry.size());
