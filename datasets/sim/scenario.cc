@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "core/euler.h"
+#include "datasets/sim/sim_text.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -72,14 +73,6 @@ Status ParseNumbers(const std::vector<std::string>& tokens, size_t expected, siz
 }
 
 bool IsInteger(double value) { return std::floor(value) == value; }
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream os;
-  os.setf(std::ios::fixed);
-  os.precision(digits);
-  os << value;
-  return os.str();
-}
 
 Eigen::Isometry3d PoseFromXyzRpy(const Eigen::Vector3d& xyz, double roll, double pitch,
                                  double yaw) {

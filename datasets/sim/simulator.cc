@@ -9,6 +9,7 @@
 
 #include "core/file_io.h"
 #include "datasets/sim/sim_random.h"
+#include "datasets/sim/sim_text.h"
 #include "glog/logging.h"
 #include "opencv2/core.hpp"
 #include "opencv2/imgcodecs.hpp"
@@ -35,14 +36,6 @@ Pose2 IntegrateUnicycle(const Pose2& pose, double v, double w, double dt) {
 
 double MoveTowards(double current, double target, double max_step) {
   return current + std::clamp(target - current, -max_step, max_step);
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream os;
-  os.setf(std::ios::fixed);
-  os.precision(digits);
-  os << value;
-  return os.str();
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include "core/euler.h"
 #include "datasets/sim/sim_random.h"
+#include "datasets/sim/sim_text.h"
 #include "datasets/sim/simulator.h"
 #include "datasets/sim/tag_camera.h"
 #include "glog/logging.h"
@@ -344,14 +345,6 @@ std::string FormatPoseParam(const Eigen::Isometry3d& pose) {
                 pose.translation().x(), pose.translation().y(), pose.translation().z(), rpy.x(),
                 rpy.y(), rpy.z());
   return buffer;
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream os;
-  os.setf(std::ios::fixed);
-  os.precision(digits);
-  os << value;
-  return os.str();
 }
 
 TagCameraOptions TagCameraOptionsFor(const CameraOptions& camera) {
