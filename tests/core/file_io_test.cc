@@ -13,25 +13,22 @@ namespace {
 
 using ::testing::HasSubstr;
 
-std::string TempPath(const std::string& name) {
-  return ::testing::TempDir() + "/file_io_test_" + name;
-}
-
-std::string ReadText(const std::string& path) {
+// The whole file, bytes as they are.
+std::string FileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
 }
 
 TEST(FileIoTest, CloseWrittenFileKeepsWhatWasWritten) {
-  const std::string path = TempPath("closed.txt");
+  const std::string path = ::testing::TempDir() + "/file_io_test_closed.txt";
   std::FILE* file = std::fopen(path.c_str(), "w");
   ASSERT_NE(file, nullptr);
   std::fprintf(file, "one %d\n", 2);
   const Status status = CloseWrittenFile(file, path);
   ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_EQ("one 2\n", ReadText(path));
+  EXPECT_EQ("one 2\n", FileBytes(path));
 }
 
 TEST(FileIoTest, CloseWrittenFileReportsAFullDevice) {
@@ -46,13 +43,13 @@ TEST(FileIoTest, CloseWrittenFileReportsAFullDevice) {
 }
 
 TEST(FileIoTest, WriteFileBytesWritesExactlyTheBytes) {
-  const std::string path = TempPath("bytes.bin");
+  const std::string path = ::testing::TempDir() + "/file_io_test_bytes.bin";
   const std::string bytes("a\0b\nc", 5);
   ASSERT_TRUE(WriteFileBytes(path, bytes.data(), bytes.size()).ok());
-  EXPECT_EQ(bytes, ReadText(path));
+  EXPECT_EQ(bytes, FileBytes(path));
   // Zero bytes truncate the file to empty.
   ASSERT_TRUE(WriteFileBytes(path, nullptr, 0).ok());
-  EXPECT_EQ("", ReadText(path));
+  EXPECT_EQ("", FileBytes(path));
 }
 
 TEST(FileIoTest, WriteFileBytesNamesAPathThatCannotBeOpened) {
