@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 
+#include "core/file_io.h"
 #include "core/text_fields.h"
 #include "glog/logging.h"
 
@@ -156,13 +157,6 @@ class FieldReader {
   const std::string type_;
   size_t next_ = 1;  // fields_[0] is the message type
 };
-
-// Shorthand: return the status when it is an error.
-#define HETSLAM_RETURN_IF_ERROR(expr)  \
-  do {                                 \
-    Status _status = (expr);           \
-    if (!_status.ok()) return _status; \
-  } while (0)
 
 // ipc_timestamp ipc_hostname logger_timestamp; returns ipc_timestamp.
 Status ReadTimestamps(FieldReader* r, double* ipc_timestamp) {
@@ -593,15 +587,7 @@ Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
                  pose.theta(), pose.x(), pose.y(), pose.theta(), scan.stamp_seconds,
                  scan.stamp_seconds);
   }
-  const bool write_failed = std::ferror(file) != 0;
-  const int write_errno = errno;
-  if (std::fclose(file) != 0 || write_failed) {
-    return Status::Error("error writing '" + path + "': " +
-                         std::strerror(write_failed ? write_errno : errno));
-  }
-  return Status::Ok();
+  return CloseWrittenFile(file, path);
 }
-
-#undef HETSLAM_RETURN_IF_ERROR
 
 }  // namespace hetslam

@@ -10,6 +10,7 @@
 #include <unordered_map>
 
 #include "Eigen/Cholesky"
+#include "core/file_io.h"
 
 namespace hetslam {
 namespace {
@@ -185,12 +186,10 @@ void WriteG2oPoseGraph2d(const PoseGraph2d& graph, std::ostream* output) {
 }
 
 Status WriteG2oPoseGraph2d(const std::string& path, const PoseGraph2d& graph) {
-  std::ofstream output(path);
-  if (!output) return Status::Error(path + ": cannot open for writing");
-  WriteG2oPoseGraph2d(graph, &output);
-  output.flush();
-  if (!output) return Status::Error(path + ": write failed");
-  return Status::Ok();
+  std::ostringstream text;
+  WriteG2oPoseGraph2d(graph, &text);
+  const std::string bytes = text.str();
+  return WriteFileBytes(path, bytes.data(), bytes.size());
 }
 
 }  // namespace hetslam

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <unordered_set>
 
+#include "core/euler.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -26,9 +27,7 @@ std::vector<ProjectedPoint> ProjectScan(const LaserScan& scan, const BodyAttitud
   CHECK_EQ(scan.angles_radians.size(), scan.ranges_meters.size())
       << "scan at t=" << scan.stamp_seconds << " has mismatched angles and ranges";
   const Eigen::Matrix3d nav_R_robot =
-      (Eigen::AngleAxisd(attitude.pitch_radians, Eigen::Vector3d::UnitY()) *
-       Eigen::AngleAxisd(attitude.roll_radians, Eigen::Vector3d::UnitX()))
-          .toRotationMatrix();
+      RotationFromRollPitchYaw(attitude.roll_radians, attitude.pitch_radians, 0.0);
   const Eigen::Isometry3d& robot_T_sensor = scan.robot_T_sensor;
   std::vector<ProjectedPoint> points;
   points.reserve(scan.ranges_meters.size());

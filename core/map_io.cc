@@ -2,33 +2,17 @@
 
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 #include <limits>
 #include <sstream>
 
+#include "core/file_io.h"
 #include "glog/logging.h"
 
 namespace hetslam {
 namespace {
 
 constexpr double kMaxPicturePixels = 1e8;
-
-Status WriteBytes(const std::string& path, const void* data, size_t size) {
-  FILE* file = std::fopen(path.c_str(), "wb");
-  if (file == nullptr) {
-    return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
-  }
-  const size_t written = size == 0 ? 0 : std::fwrite(data, 1, size, file);
-  const int write_errno = errno;
-  if (std::fclose(file) != 0 || written != size) {
-    return Status::Error("error writing '" + path + "': " +
-                         std::strerror(written != size ? write_errno : errno));
-  }
-  return Status::Ok();
-}
 
 // ---- PNG (ISO/IEC 15948) pieces: CRC-32 of chunks, Adler-32 of the zlib stream. ----
 
@@ -224,7 +208,7 @@ Status WritePng(const std::string& path, int width, int height, int channels,
     AppendChunk("IDAT", zlib.data() + at, std::min(kMaxChunk, zlib.size() - at), &png);
   }
   AppendChunk("IEND", nullptr, 0, &png);
-  return WriteBytes(path, png.data(), png.size());
+  return WriteFileBytes(path, png.data(), png.size());
 }
 
 Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_without_extension) {
@@ -241,8 +225,7 @@ Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_withou
   std::string pgm = "P5\n" + std::to_string(box.width()) + " " + std::to_string(box.height()) +
                     "\n255\n";
   pgm.append(pixels.begin(), pixels.end());
-  Status status = WriteBytes(pgm_path, pgm.data(), pgm.size());
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(WriteFileBytes(pgm_path, pgm.data(), pgm.size()));
 
   const GridGeometry& g = grid.geometry();
   const Eigen::Vector2d origin =
@@ -256,7 +239,7 @@ Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_withou
        << "occupied_thresh: 0.65\n"
        << "free_thresh: 0.196\n";
   const std::string text = yaml.str();
-  return WriteBytes(yaml_path, text.data(), text.size());
+  return WriteFileBytes(yaml_path, text.data(), text.size());
 }
 
 Status WriteMapPng(const OccupancyGrid& grid, const std::vector<std::vector<Pose2>>& trajectories,

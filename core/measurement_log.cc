@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/carmen_log.h"
+#include "core/euler.h"
 #include "core/robot_log.h"
 
 namespace hetslam {

@@ -104,9 +104,8 @@ Status ReadRelations(const std::string& path, std::vector<Relation>* relations) 
   CHECK(relations != nullptr) << "ReadRelations: relations is null";
   relations->clear();
   std::vector<NumericRow> rows;
-  const Status status =
-      ReadNumericTable(path, {"t1", "t2", "x", "y", "z", "roll", "pitch", "yaw"}, &rows);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(
+      ReadNumericTable(path, {"t1", "t2", "x", "y", "z", "roll", "pitch", "yaw"}, &rows));
   relations->reserve(rows.size());
   for (const NumericRow& row : rows) {
     const std::vector<double>& v = row.values;

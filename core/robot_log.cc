@@ -15,32 +15,12 @@
 #include <set>
 #include <sstream>
 
+#include "core/euler.h"
+#include "core/file_io.h"
 #include "core/text_fields.h"
 #include "glog/logging.h"
 
 namespace hetslam {
-
-Eigen::Matrix3d RotationFromRollPitchYaw(double roll_radians, double pitch_radians,
-                                         double yaw_radians) {
-  return (Eigen::AngleAxisd(yaw_radians, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(pitch_radians, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(roll_radians, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
-
-Eigen::Vector3d RollPitchYawFromRotation(const Eigen::Matrix3d& R) {
-  // R = R_z(y) R_y(p) R_x(r) has first column (cp cy, cp sy, -sp): yaw from it (0 at gimbal
-  // lock, where only roll -+ yaw is defined). Then R_z(-y) R = R_y(p) R_x(r) has first column
-  // (cp, 0, -sp) and second row (0, cr, -sr), both of unit length, so pitch and roll come out
-  // well conditioned even next to +-90° pitch (asin(-R20) would lose half the digits there)
-  // and the angles rebuild R to rounding.
-  const double yaw = std::atan2(R(1, 0), R(0, 0));
-  const Eigen::Matrix3d level =
-      Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R;
-  const double pitch = std::atan2(-level(2, 0), level(0, 0));
-  const double roll = std::atan2(-level(1, 2), level(1, 1));
-  return Eigen::Vector3d(roll, pitch, yaw);
-}
 
 namespace {
 
@@ -55,12 +35,6 @@ constexpr long long kMaxBeams = 100000;
 constexpr double kAngleTolerance = 1e-9;
 // A MOUNT in force and a scan's robot_T_sensor must agree this well for the writer.
 constexpr double kMountTolerance = 1e-9;
-
-#define HETSLAM_RETURN_IF_ERROR(expr)  \
-  do {                                 \
-    Status _status = (expr);           \
-    if (!_status.ok()) return _status; \
-  } while (0)
 
 // Shortest decimal text that reads back as the same double (std::to_chars, locale
 // independent). Non-finite values print as "nan", "inf", "-inf".
@@ -357,16 +331,6 @@ void WriteComments(FILE* file, const std::vector<std::string>& comment_lines) {
     }
     if (!any) std::fprintf(file, "#\n");
   }
-}
-
-Status CloseWritten(FILE* file, const std::string& path) {
-  const bool write_failed = std::ferror(file) != 0;
-  const int write_errno = errno;
-  if (std::fclose(file) != 0 || write_failed) {
-    return Status::Error("error writing '" + path + "': " +
-                         std::strerror(write_failed ? write_errno : errno));
-  }
-  return Status::Ok();
 }
 
 bool AllFinite(std::initializer_list<double> values) {
@@ -862,7 +826,7 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
     const std::string line = kinds[pick].format(next[pick]++);
     std::fprintf(file, "%s\n", line.c_str());
   }
-  return CloseWritten(file, path);
+  return CloseWrittenFile(file, path);
 }
 
 Status ReadTeamManifest(const std::string& path, TeamManifest* manifest) {
@@ -1009,9 +973,8 @@ Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
     std::fprintf(file, "tag %d %s %s %s\n", tag.id, tag.family.c_str(),
                  FormatDouble(tag.size_meters).c_str(), FormatPose(tag.world_T_tag).c_str());
   }
-  return CloseWritten(file, path);
+  return CloseWrittenFile(file, path);
 }
 
-#undef HETSLAM_RETURN_IF_ERROR
 
 }  // namespace hetslam

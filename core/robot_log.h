@@ -16,7 +16,7 @@
 //  - tag: origin at the tag centre, x right and y up as seen when facing the tag, z out of the
 //    tag towards the viewer.
 //  - Euler angles (roll, pitch, yaw) are Z-Y-X as everywhere in hetslam:
-//    R = R_z(yaw) R_y(pitch) R_x(roll), pitch positive nose down (see frontends/marg_filter.h).
+//    R = R_z(yaw) R_y(pitch) R_x(roll), pitch positive nose down (see core/euler.h).
 //    A pose "x y z roll pitch yaw" is the transform a_T_b with translation (x, y, z) and that
 //    rotation.
 //
@@ -69,6 +69,8 @@
 
 #include "Eigen/Core"
 #include "Eigen/Geometry"
+#include "core/camera_model.h"
+#include "core/euler.h"
 #include "core/laser_scan.h"
 #include "core/measurement.h"
 #include "core/se2.h"
@@ -76,20 +78,10 @@
 
 namespace hetslam {
 
-// (roll, pitch, yaw) Z-Y-X <-> rotation, the convention above.
-Eigen::Matrix3d RotationFromRollPitchYaw(double roll_radians, double pitch_radians,
-                                         double yaw_radians);
-Eigen::Vector3d RollPitchYawFromRotation(const Eigen::Matrix3d& rotation);
-
 struct StampedPose3 {
   double stamp_seconds = 0.0;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   int line_number = 0;  // 0 when not read from a file
-};
-
-struct CameraIntrinsics {
-  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // pixels
-  int width = 0, height = 0;
 };
 
 struct RobotLogReadOptions {

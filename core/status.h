@@ -28,4 +28,13 @@ class Status {
 
 }  // namespace hetslam
 
+// Evaluates `expr` (a Status) once and, when it is an error, returns it from the enclosing
+// function (which must return Status):
+//   HETSLAM_RETURN_IF_ERROR(ParseHeader(line, &header));
+#define HETSLAM_RETURN_IF_ERROR(expr)                                       \
+  do {                                                                      \
+    ::hetslam::Status hetslam_macro_status = (expr);                        \
+    if (!hetslam_macro_status.ok()) return hetslam_macro_status;            \
+  } while (0)
+
 #endif  // HETSLAM_CORE_STATUS_H_

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "core/file_io.h"
 #include "core/numeric_table.h"
 #include "glog/logging.h"
 
@@ -30,21 +31,14 @@ Status WriteTrajectory(const std::string& path, const std::vector<StampedPose2>&
     std::fprintf(file, "%.6f %.9f %.9f %.9f\n", p.stamp_seconds, p.pose.x(), p.pose.y(),
                  p.pose.theta());
   }
-  const bool write_failed = std::ferror(file) != 0;
-  const int write_errno = errno;
-  if (std::fclose(file) != 0 || write_failed) {
-    return Status::Error("error writing '" + path + "': " +
-                         std::strerror(write_failed ? write_errno : errno));
-  }
-  return Status::Ok();
+  return CloseWrittenFile(file, path);
 }
 
 Status ReadTrajectory(const std::string& path, std::vector<StampedPose2>* trajectory) {
   CHECK(trajectory != nullptr) << "ReadTrajectory: trajectory is null";
   trajectory->clear();
   std::vector<NumericRow> rows;
-  const Status status = ReadNumericTable(path, {"timestamp", "x", "y", "theta"}, &rows);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(ReadNumericTable(path, {"timestamp", "x", "y", "theta"}, &rows));
   trajectory->reserve(rows.size());
   for (const NumericRow& row : rows) {
     const std::vector<double>& v = row.values;

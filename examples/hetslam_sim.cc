@@ -18,9 +18,9 @@
 #include <string>
 #include <system_error>
 
+#include "datasets/sim/scenario.h"
 #include "datasets/sim/simulator.h"
 #include "datasets/sim/team_simulator.h"
-#include "datasets/sim/world.h"
 #include "examples/flag_help.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"

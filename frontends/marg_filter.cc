@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/euler.h"
 #include "core/se2.h"
 #include "glog/logging.h"
 
@@ -65,21 +66,6 @@ Eigen::Vector3d EulerRatesFromBodyRate(double roll_radians, double pitch_radians
                          q_s_r_c / cos_pitch);
 }
 
-Eigen::Vector3d RollPitchHeadingFromRotation(const Eigen::Matrix3d& R) {
-  const double roll = std::atan2(R(2, 1), R(2, 2));
-  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
-  const double heading = std::atan2(R(1, 0), R(0, 0));
-  return Eigen::Vector3d(roll, pitch, WrapAngle(heading));
-}
-
-Eigen::Matrix3d RotationFromRollPitchHeading(double roll_radians, double pitch_radians,
-                                             double heading_radians) {
-  return (Eigen::AngleAxisd(heading_radians, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(pitch_radians, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(roll_radians, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
-
 MargFilter::MargFilter(const MargFilterOptions& options) : options_(options) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid MargFilterOptions: " << error;
@@ -95,10 +81,10 @@ MargAttitude MargFilter::MakeOutput(double stamp_seconds, const Eigen::Vector3d&
   MargAttitude out;
   out.stamp_seconds = stamp_seconds;
   out.world_R_body = world_R_body_;
-  const Eigen::Vector3d rph = RollPitchHeadingFromRotation(world_R_body_.toRotationMatrix());
+  const Eigen::Vector3d rph = RollPitchYawFromRotation(world_R_body_.toRotationMatrix());
   out.roll_radians = rph.x();
   out.pitch_radians = rph.y();
-  out.heading_radians = rph.z();
+  out.heading_radians = WrapAngle(rph.z());
   out.gyro_bias_radps = gyro_bias_radps_;
   out.body_rate_radps = gyro_radps - gyro_bias_radps_;
   out.euler_rates_radps = EulerRatesFromBodyRate(rph.x(), rph.y(), out.body_rate_radps);
@@ -134,11 +120,11 @@ Status MargFilter::Add(const MargSample& sample, MargAttitude* attitude) {
     if (sample.has_magnetometer && sample.magnetometer.norm() > 0.0) {
       // Tilt-compensate: rotate the body reading by R_y(θ) R_x(ψ) into the level frame,
       // where it is R_z(φ)^T m_world with m_world along +x (plus z).
-      const Eigen::Matrix3d level_R_body = RotationFromRollPitchHeading(roll, pitch, 0.0);
+      const Eigen::Matrix3d level_R_body = RotationFromRollPitchYaw(roll, pitch, 0.0);
       const Eigen::Vector3d m_level = level_R_body * sample.magnetometer;
       heading = std::atan2(-m_level.y(), m_level.x());
     }
-    world_R_body_ = Eigen::Quaterniond(RotationFromRollPitchHeading(roll, pitch, heading));
+    world_R_body_ = Eigen::Quaterniond(RotationFromRollPitchYaw(roll, pitch, heading));
     gyro_bias_radps_.setZero();
     last_stamp_seconds_ = sample.stamp_seconds;
     initialized_ = true;

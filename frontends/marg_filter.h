@@ -26,8 +26,9 @@
 //    body x axis points to magnetic north), y = z × x. A caller whose map frame differs adds its
 //    own heading offset.
 //  - body: x forward, y left, z up. `world_R_body` maps body vectors into the world.
-//  - Euler angles, Z-Y-X: world_R_body = R_z(heading) R_y(pitch) R_x(roll); the same symbols as
-//    the EKF (ψ roll, θ pitch, φ heading). Pitch is positive nose down (right-handed about y).
+//  - Euler angles, Z-Y-X: world_R_body = R_z(heading) R_y(pitch) R_x(roll) (core/euler.h, where
+//    heading is called yaw); the same symbols as the EKF (ψ roll, θ pitch, φ heading). Pitch is
+//    positive nose down (right-handed about y).
 //  - Gyro: body angular rate in rad/s, sample = ω + b + noise, b the bias this filter estimates.
 //  - Accelerometer: specific force in m/s² in the body frame; at rest it reads
 //    world_R_body^T (0, 0, +g).
@@ -98,11 +99,6 @@ struct MargAttitude {
 // Singular at |θ| = pi/2 (CHECKed away from it).
 Eigen::Vector3d EulerRatesFromBodyRate(double roll_radians, double pitch_radians,
                                        const Eigen::Vector3d& body_rate_radps);
-
-// (roll, pitch, heading) of a rotation, Z-Y-X convention as above.
-Eigen::Vector3d RollPitchHeadingFromRotation(const Eigen::Matrix3d& world_R_body);
-Eigen::Matrix3d RotationFromRollPitchHeading(double roll_radians, double pitch_radians,
-                                             double heading_radians);
 
 class MargFilter {
  public:

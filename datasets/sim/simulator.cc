@@ -7,7 +7,9 @@
 #include <cstring>
 #include <sstream>
 
+#include "core/file_io.h"
 #include "datasets/sim/sim_random.h"
+#include "datasets/sim/sim_text.h"
 #include "glog/logging.h"
 #include "opencv2/core.hpp"
 #include "opencv2/imgcodecs.hpp"
@@ -34,14 +36,6 @@ Pose2 IntegrateUnicycle(const Pose2& pose, double v, double w, double dt) {
 
 double MoveTowards(double current, double target, double max_step) {
   return current + std::clamp(target - current, -max_step, max_step);
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream os;
-  os.setf(std::ios::fixed);
-  os.precision(digits);
-  os << value;
-  return os.str();
 }
 
 }  // namespace
@@ -341,10 +335,8 @@ Status WriteSimulationOutputs(const std::string& directory, const Scenario& scen
           " deg/sqrt(deg); starts at the true initial pose",
       "ground truth is in truth.txt (not in this file); FLASER poses are odometry"};
   comments.insert(comments.end(), comment_lines.begin(), comment_lines.end());
-  Status status = WriteCarmenLog(files->log_path, result.log, comments);
-  if (!status.ok()) return status;
-  status = WriteTrajectory(files->truth_path, result.truth);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(WriteCarmenLog(files->log_path, result.log, comments));
+  HETSLAM_RETURN_IF_ERROR(WriteTrajectory(files->truth_path, result.truth));
 
   FILE* file = std::fopen(files->commands_path.c_str(), "w");
   if (file == nullptr) {
@@ -356,10 +348,7 @@ Status WriteSimulationOutputs(const std::string& directory, const Scenario& scen
     std::fprintf(file, "%.6f %.9f %.9f\n", c.stamp_seconds, c.forward_velocity_mps,
                  c.yaw_rate_radps);
   }
-  const bool failed = std::ferror(file) != 0;
-  if (std::fclose(file) != 0 || failed) {
-    return Status::Error("error writing '" + files->commands_path + "'");
-  }
+  HETSLAM_RETURN_IF_ERROR(CloseWrittenFile(file, files->commands_path));
 
   std::vector<StampedPose2> odometry_path;
   odometry_path.reserve(result.log.odometry.size());

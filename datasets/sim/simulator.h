@@ -23,7 +23,7 @@
 // noisy range outside (range_min, range_max) is written as range = max range ("no return",
 // invalid for every reader of the log).
 //
-// Odometry: see OdometryOptions in world.h (noisy increments, chained). It is integrated at
+// Odometry: see OdometryOptions in robot_spec.h (noisy increments, chained). It is integrated at
 // every odometry sample and every scan, so each FLASER line carries the odometry pose at its
 // own time; ODOM lines are written at the odometry rate.
 //
@@ -42,7 +42,7 @@
 #include "core/se2.h"
 #include "core/status.h"
 #include "core/trajectory_io.h"
-#include "datasets/sim/world.h"
+#include "datasets/sim/scenario.h"
 #include "opencv2/core.hpp"
 
 namespace hetslam {
@@ -98,7 +98,7 @@ Status Simulate(const Scenario& scenario, const SimulatorOptions& options, std::
 LaserScan SimulateScan(const World& world, const LaserOptions& laser, const Pose2& world_T_sensor,
                        double stamp_seconds, std::mt19937_64* rng, int* num_no_return = nullptr);
 
-// One noisy odometry increment (see OdometryOptions in world.h): the true planar motion from
+// One noisy odometry increment (see OdometryOptions in robot_spec.h): the true planar motion from
 // `previous_truth` to `truth` (both world_T_robot), corrupted with two Gaussian draws from
 // `rng`, chained onto `odom`. Returns the new odometry pose.
 Pose2 StepOdometry(const OdometryOptions& options, const Pose2& previous_truth,

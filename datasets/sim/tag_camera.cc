@@ -82,7 +82,8 @@ double AreaInPixel(const Polygon& polygon, int j, int i) {
 Polygon ProjectClipped(const std::array<Eigen::Vector3d, 4>& quad, const CameraIntrinsics& k) {
   Polygon pixels;
   auto add = [&](const Eigen::Vector3d& p) {
-    pixels.v[pixels.n++] = {k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy};
+    const Eigen::Vector2d uv = k.Project(p);
+    pixels.v[pixels.n++] = {uv.x(), uv.y()};
   };
   for (size_t i = 0; i < quad.size(); ++i) {
     const Eigen::Vector3d& p = quad[i];
@@ -160,8 +161,8 @@ bool TagCamera::IsInView(const SimulatedTag& tag, const Eigen::Isometry3d& world
   const Eigen::Vector3d p = camera_T_tag.translation();
   if (!(p.z() > kNearPlaneMeters)) return false;
   const CameraIntrinsics& k = options_.intrinsics;
-  const double u = k.fx * p.x() / p.z() + k.cx;
-  const double v = k.fy * p.y() / p.z() + k.cy;
+  const Eigen::Vector2d uv = k.Project(p);
+  const double u = uv.x(), v = uv.y();
   // Pixel centres at integer coordinates: the image covers [-0.5, width - 0.5).
   if (!(u >= -0.5 && u < k.width - 0.5 && v >= -0.5 && v < k.height - 0.5)) return false;
   // Line of sight from the tag to the camera against the tag's z axis.

@@ -13,10 +13,11 @@
 // generator: four pixels per draw, no transcendental per pixel (generating per-pixel Box-Muller
 // samples took most of a dataset's generation time).
 // Pixel centres are at integer coordinates (pixel (row i, column j) covers [j - 0.5, j + 0.5] x
-// [i - 0.5, i + 0.5]), the convention of CameraIntrinsics. Occlusion between tags and by walls
-// is the caller's business (pass only the tags it can see); nearer tags are drawn over farther
-// ones; tags behind the camera or partly outside the image are drawn clipped, as a real camera
-// would see them; a tag seen from its back (camera on its -z side) is not drawn.
+// [i - 0.5, i + 0.5]), the convention of CameraIntrinsics (core/camera_model.h). Occlusion
+// between tags and by walls is the caller's business (pass only the tags it can see); nearer
+// tags are drawn over farther ones; tags behind the camera or partly outside the image are
+// drawn clipped, as a real camera would see them; a tag seen from its back (camera on its -z
+// side) is not drawn.
 //
 // Frames (see core/robot_log.h): world_T_camera is the OpenCV optical frame (z forward, x right,
 // y down); world_T_tag has x right, y up as seen when facing the tag, z out of the tag. The tag
@@ -31,7 +32,7 @@
 
 #include "Eigen/Core"
 #include "Eigen/Geometry"
-#include "core/robot_log.h"
+#include "core/camera_model.h"
 #include "core/status.h"
 #include "opencv2/core.hpp"
 

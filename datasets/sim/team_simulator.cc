@@ -7,7 +7,9 @@
 #include <sstream>
 #include <system_error>
 
+#include "core/euler.h"
 #include "datasets/sim/sim_random.h"
+#include "datasets/sim/sim_text.h"
 #include "datasets/sim/simulator.h"
 #include "datasets/sim/tag_camera.h"
 #include "glog/logging.h"
@@ -345,14 +347,6 @@ std::string FormatPoseParam(const Eigen::Isometry3d& pose) {
   return buffer;
 }
 
-std::string Fixed(double value, int digits) {
-  std::ostringstream os;
-  os.setf(std::ios::fixed);
-  os.precision(digits);
-  os << value;
-  return os.str();
-}
-
 TagCameraOptions TagCameraOptionsFor(const CameraOptions& camera) {
   TagCameraOptions options;
   options.intrinsics = CameraIntrinsics{camera.fx, camera.fy, camera.cx, camera.cy,
@@ -439,8 +433,8 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
     bool first = true;
     for (double t : SensorStamps(spec.odometry.rate_hz, t_end)) {
       const Eigen::Isometry3d pose = SampleTruth(out->truth, dt, t).world_T_body;
-      const Eigen::Matrix3d& r = pose.linear();
-      const Pose2 truth(pose.translation().x(), pose.translation().y(), std::atan2(r(1, 0), r(0, 0)));
+      const Pose2 truth(pose.translation().x(), pose.translation().y(),
+                        RollPitchYawFromRotation(pose.linear()).z());
       if (!first) odom = StepOdometry(spec.odometry, previous, truth, odom, &odometry_rng);
       first = false;
       previous = truth;
@@ -651,8 +645,7 @@ Status SimulateTeam(const Scenario& scenario, const TeamSimulatorOptions& option
   }
   if (!options.IsValid(&why)) return Status::Error("invalid team simulator options: " + why);
   result->world = scenario.world;
-  Status status = PlaceRandomObstacles(scenario, rng, &result->world);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(PlaceRandomObstacles(scenario, rng, &result->world));
   double t_limit = scenario.duration_limit_seconds;
   if (options.max_duration_seconds > 0.0) t_limit = std::min(t_limit, options.max_duration_seconds);
   const double dt = 1.0 / options.control_rate_hz;
@@ -792,8 +785,7 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
       "each robot's log starts in its own frame; TRUTH and tag lines are in the world frame"};
   manifest_comments.insert(manifest_comments.end(), comment_lines.begin(), comment_lines.end());
   files->manifest_path = (root / "team.txt").string();
-  Status status = WriteTeamManifest(files->manifest_path, manifest, manifest_comments);
-  if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(WriteTeamManifest(files->manifest_path, manifest, manifest_comments));
 
   for (size_t r = 0; r < result.robots.size(); ++r) {
     const RobotSimulation& robot = result.robots[r];
@@ -820,8 +812,7 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
                                                : "no wheel odometry")};
     comments.insert(comments.end(), comment_lines.begin(), comment_lines.end());
     const std::string log_path = (robot_dir / "log.txt").string();
-    status = WriteRobotLog(log_path, robot.log, comments);
-    if (!status.ok()) return status;
+    HETSLAM_RETURN_IF_ERROR(WriteRobotLog(log_path, robot.log, comments));
     files->robot_log_paths.push_back(log_path);
 
     if (!options.render_images || robot.frames.empty()) continue;
@@ -835,8 +826,7 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
       for (int index : frame.visible_tags) visible.push_back(all_tags[index]);
       const cv::Mat image = camera.Render(visible, frame.world_T_camera, &noise_rng);
       const std::string image_path = (robot_dir / frame.relative_path).string();
-      const Status status = WriteImageFile(image_path, image, png_params);
-      if (!status.ok()) return status;
+      HETSLAM_RETURN_IF_ERROR(WriteImageFile(image_path, image, png_params));
       ++files->images_written;
     }
   }

@@ -29,7 +29,7 @@
 //
 // Sensors: laser (LASER; MOUNT at every scan for humanoids, once at t = 0 otherwise) with the
 // noise and dropouts of SimulateScan, no return written as max range; MARG + ATTITUDE (model
-// in MargOptions, world.h); camera (IMAGE + a PNG, tags visible when TagCamera::IsInView and
+// in MargOptions, robot_spec.h); camera (IMAGE + a PNG, tags visible when TagCamera::IsInView and
 // a clear line of sight from the camera to the tag's centre and four corners); ODOM (wheeled,
 // OdometryOptions noise, odometry frame = the robot's start pose); ALTITUDE (UAV,
 // AltimeterOptions); TRUTH world_T_body at every LASER and IMAGE stamp.
@@ -51,7 +51,7 @@
 #include "core/laser_scan.h"
 #include "core/robot_log.h"
 #include "core/status.h"
-#include "datasets/sim/world.h"
+#include "datasets/sim/scenario.h"
 
 namespace hetslam {
 namespace sim {

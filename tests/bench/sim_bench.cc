@@ -7,9 +7,9 @@
 #include <vector>
 
 #include "benchmark/benchmark.h"
+#include "datasets/sim/scenario.h"
 #include "datasets/sim/simulator.h"
 #include "datasets/sim/team_simulator.h"
-#include "datasets/sim/world.h"
 #include "glog/logging.h"
 
 namespace hetslam {

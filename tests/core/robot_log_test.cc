@@ -57,59 +57,6 @@ Eigen::Isometry3d MakePose(double x, double y, double z, double roll, double pit
 }
 
 // ---------------------------------------------------------------------------------------------
-// Euler helpers.
-
-TEST(RollPitchYawTest, IdentityAndAxes) {
-  EXPECT_LT(RotationGap(Eigen::Matrix3d::Identity(), RotationFromRollPitchYaw(0, 0, 0)), 1e-15);
-  EXPECT_LT(RollPitchYawFromRotation(Eigen::Matrix3d::Identity()).norm(), 1e-15);
-  // Positive pitch is nose down: the body x axis gets a negative z component.
-  const Eigen::Vector3d nose = RotationFromRollPitchYaw(0.0, 0.3, 0.0) * Eigen::Vector3d::UnitX();
-  EXPECT_NEAR(-std::sin(0.3), nose.z(), 1e-15);
-  // Positive yaw turns x towards y; positive roll turns y towards z.
-  EXPECT_NEAR(1.0, (RotationFromRollPitchYaw(0, 0, M_PI / 2) * Eigen::Vector3d::UnitX()).y(),
-              1e-15);
-  EXPECT_NEAR(1.0, (RotationFromRollPitchYaw(M_PI / 2, 0, 0) * Eigen::Vector3d::UnitY()).z(),
-              1e-15);
-  // Z-Y-X order: R = R_z(yaw) R_y(pitch) R_x(roll).
-  const Eigen::Matrix3d expected =
-      Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-      Eigen::AngleAxisd(-0.4, Eigen::Vector3d::UnitY()).toRotationMatrix() *
-      Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  EXPECT_LT(RotationGap(expected, RotationFromRollPitchYaw(0.2, -0.4, 0.7)), 1e-15);
-}
-
-TEST(RollPitchYawTest, RandomAnglesRoundTrip) {
-  std::mt19937_64 rng(7);
-  for (int i = 0; i < 1000; ++i) {
-    const double roll = Uniform(&rng, -M_PI + 1e-6, M_PI - 1e-6);
-    const double pitch = Uniform(&rng, -M_PI / 2 + 1e-3, M_PI / 2 - 1e-3);
-    const double yaw = Uniform(&rng, -M_PI + 1e-6, M_PI - 1e-6);
-    const Eigen::Matrix3d R = RotationFromRollPitchYaw(roll, pitch, yaw);
-    const Eigen::Vector3d rpy = RollPitchYawFromRotation(R);
-    EXPECT_NEAR(roll, rpy.x(), 1e-12) << i;
-    EXPECT_NEAR(pitch, rpy.y(), 1e-12) << i;
-    EXPECT_NEAR(yaw, rpy.z(), 1e-12) << i;
-    EXPECT_LT(RotationGap(R, RotationFromRollPitchYaw(rpy.x(), rpy.y(), rpy.z())), 1e-15 * 8);
-  }
-}
-
-TEST(RollPitchYawTest, NearAndAtGimbalLockRebuildsTheRotation) {
-  std::mt19937_64 rng(11);
-  for (double pitch : {M_PI / 2, -M_PI / 2, M_PI / 2 - 1e-9, -M_PI / 2 + 1e-7, M_PI / 2 - 1e-4}) {
-    for (int i = 0; i < 50; ++i) {
-      const double roll = Uniform(&rng, -M_PI, M_PI);
-      const double yaw = Uniform(&rng, -M_PI, M_PI);
-      const Eigen::Matrix3d R = RotationFromRollPitchYaw(roll, pitch, yaw);
-      const Eigen::Vector3d rpy = RollPitchYawFromRotation(R);
-      // Roll and yaw are not separable at the lock; the rotation they give back must be R.
-      EXPECT_LT(RotationGap(R, RotationFromRollPitchYaw(rpy.x(), rpy.y(), rpy.z())), 1e-14)
-          << "pitch " << pitch << " roll " << roll << " yaw " << yaw;
-      EXPECT_NEAR(pitch, rpy.y(), 1e-7) << "pitch " << pitch;
-    }
-  }
-}
-
-// ---------------------------------------------------------------------------------------------
 // Robot log: round trip.
 
 LaserScan MakeScan(double stamp, int n, const Eigen::Isometry3d& mount, std::mt19937_64* rng) {

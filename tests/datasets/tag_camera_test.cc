@@ -77,8 +77,9 @@ TEST(TagCameraTest, CellCentresShowTheLibraryBitmap) {
         // Cell centre in the tag frame (x right, y up), then in pixels.
         const double x = (col - 4.5) * 0.02, y = (4.5 - row) * 0.02;
         const Eigen::Vector3d p = tag.world_T_tag * Eigen::Vector3d(x, y, 0.0);
-        const int u = static_cast<int>(std::lround(k.fx * p.x() / p.z() + k.cx));
-        const int v = static_cast<int>(std::lround(k.fy * p.y() / p.z() + k.cy));
+        const Eigen::Vector2d uv = k.Project(p);
+        const int u = static_cast<int>(std::lround(uv.x()));
+        const int v = static_cast<int>(std::lround(uv.y()));
         const int expected = bitmap[row * 10 + col];
         const int got = image.at<uint8_t>(v, u);
         if (noisy) {

@@ -5,8 +5,8 @@
 #include "core/carmen_log.h"
 #include "core/relations.h"
 #include "core/trajectory_metrics.h"
+#include "datasets/sim/scenario.h"
 #include "datasets/sim/simulator.h"
-#include "datasets/sim/world.h"
 #include "gtest/gtest.h"
 #include "tests/test_data.h"
 

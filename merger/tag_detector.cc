@@ -1,4 +1,4 @@
-#include "frontends/tag_detector.h"
+#include "merger/tag_detector.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "frontends/tag_detector.h"
+#include "merger/tag_detector.h"
 
 #include <algorithm>
 #include <cmath>
@@ -47,11 +47,6 @@ SimulatedTag FacingTag(int id, const Eigen::Vector3d& position, double yaw_radia
 
 double RotationErrorRadians(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return Eigen::AngleAxisd(a.transpose() * b).angle();
-}
-
-Eigen::Vector2d Project(const CameraIntrinsics& k, const Eigen::Vector3d& p_camera) {
-  return Eigen::Vector2d(k.fx * p_camera.x() / p_camera.z() + k.cx,
-                         k.fy * p_camera.y() / p_camera.z() + k.cy);
 }
 
 std::vector<TagDetection> DetectOrDie(const cv::Mat& image, const CameraIntrinsics& k) {
@@ -121,7 +116,7 @@ TEST(TagDetectorTest, CornersMatchTheProjectionOfTheBlackSquare) {
     Eigen::Vector2d mean_offset = Eigen::Vector2d::Zero();
     for (int c = 0; c < 4; ++c) {
       const Eigen::Vector2d expected =
-          Project(options.intrinsics, tag.world_T_tag * corners_tag[c]);
+          options.intrinsics.Project(tag.world_T_tag * corners_tag[c]);
       EXPECT_LT((d.corners_pixels[c] - expected).norm(), tolerance)
           << "corner " << c << ": detected " << d.corners_pixels[c].transpose()
           << ", expected " << expected.transpose();
@@ -130,7 +125,7 @@ TEST(TagDetectorTest, CornersMatchTheProjectionOfTheBlackSquare) {
     // A pixel-convention mismatch would show as a common shift of about 0.5 px.
     EXPECT_LT(mean_offset.norm(), 0.15) << mean_offset.transpose();
     EXPECT_LT(
-        (d.center_pixels - Project(options.intrinsics, tag.world_T_tag.translation())).norm(),
+        (d.center_pixels - options.intrinsics.Project(tag.world_T_tag.translation())).norm(),
         tolerance);
   }
 }

@@ -10,7 +10,7 @@
 // corners by only 0.015 px per degree); at 30° and 45° yaw, max 0.15°; translation under
 // 3 mm throughout.
 //
-// Conventions (see core/robot_log.h):
+// Conventions (see core/camera_model.h and core/robot_log.h):
 //  - pixels: pixel centres at integer coordinates, as in CameraIntrinsics (cx = (width - 1) / 2
 //    for a centred principal point). The apriltag library puts pixel centres at +0.5; this
 //    wrapper converts its corners and centre.
@@ -21,8 +21,8 @@
 //  - tag size: edge of the black square in metres (apriltag's `tagsize`).
 //
 // Deterministic: one detector thread, no hidden state between calls.
-#ifndef HETSLAM_FRONTENDS_TAG_DETECTOR_H_
-#define HETSLAM_FRONTENDS_TAG_DETECTOR_H_
+#ifndef HETSLAM_MERGER_TAG_DETECTOR_H_
+#define HETSLAM_MERGER_TAG_DETECTOR_H_
 
 #include <array>
 #include <string>
@@ -30,7 +30,7 @@
 
 #include "Eigen/Core"
 #include "Eigen/Geometry"
-#include "core/robot_log.h"
+#include "core/camera_model.h"
 #include "core/status.h"
 #include "opencv2/core.hpp"
 
@@ -97,4 +97,4 @@ class TagDetector {
 
 }  // namespace hetslam
 
-#endif  // HETSLAM_FRONTENDS_TAG_DETECTOR_H_
+#endif  // HETSLAM_MERGER_TAG_DETECTOR_H_

@@ -1,0 +1,25 @@
+// Writing files with user-facing errors: every failure is a Status naming the path and the
+// system's reason ("error writing 'out/map.pgm': No space left on device").
+#ifndef HETSLAM_CORE_FILE_IO_H_
+#define HETSLAM_CORE_FILE_IO_H_
+
+#include <cstddef>
+#include <cstdio>
+#include <string>
+
+#include "core/status.h"
+
+namespace hetslam {
+
+// Closes `file` (open for writing with std::fopen; not null) and says whether everything
+// written to it reached `path`: an error when an earlier write failed (the stream's error
+// indicator) or when closing fails (the final flush: a full disk often shows only here).
+// The file is closed in every case.
+Status CloseWrittenFile(std::FILE* file, const std::string& path);
+
+// Creates or truncates `path` and writes the `size` bytes at `data` to it (binary).
+Status WriteFileBytes(const std::string& path, const void* data, std::size_t size);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_FILE_IO_H_
