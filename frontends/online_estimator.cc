@@ -67,9 +67,13 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
 }
 
 OnlineEstimator::OnlineEstimator(const OnlineEstimatorOptions& options)
+    : OnlineEstimator(options, nullptr) {}
+
+OnlineEstimator::OnlineEstimator(const OnlineEstimatorOptions& options, SubmapGraph* team_graph)
     : options_(options),
       local_(options.local),
-      graph_(std::make_unique<SubmapGraph>(options.graph)),
+      owned_graph_(team_graph == nullptr ? std::make_unique<SubmapGraph>(options.graph) : nullptr),
+      graph_(team_graph == nullptr ? owned_graph_.get() : team_graph),
       loop_(options.loop),
       marg_filter_(options.marg),
       ekf_(options.ekf) {
@@ -327,6 +331,16 @@ Status OnlineEstimator::PoseAt(double stamp_seconds, Pose2* pose) const {
     *pose = a.pose * Pose2(f * delta.translation(), f * delta.theta());
   }
   return Status::Ok();
+}
+
+std::vector<StampedPose2> OnlineEstimator::AdvanceTo(double stamp_seconds) {
+  std::vector<StampedPose2> poses;
+  if (!ekf_.initialized()) return poses;
+  const Pose2 robot_T_local = graph_->LocalToRobot(options_.robot);
+  for (const StateEstimate& estimate : ekf_.AdvanceTo(stamp_seconds)) {
+    poses.push_back({estimate.stamp_seconds, robot_T_local * estimate.pose()});
+  }
+  return poses;
 }
 
 std::vector<StampedPose2> OnlineEstimator::Trajectory() const { return graph_->Trajectory(options_.robot); }

@@ -112,6 +112,10 @@ class OnlineEstimator {
  public:
   // CHECK-fails on invalid options (validate user input with IsValid first).
   explicit OnlineEstimator(const OnlineEstimatorOptions& options);
+  // A team member: its nodes go into `team_graph` (not owned; it must outlive the estimator)
+  // under options.robot, next to its teammates', whose inter-robot constraints a merger adds.
+  // The estimator's solves then solve the whole team graph.
+  OnlineEstimator(const OnlineEstimatorOptions& options, SubmapGraph* team_graph);
   ~OnlineEstimator();
 
   // Processes one measurement. Errors (the measurement is ignored, the estimator unchanged)
@@ -135,6 +139,9 @@ class OnlineEstimator {
   const SubmapGraph& graph() const { return *graph_; }
   // For constraints found by other means (a fiducial, a teammate): added like loop closures.
   SubmapGraph& mutable_graph() { return *graph_; }
+  // The EKF's constant-rate output (every ekf.output_period_seconds) since the previous call, up
+  // to `stamp_seconds`, in the robot frame: for a live node that publishes at a fixed rate.
+  std::vector<StampedPose2> AdvanceTo(double stamp_seconds);
   const LocalSlam& local_slam() const { return local_; }
   const LoopCloser& loop_closer() const { return loop_; }
   const EkfStateUpdater& ekf() const { return ekf_; }
@@ -152,7 +159,8 @@ class OnlineEstimator {
 
   OnlineEstimatorOptions options_;
   LocalSlam local_;
-  std::unique_ptr<SubmapGraph> graph_;
+  std::unique_ptr<SubmapGraph> owned_graph_;
+  SubmapGraph* graph_;  // owned_graph_, or a team's
   LoopCloser loop_;
   MargFilter marg_filter_;
   EkfStateUpdater ekf_;

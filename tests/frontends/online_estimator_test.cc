@@ -345,6 +345,11 @@ TEST(OnlineEstimatorStreamingTest, BadMeasurementsAreErrorsNotAborts) {
   Pose2 pose;
   EXPECT_TRUE(estimator.PoseAt(estimator.Trajectory().back().stamp_seconds, &pose).ok());
   EXPECT_LT((pose.translation() - estimator.Trajectory().back().pose.translation()).norm(), 0.005);  // EKF vs match
+  // Constant-rate output: one pose every 10 ms up to the newest stamp, ending near the last node.
+  const std::vector<StampedPose2> rate = estimator.AdvanceTo(estimator.Trajectory().back().stamp_seconds);
+  ASSERT_GT(rate.size(), 50u);
+  EXPECT_NEAR(0.01, rate[1].stamp_seconds - rate[0].stamp_seconds, 1e-9);
+  EXPECT_LT((rate.back().pose.translation() - estimator.Trajectory().back().pose.translation()).norm(), 0.02);
   estimator.Finish();
   EXPECT_FALSE(estimator.Add(log.measurements.back()).ok());  // after Finish
 }
