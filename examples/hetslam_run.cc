@@ -29,7 +29,7 @@ DEFINE_string(log, "", "Log to map: a CARMEN log (.clf: FLASER/ROBOTLASER1/RAWLA
               "hetslam robot log (a file whose first line is `HSLOG 1`, e.g. a simulated robot's <dir>/<robot>/log.txt: "
               "LASER scans with their MOUNT, ODOM optional, TRUTH used as --truth when that is not given; ATTITUDE/ALTITUDE "
               "for the 2.5D projection, see --use_attitude). Required.");
-DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm, map.yaml, map.png, trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
+DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png, planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
@@ -216,6 +216,13 @@ std::string Summary(const OnlineEstimator& estimator) {
                 s.floor_points,
                 s.degenerate_matches, s.ekf_predicted_scans, s.scans_without_attitude);
   std::string out = line;
+  if (s.floor_points > 0 || s.floor_obstacle_points > 0 || s.suspended_scans > 0) {
+    std::snprintf(line, sizeof(line),
+                  "semantics: %lld floor hits dropped, %lld floor-obstacle points (planner map only, never matched), "
+                  "%d scans suspended (laser facing the floor: the EKF carried the pose)\n",
+                  s.floor_points, s.floor_obstacle_points, s.suspended_scans);
+    out += line;
+  }
   if (s.marg_samples > 0) {
     std::snprintf(line, sizeof(line), "MARG: %d samples (%d refused), EKF: %d updates refused, %lld replayed\n",
                   s.marg_samples, s.marg_errors, s.ekf_errors, static_cast<long long>(estimator.ekf().num_replayed()));
@@ -313,8 +320,14 @@ int Run() {
   const std::string trajectory_path = (out / "trajectory.txt").string();
   std::vector<Pose2> path;
   for (const StampedPose2& p : trajectory) path.push_back(p.pose);
+  const std::unique_ptr<OccupancyGrid> planner = estimator.RenderMap(SubmapGraph::Layer::kPlanner);
+  const std::unique_ptr<OccupancyGrid> obstacles = estimator.RenderMap(SubmapGraph::Layer::kFloorObstacles);
   std::vector<Status> written = {WriteMapPgmYaml(*grid, base), WriteMapPng(*grid, {path}, base + ".png"),
+                                 WriteMapPgmYaml(*planner, (out / "planner").string()),
                                  WriteTrajectory(trajectory_path, trajectory)};
+  if (obstacles->observed_max().x >= obstacles->observed_min().x) {
+    written.push_back(WriteMapPgmYaml(*obstacles, (out / "floor_obstacles").string()));
+  }
   if (options.loop_closure) {
     written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator.graph().LoopClosures()));
     written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator.LocalTrajectory()));

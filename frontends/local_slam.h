@@ -65,6 +65,17 @@ struct LocalSlamOptions {
   // above the floor are floor hits: neither matched nor mapped (walls are vertical, so a wall
   // hit at any other height projects onto the wall).
   double floor_max_height_meters = 0.08;
+  // Floor obstacles (paper §III-E), with an attitude: points at most this high above the floor
+  // and at least floor_obstacle_min_drop_meters below the sensor (a beam tilted down; the drop
+  // exceeds what a degree of attitude error makes at the laser's range, so a level laser never
+  // labels any) are objects on the floor that break the 2.5D assumption: never matched, never
+  // in the localisation map, kept for the planner map. 0 = off.
+  double floor_obstacle_max_height_meters = 0.35;
+  double floor_obstacle_min_drop_meters = 0.15;
+  // Paper §III-A: when more than this fraction of a scan's valid beams hit the floor, the
+  // laser faces the floor: the scan is neither matched nor inserted (suspended) and the
+  // caller's prediction (the EKF) carries the pose. 1 = never suspend.
+  double suspend_floor_fraction = 0.2;
   // Degenerate scans (a corridor's two parallel walls, a tilted head seeing side walls only):
   // when the smaller eigenvalue of the match's translational information (J^T J of the scan
   // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps
@@ -95,7 +106,9 @@ struct ScanPoints {
   std::vector<Eigen::Vector2f> all;
   std::vector<PointLabel> labels;    // one per point of `all`
   std::vector<float> heights_meters; // one per point of `all`: height above the floor
+  int valid_points = 0;              // valid beams of the scan
   int floor_points = 0;              // removed as floor hits
+  std::vector<Eigen::Vector2f> floor_obstacles;  // robot frame; not in `all`
   std::vector<Eigen::Vector2f> matching;
   // Scan matcher weights, one per point of `matching`; empty = every weight 1.
   std::vector<float> matching_weights;
@@ -142,7 +155,8 @@ struct LocalSlamState {
 
 struct LocalResult {
   double stamp_seconds = 0.0;
-  bool inserted = false;       // false: too few points (nothing else below is set)
+  bool inserted = false;       // false: too few points or suspended (nothing else below is set)
+  bool suspended = false;      // the laser faced the floor: not matched, not inserted
   Pose2 predicted;             // local frame
   Pose2 local_pose;            // local frame, after matching
   bool matched = false;        // a match was tried (not on the first scan)

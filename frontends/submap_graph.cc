@@ -236,19 +236,40 @@ std::vector<StampedPose2> SubmapGraph::Trajectory(int robot_id) const {
   return trajectory;
 }
 
-std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const OccupancyGridOptions& grid_options) const {
+std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const OccupancyGridOptions& grid_options,
+                                                     Layer layer, const std::vector<AnchoredPoints>& extra) const {
   auto grid = std::make_unique<OccupancyGrid>(grid_options);
   const auto it = robots_.find(robot_id);
   if (it == robots_.end()) return grid;
+  const bool structure = layer != Layer::kFloorObstacles;
+  const bool obstacles = layer != Layer::kStructure;
   std::vector<Eigen::Vector2d> points_world;
   std::vector<uint8_t> labels;
+  auto insert = [&](const Pose2& world_T_scan, const Eigen::Vector2d& sensor_robot,
+                    const std::vector<Eigen::Vector2f>& points, const std::vector<PointLabel>* point_labels,
+                    PointLabel label) {
+    if (points.empty()) return;
+    points_world.clear();
+    labels.clear();
+    for (size_t k = 0; k < points.size(); ++k) {
+      points_world.push_back(world_T_scan * points[k].cast<double>());
+      labels.push_back(static_cast<uint8_t>(point_labels != nullptr ? (*point_labels)[k] : label));
+    }
+    grid->InsertScan(world_T_scan * sensor_robot, points_world, nullptr, &labels);
+  };
   for (const Node& node : it->second.nodes) {
     const Pose2 world_T_node = problem_.pose(node.pose);
-    points_world.clear();
-    for (const Eigen::Vector2f& p : node.points.all) points_world.push_back(world_T_node * p.cast<double>());
-    labels.clear();
-    for (PointLabel label : node.points.labels) labels.push_back(static_cast<uint8_t>(label));
-    grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels);
+    if (structure) insert(world_T_node, node.points.sensor_robot, node.points.all, &node.points.labels, PointLabel::kStructure);
+    if (obstacles) {
+      insert(world_T_node, node.points.sensor_robot, node.points.floor_obstacles, nullptr, PointLabel::kFloorObstacle);
+    }
+  }
+  if (obstacles) {
+    for (const AnchoredPoints& points : extra) {
+      if (points.node.robot != robot_id || points.node.index >= static_cast<int>(it->second.nodes.size())) continue;
+      insert(NodePose(points.node) * points.node_T_scan, points.sensor_robot, points.floor_obstacles, nullptr,
+             PointLabel::kFloorObstacle);
+    }
   }
   return grid;
 }
