@@ -101,6 +101,13 @@ DEFINE_string(attitude_source, "marg", "Where the attitude for the 2.5D projecti
               "the log's raw MARG samples) or logged (the log's ATTITUDE lines, the sensor's own filter).");
 DEFINE_double(floor_max_height, 0.08, "With an attitude: end points lower than this above the floor (metres) are floor "
               "hits, neither matched nor mapped.");
+DEFINE_double(floor_obstacle_max_height, 0.35, "With an attitude: points at most this high above the floor (metres) and "
+              "at least --floor_obstacle_min_drop below the sensor (a beam tilted down) are floor obstacles: never "
+              "matched, never in map.pgm, kept in planner.pgm and floor_obstacles.pgm (paper III-E); 0 = off.");
+DEFINE_double(floor_obstacle_min_drop, 0.15, "See --floor_obstacle_max_height (metres; exceeds what a degree of attitude "
+              "error makes at the laser's range, so a level laser labels none).");
+DEFINE_double(suspend_floor_fraction, 0.2, "With an attitude: when more than this fraction of a scan's valid beams hit the "
+              "floor, matching and map updates stop for that scan and the EKF carries the pose (paper III-A); 1 = never.");
 DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a motion source (commands or MARG rates through the "
               "EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
               "of the larger (a corridor, a tilted head seeing side walls only), keep the prediction along the weak "
@@ -141,6 +148,9 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
   options->max_point_range_meters = FLAGS_max_range;
   options->floor_max_height_meters = FLAGS_floor_max_height;
+  options->floor_obstacle_max_height_meters = FLAGS_floor_obstacle_max_height;
+  options->floor_obstacle_min_drop_meters = FLAGS_floor_obstacle_min_drop;
+  options->suspend_floor_fraction = FLAGS_suspend_floor_fraction;
   options->densify_max_gap_meters = FLAGS_densify_max_gap;
   options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;
   options->matching_voxel_meters = FLAGS_matching_voxel;
