@@ -76,6 +76,10 @@ struct LocalSlamOptions {
   // laser faces the floor: the scan is neither matched nor inserted (suspended) and the
   // caller's prediction (the EKF) carries the pose. 1 = never suspend.
   double suspend_floor_fraction = 0.2;
+  // Paper §III-E: matching points that land on wall cells of the map (cells hit at heights
+  // spanning grid.wall_min_height_span_meters: the invariants of the 2.5D assumption) get this
+  // weight, the others 1.
+  double wall_weight = 2.0;
   // Degenerate scans (a corridor's two parallel walls, a tilted head seeing side walls only):
   // when the smaller eigenvalue of the match's translational information (J^T J of the scan
   // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps
