@@ -335,17 +335,23 @@ int Run() {
   const std::string trajectory_path = (out / "trajectory.txt").string();
   std::vector<Pose2> path;
   for (const StampedPose2& p : trajectory) path.push_back(p.pose);
-  const std::unique_ptr<OccupancyGrid> planner = estimator.RenderMap(SubmapGraph::Layer::kPlanner);
-  const std::unique_ptr<OccupancyGrid> obstacles = estimator.RenderMap(SubmapGraph::Layer::kFloorObstacles);
+  // Level scans (CARMEN logs) have no floor obstacles or walls: the planner map is the map.
+  const OnlineEstimatorStats& stats = estimator.stats();
+  std::unique_ptr<OccupancyGrid> planner;
+  if (stats.floor_obstacle_points > 0) planner = estimator.RenderMap(SubmapGraph::Layer::kPlanner);
   std::vector<Status> written = {WriteMapPgmYaml(*grid, base), WriteMapPng(*grid, {path}, base + ".png"),
-                                 WriteMapPgmYaml(*planner, (out / "planner").string()),
+                                 WriteMapPgmYaml(planner != nullptr ? *planner : *grid, (out / "planner").string()),
                                  WriteTrajectory(trajectory_path, trajectory)};
-  if (obstacles->observed_max().x >= obstacles->observed_min().x) {
-    written.push_back(WriteMapPgmYaml(*obstacles, (out / "floor_obstacles").string()));
+  planner.reset();
+  if (stats.floor_obstacle_points > 0) {
+    written.push_back(WriteMapPgmYaml(*estimator.RenderMap(SubmapGraph::Layer::kFloorObstacles),
+                                      (out / "floor_obstacles").string()));
   }
-  const std::unique_ptr<OccupancyGrid> walls = estimator.RenderMap(SubmapGraph::Layer::kWalls);
-  if (walls->observed_max().x >= walls->observed_min().x) {
-    written.push_back(WriteMapPgmYaml(*walls, (out / "walls").string()));
+  if (stats.projected_scans > 0) {
+    const std::unique_ptr<OccupancyGrid> walls = estimator.RenderMap(SubmapGraph::Layer::kWalls);
+    if (walls->observed_max().x >= walls->observed_min().x) {
+      written.push_back(WriteMapPgmYaml(*walls, (out / "walls").string()));
+    }
   }
   if (options.loop_closure) {
     written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator.graph().LoopClosures()));

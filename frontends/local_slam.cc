@@ -118,6 +118,7 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   const float obstacle_max_height = static_cast<float>(options.floor_obstacle_max_height_meters);
   const float obstacle_min_drop = static_cast<float>(options.floor_obstacle_min_drop_meters);
   int previous_beam = -2;
+  points.projected = attitude.has_value();
   for (const ProjectedPoint& p : ProjectScan(scan, body)) {
     ++points.valid_points;
     if (attitude.has_value() && p.z_meters < floor_height) {
@@ -235,7 +236,10 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   }
   for (ActiveSubmap& submap : state.active) {
     const Pose2 submap_T_node = submap.local_T_submap.inverse() * result.local_pose;
-    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all, &points.labels, &points.heights_meters);
+    // Labels and heights (the label layer, walls) only for 2.5D-projected scans: a level
+    // scan's points are all structure at one height.
+    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all, points.projected ? &points.labels : nullptr,
+                          points.projected ? &points.heights_meters : nullptr);
     ++submap.num_scans;
     result.insertions.push_back({submap.index, submap_T_node});
   }

@@ -110,6 +110,7 @@ struct ScanPoints {
   std::vector<Eigen::Vector2f> all;
   std::vector<PointLabel> labels;    // one per point of `all`
   std::vector<float> heights_meters; // one per point of `all`: height above the floor
+  bool projected = false;            // 2.5D projection with an attitude (heights meaningful)
   int valid_points = 0;              // valid beams of the scan
   int floor_points = 0;              // removed as floor hits
   std::vector<Eigen::Vector2f> floor_obstacles;  // robot frame; not in `all`

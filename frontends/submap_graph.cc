@@ -277,7 +277,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     const Pose2 world_T_node = problem_.pose(node.pose);
     if (structure) {
       insert(world_T_node, node.points.sensor_robot, node.points.all, &node.points.labels, PointLabel::kStructure,
-             &node.points.heights_meters);
+             node.points.projected ? &node.points.heights_meters : nullptr);
     }
     if (obstacles) {
       insert(world_T_node, node.points.sensor_robot, node.points.floor_obstacles, nullptr, PointLabel::kFloorObstacle);
