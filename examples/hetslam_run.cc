@@ -108,7 +108,7 @@ DEFINE_double(floor_obstacle_min_drop, 0.15, "See --floor_obstacle_max_height (m
               "error makes at the laser's range, so a level laser labels none).");
 DEFINE_double(suspend_floor_fraction, 0.2, "With an attitude: when more than this fraction of a scan's valid beams hit the "
               "floor, matching and map updates stop for that scan and the EKF carries the pose (paper III-A); 1 = never.");
-DEFINE_double(wall_weight, 2.0, "Scan-matching weight of points that land on wall cells (cells hit at heights spanning "
+DEFINE_double(wall_weight, 1.0, "Scan-matching weight of points that land on wall cells (cells hit at heights spanning "
               "--wall_min_height_span: invariant under the 2.5D assumption, paper III-E); other points weigh 1.");
 DEFINE_double(wall_min_height_span, 0.3, "A cell hit at heights spanning at least this much (metres) is a wall.");
 DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a motion source (commands or MARG rates through the "
