@@ -8,6 +8,8 @@
 #include <system_error>
 
 #include "core/euler.h"
+#include "core/robot_log_writer.h"
+#include "core/team_manifest.h"
 #include "datasets/sim/sim_random.h"
 #include "datasets/sim/sim_text.h"
 #include "datasets/sim/simulator.h"

@@ -1,7 +1,7 @@
 // The team simulator: several robots (wheeled, UAV, humanoid) in a 2.5D world, each with a 3D
 // ray-cast 2D laser, a MARG unit, a camera that sees AprilTags and ground truth, written as an
-// HSLOG/HSTEAM dataset (core/robot_log.h). The single-robot 2D path (simulator.h) is separate
-// and unchanged.
+// HSLOG/HSTEAM dataset (core/robot_log.h, core/team_manifest.h). The single-robot 2D path
+// (simulator.h) is separate and unchanged.
 //
 // Time: every robot starts at t = 0. The controller runs and the 6D truth is integrated at the
 // control rate (dt = 1 / control_rate_hz); sensors sample that truth at their own rates,
