@@ -239,6 +239,7 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   }
   ScanPoints points = PrepareScanPoints(options_.local, reading.scan, attitude);
   stats_.floor_points += points.floor_points;
+  stats_.projected_scans += points.projected;
 
   // Prediction: odometry, else the EKF when motion inputs reach the scan, else extrapolation.
   std::optional<Pose2> odometry;

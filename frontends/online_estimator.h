@@ -102,6 +102,7 @@ struct OnlineEstimatorStats {
   long long floor_points = 0;       // end points dropped as floor hits
   long long floor_obstacle_points = 0;  // end points labelled floor obstacles (planner map only)
   int suspended_scans = 0;          // the laser faced the floor: the EKF carried the pose
+  int projected_scans = 0;          // projected with an attitude (2.5D)
   int scans_without_attitude = 0;   // the stream has attitudes, but none near the scan: level
   int ekf_predicted_scans = 0;      // scans predicted by the EKF
   int marg_samples = 0;

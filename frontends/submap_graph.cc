@@ -241,13 +241,29 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   auto grid = std::make_unique<OccupancyGrid>(grid_options);
   const auto it = robots_.find(robot_id);
   if (it == robots_.end()) return grid;
+  if (layer == Layer::kWalls) {
+    // The structure with its label layer first; then only the points on its wall cells.
+    const std::unique_ptr<OccupancyGrid> all = RenderMap(robot_id, grid_options, Layer::kStructure);
+    std::vector<Eigen::Vector2d> walls;
+    for (const Node& node : it->second.nodes) {
+      const Pose2 world_T_node = problem_.pose(node.pose);
+      walls.clear();
+      for (const Eigen::Vector2f& p : node.points.all) {
+        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+        const int cell = all->geometry().LinearIndex(all->geometry().WorldToCell(world));
+        if (all->IsOccupied(cell) && (all->LabelMask(cell) & (1u << OccupancyGrid::kWallLabelBit))) walls.push_back(world);
+      }
+      if (!walls.empty()) grid->InsertScan(world_T_node * node.points.sensor_robot, walls, nullptr);
+    }
+    return grid;
+  }
   const bool structure = layer != Layer::kFloorObstacles;
   const bool obstacles = layer != Layer::kStructure;
   std::vector<Eigen::Vector2d> points_world;
   std::vector<uint8_t> labels;
   auto insert = [&](const Pose2& world_T_scan, const Eigen::Vector2d& sensor_robot,
                     const std::vector<Eigen::Vector2f>& points, const std::vector<PointLabel>* point_labels,
-                    PointLabel label) {
+                    PointLabel label, const std::vector<float>* heights = nullptr) {
     if (points.empty()) return;
     points_world.clear();
     labels.clear();
@@ -255,11 +271,14 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       points_world.push_back(world_T_scan * points[k].cast<double>());
       labels.push_back(static_cast<uint8_t>(point_labels != nullptr ? (*point_labels)[k] : label));
     }
-    grid->InsertScan(world_T_scan * sensor_robot, points_world, nullptr, &labels);
+    grid->InsertScan(world_T_scan * sensor_robot, points_world, nullptr, &labels, heights);
   };
   for (const Node& node : it->second.nodes) {
     const Pose2 world_T_node = problem_.pose(node.pose);
-    if (structure) insert(world_T_node, node.points.sensor_robot, node.points.all, &node.points.labels, PointLabel::kStructure);
+    if (structure) {
+      insert(world_T_node, node.points.sensor_robot, node.points.all, &node.points.labels, PointLabel::kStructure,
+             node.points.projected ? &node.points.heights_meters : nullptr);
+    }
     if (obstacles) {
       insert(world_T_node, node.points.sensor_robot, node.points.floor_obstacles, nullptr, PointLabel::kFloorObstacle);
     }

@@ -150,6 +150,7 @@ class SubmapGraph {
     kStructure,       // what localisation uses (map.pgm)
     kFloorObstacles,  // objects on the floor (paper §III-E)
     kPlanner,         // both: everything a planner must avoid
+    kWalls,           // the structure points on wall cells (hit at several heights, paper §III-E)
   };
   // An occupancy grid of `robot`'s scans at their optimised poses (robot frame): the layer's
   // points of every node, and for floor obstacles also those of `extra`.
