@@ -22,6 +22,7 @@
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
 #include "frontends/online_estimator.h"
+#include "merger/map_picture.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
 
@@ -29,7 +30,7 @@ DEFINE_string(log, "", "Log to map: a CARMEN log (.clf: FLASER/ROBOTLASER1/RAWLA
               "hetslam robot log (a file whose first line is `HSLOG 1`, e.g. a simulated robot's <dir>/<robot>/log.txt: "
               "LASER scans with their MOUNT, ODOM optional, TRUTH used as --truth when that is not given; ATTITUDE/ALTITUDE "
               "for the 2.5D projection, see --use_attitude). Required.");
-DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png, planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
+DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png (a readable picture: walls, other structure, floor obstacles, the trajectory, a scale bar and a legend), planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
@@ -337,15 +338,19 @@ int Run() {
   for (const StampedPose2& p : trajectory) path.push_back(p.pose);
   // Level scans (CARMEN logs) have no floor obstacles or walls: the planner map is the map.
   const OnlineEstimatorStats& stats = estimator.stats();
-  std::unique_ptr<OccupancyGrid> planner;
-  if (stats.floor_obstacle_points > 0) planner = estimator.RenderMap(SubmapGraph::Layer::kPlanner);
-  std::vector<Status> written = {WriteMapPgmYaml(*grid, base), WriteMapPng(*grid, {path}, base + ".png"),
-                                 WriteMapPgmYaml(planner != nullptr ? *planner : *grid, (out / "planner").string()),
-                                 WriteTrajectory(trajectory_path, trajectory)};
-  planner.reset();
-  if (stats.floor_obstacle_points > 0) {
-    written.push_back(WriteMapPgmYaml(*estimator.RenderMap(SubmapGraph::Layer::kFloorObstacles),
-                                      (out / "floor_obstacles").string()));
+  std::unique_ptr<OccupancyGrid> obstacles;
+  if (stats.floor_obstacle_points > 0) obstacles = estimator.RenderMap(SubmapGraph::Layer::kFloorObstacles);
+  std::vector<Status> written = {
+      WriteMapPgmYaml(*grid, base),
+      WriteMapPicture(base + ".png", *grid, obstacles.get(), {{"estimate", path}}, {}, MapPictureOptions()),
+      WriteTrajectory(trajectory_path, trajectory)};
+  if (obstacles != nullptr) {
+    written.push_back(WriteMapPgmYaml(*obstacles, (out / "floor_obstacles").string()));
+    obstacles.reset();
+    written.push_back(
+        WriteMapPgmYaml(*estimator.RenderMap(SubmapGraph::Layer::kPlanner), (out / "planner").string()));
+  } else {
+    written.push_back(WriteMapPgmYaml(*grid, (out / "planner").string()));
   }
   if (stats.projected_scans > 0) {
     const std::unique_ptr<OccupancyGrid> walls = estimator.RenderMap(SubmapGraph::Layer::kWalls);
