@@ -15,7 +15,8 @@ LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
     : grid_(WithFieldMargin(grid_options, field_options)), field_(field_options) {}
 
 void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
-                          const std::vector<Eigen::Vector2f>& points_robot, const std::vector<PointLabel>* labels) {
+                          const std::vector<Eigen::Vector2f>& points_robot, const std::vector<PointLabel>* labels,
+                          const std::vector<float>* heights) {
   points_world_.clear();
   points_world_.reserve(points_robot.size());
   for (const Eigen::Vector2f& p : points_robot) points_world_.push_back(world_T_robot * p.cast<double>());
@@ -24,7 +25,8 @@ void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
     labels_.clear();
     for (PointLabel label : *labels) labels_.push_back(static_cast<uint8_t>(label));
   }
-  grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_, labels != nullptr ? &labels_ : nullptr);
+  grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_, labels != nullptr ? &labels_ : nullptr,
+                   heights);
   field_.ApplyChanges(grid_, changed_cells_);
   ++num_scans_inserted_;
 }

@@ -24,10 +24,11 @@ class LaserMap {
 
   // Inserts points given in the robot frame, seen from `sensor_robot` (sensor origin in the
   // robot frame), with the robot at `world_T_robot`.
-  // `labels` (optional, one PointLabel per point) feeds the grid's label layer.
+  // `labels` (optional, one PointLabel per point) and `heights` (optional, metres above the
+  // floor) feed the grid's label layer (core/occupancy_grid.h: walls from the height span).
   void InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                   const std::vector<Eigen::Vector2f>& points_robot,
-                  const std::vector<PointLabel>* labels = nullptr);
+                  const std::vector<PointLabel>* labels = nullptr, const std::vector<float>* heights = nullptr);
 
   // Keeps only what matching needs (cell states, likelihood values); no more insertion.
   void Freeze() {

@@ -2,11 +2,17 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 
 #include "core/file_io.h"
+#include "core/text_fields.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -79,10 +85,8 @@ struct CellBox {
   long long height() const { return max_y - min_y + 1; }
 };
 
-uint8_t CellGrey(const OccupancyGrid& grid, long long x, long long y) {
-  const GridGeometry& g = grid.geometry();
-  if (x < 0 || y < 0 || x >= g.width() || y >= g.height()) return kPgmUnknown;
-  switch (grid.State(g.LinearIndex({static_cast<int>(x), static_cast<int>(y)}))) {
+uint8_t StateGrey(CellState state) {
+  switch (state) {
     case CellState::kOccupied:
       return kPgmOccupied;
     case CellState::kFree:
@@ -91,6 +95,12 @@ uint8_t CellGrey(const OccupancyGrid& grid, long long x, long long y) {
       break;
   }
   return kPgmUnknown;
+}
+
+uint8_t CellGrey(const OccupancyGrid& grid, long long x, long long y) {
+  const GridGeometry& g = grid.geometry();
+  if (x < 0 || y < 0 || x >= g.width() || y >= g.height()) return kPgmUnknown;
+  return StateGrey(grid.State(g.LinearIndex({static_cast<int>(x), static_cast<int>(y)})));
 }
 
 // Bounding box (cells) of the observed cells, found by scanning the grid. The grid's own
@@ -130,6 +140,203 @@ std::vector<uint8_t> RenderGrey(const OccupancyGrid& grid, const CellBox& box) {
 std::string Basename(const std::string& path) {
   const size_t slash = path.find_last_of('/');
   return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+// The folder part of `path` with its trailing slash ("" for a bare file name).
+std::string Dirname(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? std::string() : path.substr(0, slash + 1);
+}
+
+// Writes the P5 image (`pixels` row-major, row 0 on top) and its YAML, the one layout every
+// map of hetslam is written in.
+Status WritePgmYamlPair(const std::string& path_without_extension, long long width,
+                        long long height, const std::vector<uint8_t>& pixels,
+                        double resolution_meters, const Eigen::Vector2d& origin,
+                        const std::vector<std::string>& yaml_comment_lines) {
+  const std::string pgm_path = path_without_extension + ".pgm";
+  const std::string yaml_path = path_without_extension + ".yaml";
+  std::string pgm = "P5\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
+  pgm.append(pixels.begin(), pixels.end());
+  HETSLAM_RETURN_IF_ERROR(WriteFileBytes(pgm_path, pgm.data(), pgm.size()));
+
+  std::ostringstream yaml;
+  yaml.precision(10);
+  for (const std::string& line : yaml_comment_lines) yaml << "# " << line << "\n";
+  yaml << "image: " << Basename(pgm_path) << "\n"
+       << "resolution: " << resolution_meters << "\n"
+       << "origin: [" << origin.x() << ", " << origin.y() << ", 0.0]\n"
+       << "negate: 0\n"
+       << "occupied_thresh: 0.65\n"
+       << "free_thresh: 0.196\n";
+  const std::string text = yaml.str();
+  return WriteFileBytes(yaml_path, text.data(), text.size());
+}
+
+// ---- Reading map_server maps. ----
+
+struct MapYaml {
+  std::string image;
+  double resolution_meters = 0.0;
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  bool negate = false;
+  double occupied_thresh = 0.65;
+  double free_thresh = 0.196;
+};
+
+std::string Trim(const std::string& s) {
+  const size_t begin = s.find_first_not_of(" \t\r");
+  if (begin == std::string::npos) return "";
+  const size_t end = s.find_last_not_of(" \t\r");
+  return s.substr(begin, end - begin + 1);
+}
+
+Status ParseMapYaml(const std::string& path, MapYaml* yaml) {
+  std::ifstream in(path);
+  if (!in) return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
+  bool has_image = false, has_resolution = false, has_origin = false;
+  std::string line;
+  int line_number = 0;
+  auto error = [&](const std::string& message) {
+    return Status::Error(path + ":" + std::to_string(line_number) + ": " + message);
+  };
+  while (std::getline(in, line)) {
+    ++line_number;
+    const size_t hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    line = Trim(line);
+    if (line.empty()) continue;
+    const size_t colon = line.find(':');
+    if (colon == std::string::npos) return error("expected `key: value`, got '" + line + "'");
+    const std::string key = Trim(line.substr(0, colon));
+    std::string value = Trim(line.substr(colon + 1));
+    if (value.size() >= 2 && (value.front() == '"' || value.front() == '\'') &&
+        value.back() == value.front()) {
+      value = value.substr(1, value.size() - 2);
+    }
+    double number = 0.0;
+    if (key == "image") {
+      if (value.empty()) return error("image names no file");
+      yaml->image = value;
+      has_image = true;
+    } else if (key == "resolution") {
+      if (!text_fields::ParseFiniteDouble(value, &number) || !(number > 0.0)) {
+        return error("resolution must be a positive number of metres per cell, got '" + value +
+                     "'");
+      }
+      yaml->resolution_meters = number;
+      has_resolution = true;
+    } else if (key == "origin") {
+      std::vector<std::string> fields;
+      std::string inside = value;
+      if (inside.size() >= 2 && inside.front() == '[' && inside.back() == ']') {
+        inside = inside.substr(1, inside.size() - 2);
+      } else {
+        return error("origin must be `[x, y, yaw]`, got '" + value + "'");
+      }
+      std::replace(inside.begin(), inside.end(), ',', ' ');
+      text_fields::Split(inside, &fields);
+      double xyz[3];
+      if (fields.size() != 3 || !text_fields::ParseFiniteDouble(fields[0], &xyz[0]) ||
+          !text_fields::ParseFiniteDouble(fields[1], &xyz[1]) ||
+          !text_fields::ParseFiniteDouble(fields[2], &xyz[2])) {
+        return error("origin must be `[x, y, yaw]` with three finite numbers, got '" + value +
+                     "'");
+      }
+      if (xyz[2] != 0.0) {
+        return error("origin yaw " + fields[2] + " is not supported (only 0: an unrotated map)");
+      }
+      yaml->origin = Eigen::Vector2d(xyz[0], xyz[1]);
+      has_origin = true;
+    } else if (key == "negate") {
+      if (value != "0" && value != "1") return error("negate must be 0 or 1, got '" + value + "'");
+      yaml->negate = value == "1";
+    } else if (key == "occupied_thresh" || key == "free_thresh") {
+      if (!text_fields::ParseFiniteDouble(value, &number) || number < 0.0 || number > 1.0) {
+        return error(key + " must be a number in [0, 1], got '" + value + "'");
+      }
+      (key == "occupied_thresh" ? yaml->occupied_thresh : yaml->free_thresh) = number;
+    } else if (key == "mode") {
+      if (value != "trinary") {
+        return error("mode '" + value + "' is not supported (only trinary)");
+      }
+    }
+  }
+  const char* missing = !has_image ? "image" : !has_resolution ? "resolution"
+                                             : !has_origin     ? "origin"
+                                                               : nullptr;
+  if (missing != nullptr) return Status::Error(path + ": no '" + missing + "' key");
+  if (!(yaml->free_thresh <= yaml->occupied_thresh)) {
+    return Status::Error(path + ": free_thresh must not exceed occupied_thresh");
+  }
+  return Status::Ok();
+}
+
+struct PgmImage {
+  int width = 0;
+  int height = 0;
+  int max_value = 255;
+  std::vector<uint8_t> pixels;  // row-major, row 0 on top
+};
+
+// Binary PGM (P5) with 8-bit samples; '#' comments are allowed in the header.
+Status ReadPgm(const std::string& path, PgmImage* image) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  size_t at = 0;
+  // The next header token: white space and comments (to the end of the line) are skipped.
+  auto token = [&]() {
+    while (at < bytes.size()) {
+      if (std::isspace(static_cast<unsigned char>(bytes[at]))) {
+        ++at;
+      } else if (bytes[at] == '#') {
+        while (at < bytes.size() && bytes[at] != '\n') ++at;
+      } else {
+        break;
+      }
+    }
+    const size_t begin = at;
+    while (at < bytes.size() && !std::isspace(static_cast<unsigned char>(bytes[at]))) ++at;
+    return bytes.substr(begin, at - begin);
+  };
+  const std::string magic = token();
+  if (magic != "P5") {
+    return Status::Error("'" + path + "' is not a binary PGM (P5) image (starts with '" +
+                         magic.substr(0, 8) + "')");
+  }
+  long long numbers[3];
+  const char* names[3] = {"width", "height", "max value"};
+  for (int k = 0; k < 3; ++k) {
+    const std::string field = token();
+    if (!text_fields::ParseInteger(field, 1, k < 2 ? (1 << 30) : 255, &numbers[k])) {
+      return Status::Error("'" + path + "': PGM " + names[k] + " '" + field +
+                           "' is not an integer in [1, " +
+                           (k < 2 ? std::string("2^30") : std::string("255")) + "]");
+    }
+  }
+  if (numbers[0] * numbers[1] > 400000000LL) {
+    return Status::Error("'" + path + "': PGM of " + std::to_string(numbers[0]) + " x " +
+                         std::to_string(numbers[1]) + " pixels is over the limit of 4e8");
+  }
+  ++at;  // the single white space character before the raster
+  const size_t size = static_cast<size_t>(numbers[0] * numbers[1]);
+  if (at > bytes.size() || bytes.size() - at < size) {
+    return Status::Error("'" + path + "': PGM raster is truncated (" +
+                         std::to_string(at > bytes.size() ? 0 : bytes.size() - at) + " of " +
+                         std::to_string(size) + " bytes)");
+  }
+  image->width = static_cast<int>(numbers[0]);
+  image->height = static_cast<int>(numbers[1]);
+  image->max_value = static_cast<int>(numbers[2]);
+  image->pixels.assign(bytes.begin() + at, bytes.begin() + at + size);
+  for (uint8_t v : image->pixels) {
+    if (v > image->max_value) {
+      return Status::Error("'" + path + "': a pixel value " + std::to_string(v) +
+                           " exceeds the PGM's max value " + std::to_string(image->max_value));
+    }
+  }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -212,34 +419,69 @@ Status WritePng(const std::string& path, int width, int height, int channels,
 }
 
 Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_without_extension) {
-  const std::string pgm_path = path_without_extension + ".pgm";
-  const std::string yaml_path = path_without_extension + ".yaml";
   CellIndex lo, hi;
   if (!ObservedBox(grid, &lo, &hi)) {
-    return Status::Error("cannot write '" + pgm_path + "': the map has no observed cell");
+    return Status::Error("cannot write '" + path_without_extension +
+                         ".pgm': the map has no observed cell");
   }
   const CellBox box{lo.x - kMapBorderCells, lo.y - kMapBorderCells, hi.x + kMapBorderCells,
                     hi.y + kMapBorderCells};
-  const std::vector<uint8_t> pixels = RenderGrey(grid, box);
-
-  std::string pgm = "P5\n" + std::to_string(box.width()) + " " + std::to_string(box.height()) +
-                    "\n255\n";
-  pgm.append(pixels.begin(), pixels.end());
-  HETSLAM_RETURN_IF_ERROR(WriteFileBytes(pgm_path, pgm.data(), pgm.size()));
-
   const GridGeometry& g = grid.geometry();
   const Eigen::Vector2d origin =
       g.origin() + Eigen::Vector2d(box.min_x, box.min_y) * g.resolution_meters();
-  std::ostringstream yaml;
-  yaml.precision(10);
-  yaml << "image: " << Basename(pgm_path) << "\n"
-       << "resolution: " << g.resolution_meters() << "\n"
-       << "origin: [" << origin.x() << ", " << origin.y() << ", 0.0]\n"
-       << "negate: 0\n"
-       << "occupied_thresh: 0.65\n"
-       << "free_thresh: 0.196\n";
-  const std::string text = yaml.str();
-  return WriteFileBytes(yaml_path, text.data(), text.size());
+  return WritePgmYamlPair(path_without_extension, box.width(), box.height(),
+                          RenderGrey(grid, box), g.resolution_meters(), origin, {});
+}
+
+int GridLayer::CountCells(CellState state) const {
+  return static_cast<int>(std::count(cells.begin(), cells.end(), state));
+}
+
+Status WriteMapPgmYaml(const GridLayer& layer, const std::string& path_without_extension,
+                       const std::vector<std::string>& yaml_comment_lines) {
+  const GridGeometry& g = layer.geometry;
+  if (g.width() < 1 || g.height() < 1) {
+    return Status::Error("cannot write '" + path_without_extension + ".pgm': the layer is empty (" +
+                         std::to_string(g.width()) + " x " + std::to_string(g.height()) + ")");
+  }
+  CHECK_EQ(layer.cells.size(), static_cast<size_t>(g.num_cells()))
+      << "GridLayer cells do not match its geometry";
+  std::vector<uint8_t> pixels;
+  pixels.reserve(layer.cells.size());
+  for (int y = g.height() - 1; y >= 0; --y) {
+    for (int x = 0; x < g.width(); ++x) pixels.push_back(StateGrey(layer.at({x, y})));
+  }
+  return WritePgmYamlPair(path_without_extension, g.width(), g.height(), pixels,
+                          g.resolution_meters(), g.origin(), yaml_comment_lines);
+}
+
+Status ReadMapPgmYaml(const std::string& yaml_path, GridLayer* layer) {
+  CHECK(layer != nullptr);
+  MapYaml yaml;
+  HETSLAM_RETURN_IF_ERROR(ParseMapYaml(yaml_path, &yaml));
+  const std::string image_path =
+      yaml.image.front() == '/' ? yaml.image : Dirname(yaml_path) + yaml.image;
+  PgmImage image;
+  HETSLAM_RETURN_IF_ERROR(ReadPgm(image_path, &image));
+  GridLayer read = GridLayer::Filled(
+      GridGeometry(yaml.origin, yaml.resolution_meters, image.width, image.height),
+      CellState::kUnknown);
+  for (int row = 0; row < image.height; ++row) {
+    for (int x = 0; x < image.width; ++x) {
+      const double v = 255.0 * image.pixels[static_cast<size_t>(row) * image.width + x] /
+                       image.max_value;
+      const double p = yaml.negate ? v / 255.0 : (255.0 - v) / 255.0;
+      CellState state = CellState::kUnknown;
+      if (p > yaml.occupied_thresh) {
+        state = CellState::kOccupied;
+      } else if (p < yaml.free_thresh) {
+        state = CellState::kFree;
+      }
+      read.set({x, image.height - 1 - row}, state);
+    }
+  }
+  *layer = std::move(read);
+  return Status::Ok();
 }
 
 Status WriteMapPng(const OccupancyGrid& grid, const std::vector<std::vector<Pose2>>& trajectories,

@@ -1,5 +1,6 @@
-// Writing maps and pictures: the ROS map_server PGM + YAML pair, and PNG images written by a
-// small self-contained encoder (no zlib, no OpenCV: core depends on Eigen and glog only).
+// Writing and reading maps, and writing pictures: the ROS map_server PGM + YAML pair, and PNG
+// images written by a small self-contained encoder (no zlib, no OpenCV: core depends on Eigen
+// and glog only).
 //
 // Image convention (core/grid_geometry.h): image row 0 is the TOP of the map, i.e. the
 // largest y; image column c is grid column x. Maps are cropped to the observed bounding box
@@ -27,6 +28,23 @@ constexpr uint8_t kPgmOccupied = 0;
 constexpr uint8_t kPgmFree = 254;
 constexpr uint8_t kPgmUnknown = 205;
 
+// A map as one state per cell: what a map_server PGM + YAML pair holds, in memory. The cells
+// follow core/grid_geometry.h (row y counts UP from the minimum corner `geometry.origin()`,
+// linear index y * width + x), NOT the image's top-down rows; the readers and writers below
+// do the flip. A map layer of a run, or a true layer of a simulated world.
+struct GridLayer {
+  GridGeometry geometry;
+  std::vector<CellState> cells;  // geometry.num_cells() entries
+
+  // A layer of `geometry` with every cell in `state`.
+  static GridLayer Filled(const GridGeometry& geometry, CellState state) {
+    return {geometry, std::vector<CellState>(static_cast<size_t>(geometry.num_cells()), state)};
+  }
+  CellState at(const CellIndex& c) const { return cells[geometry.LinearIndex(c)]; }
+  void set(const CellIndex& c, CellState state) { cells[geometry.LinearIndex(c)] = state; }
+  int CountCells(CellState state) const;
+};
+
 // Writes `<path_without_extension>.pgm` (binary P5, 8-bit, values above) and
 // `<path_without_extension>.yaml` with
 //   image: <basename>.pgm, resolution: <m/cell>, origin: [x, y, 0.0],
@@ -35,6 +53,24 @@ constexpr uint8_t kPgmUnknown = 205;
 // minimum corner of the cropped area), as map_server expects. An error names the file; a
 // grid with no observed cell is an error.
 Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_without_extension);
+
+// The same pair for a GridLayer, every cell written (no cropping, no border added): the YAML
+// origin is geometry.origin(). `yaml_comment_lines` are written first, each as `# line`
+// (map_server and ReadMapPgmYaml skip them). An error names the file; an empty layer is an
+// error. CHECK-fails when the cell count does not match the geometry.
+Status WriteMapPgmYaml(const GridLayer& layer, const std::string& path_without_extension,
+                       const std::vector<std::string>& yaml_comment_lines = {});
+
+// Reads a map_server map: the YAML at `yaml_path` (`key: value` lines, `#` comments; keys
+// image, resolution and origin required; negate (0/1, default 0), occupied_thresh (0.65),
+// free_thresh (0.196) and mode (only `trinary`) optional; others ignored) and the image it
+// names (relative to the YAML's folder unless absolute; binary PGM P5, max value <= 255).
+// A pixel v becomes p = (255 - v) / 255 (negate 1: v / 255, after scaling v to 0..255):
+// occupied when p > occupied_thresh, free when p < free_thresh, unknown otherwise, as
+// map_server's trinary mode does; the grey levels above read back as written. The origin's
+// yaw must be 0 (a rotated map_server origin is not supported). Errors name the file (and the
+// YAML line).
+Status ReadMapPgmYaml(const std::string& yaml_path, GridLayer* layer);
 
 // Writes an 8-bit PNG, greyscale (channels = 1) or RGB (channels = 3). `pixels` is row-major,
 // row 0 at the top, channels interleaved: size width * height * channels. The image data is

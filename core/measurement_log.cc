@@ -6,10 +6,12 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "core/carmen_log.h"
 #include "core/euler.h"
 #include "core/robot_log.h"
+#include "glog/logging.h"
 
 namespace hetslam {
 
@@ -34,6 +36,18 @@ Status DetectLogFormat(const std::string& path, LogFormat* format) {
     if (line.compare(start, 5, "HSLOG") == 0) *format = LogFormat::kRobotLog;
     break;
   }
+  return Status::Ok();
+}
+
+Status ReadTruthTrajectory(const std::string& path, std::vector<StampedPose2>* truth) {
+  CHECK(truth != nullptr);
+  LogFormat format;
+  HETSLAM_RETURN_IF_ERROR(DetectLogFormat(path, &format));
+  if (format != LogFormat::kRobotLog) return ReadTrajectory(path, truth);
+  MeasurementLog log;
+  HETSLAM_RETURN_IF_ERROR(ReadMeasurementLog(path, MeasurementLogOptions(), &log));
+  if (log.truth.empty()) return Status::Error("'" + path + "' has no TRUTH lines");
+  *truth = std::move(log.truth);
   return Status::Ok();
 }
 

@@ -55,6 +55,12 @@ struct MeasurementLog {
 
 Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log);
 
+// The ground truth stored in `path`: the TRUTH lines of a hetslam robot log (planar
+// world_T_body, as MeasurementLog::truth), or else a `timestamp x y theta` trajectory file
+// (core/trajectory_io.h, e.g. a simulator's truth.txt). Errors name the file; a robot log
+// without TRUTH lines is an error.
+Status ReadTruthTrajectory(const std::string& path, std::vector<StampedPose2>* truth);
+
 struct RobotLog;
 // The stream of a robot log already in memory (a simulator's output): `robot` is consumed.
 // Image paths become `robot.directory`/path; params, warnings and the planar truth are kept.

@@ -18,6 +18,7 @@ bool OccupancyGridOptions::IsValid(std::string* error) const {
     msg << "need min_log_odds < occupied_threshold_log_odds < max_log_odds; ";
   if (!(border_margin_meters >= 0.0)) msg << "border_margin_meters must be >= 0; ";
   if (!(growth_step_meters >= 0.0)) msg << "growth_step_meters must be >= 0; ";
+  if (!(wall_min_height_span_meters > 0.0)) msg << "wall_min_height_span_meters must be > 0; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -77,6 +78,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   std::vector<uint32_t> hit_count(n, 0);
   std::vector<uint32_t> last_update(n, 0);
   std::vector<uint8_t> labels(labels_.empty() ? 0 : n, 0);
+  std::vector<uint8_t> height_min(height_min_.empty() ? 0 : n, 255), height_max(height_max_.empty() ? 0 : n, 0);
   // Offset of the old grid inside the new one, in cells.
   const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / g.resolution_meters()));
   const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / g.resolution_meters()));
@@ -90,6 +92,10 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
       hit_count[to] = hit_count_[from];
       last_update[to] = last_update_[from];
       if (!labels.empty()) labels[to] = labels_[from];
+      if (!height_min.empty()) {
+        height_min[to] = height_min_[from];
+        height_max[to] = height_max_[from];
+      }
     }
   }
   if (observed_max_.x >= observed_min_.x) {
@@ -103,6 +109,8 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   hit_count_.swap(hit_count);
   last_update_.swap(last_update);
   labels_.swap(labels);
+  height_min_.swap(height_min);
+  height_max_.swap(height_max);
 }
 
 void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cells) {
@@ -133,7 +141,8 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
 
 void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
                                const std::vector<Eigen::Vector2d>& points_world,
-                               std::vector<int>* changed_cells, const std::vector<uint8_t>* labels) {
+                               std::vector<int>* changed_cells, const std::vector<uint8_t>* labels,
+                               const std::vector<float>* heights) {
   CHECK(labels == nullptr || labels->size() == points_world.size())
       << "InsertScan: " << labels->size() << " labels for " << points_world.size() << " points";
   Eigen::Vector2d lo = sensor_world, hi = sensor_world;
@@ -143,7 +152,13 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     hi = hi.cwiseMax(p);
   }
   EnsureContains(lo, hi);
-  if (labels != nullptr && labels_.empty()) labels_.assign(geometry_.num_cells(), 0);
+  CHECK(heights == nullptr || heights->size() == points_world.size()) << "InsertScan: heights do not match points";
+  if ((labels != nullptr || heights != nullptr) && labels_.empty()) labels_.assign(geometry_.num_cells(), 0);
+  if (heights != nullptr && height_min_.empty()) {
+    height_min_.assign(geometry_.num_cells(), 255);
+    height_max_.assign(geometry_.num_cells(), 0);
+  }
+  const int wall_span_steps = static_cast<int>(std::lround(options_.wall_min_height_span_meters / 0.02));
   ++scan_counter_;
   if (scan_counter_ == 0) {  // wrapped after 4e9 scans: restart the stamps
     std::fill(last_update_.begin(), last_update_.end(), 0);
@@ -157,6 +172,12 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     const CellIndex c = geometry_.WorldToCell(p);
     const int i = geometry_.LinearIndex(c);
     if (labels != nullptr) labels_[i] |= static_cast<uint8_t>(1u << ((*labels)[k] & 7u));
+    if (heights != nullptr && std::isfinite((*heights)[k])) {
+      const uint8_t h = static_cast<uint8_t>(std::clamp(std::lround((*heights)[k] / 0.02f), 0L, 254L));
+      height_min_[i] = std::min(height_min_[i], h);
+      height_max_[i] = std::max(height_max_[i], h);
+      if (height_max_[i] - height_min_[i] >= wall_span_steps) labels_[i] |= 1u << kWallLabelBit;
+    }
     const bool first_this_scan = last_update_[i] != scan_counter_;
     if (first_this_scan) UpdateCell(i, hit, changed_cells);
     if (IsOccupied(i)) {

@@ -34,6 +34,8 @@ struct OccupancyGridOptions {
   // When growing, the grid adds this much extra room beyond what is needed, so that growth
   // (a copy) stays rare.
   double growth_step_meters = 2.0;
+  // See InsertScan's `heights`.
+  double wall_min_height_span_meters = 0.3;
 
   bool IsValid(std::string* error) const;
 };
@@ -59,9 +61,15 @@ class OccupancyGrid {
   // to or from occupied, or whose hit point was updated while occupied.
   // `labels` (optional, one per point, each < 8: what the point is, e.g. the front end's
   // PointLabel) feeds the label layer: each end cell ORs in bit (1 << label).
+  // `heights` (optional, one per point: metres above the floor, from a 2.5D projection) feeds
+  // the height span of each end cell; a cell hit at heights spanning at least
+  // wall_min_height_span_meters is a wall (paper §III-E: walls are the invariants of the 2.5D
+  // assumption, hit wherever the tilt puts the beam) and gets the wall bit (1 << kWallLabelBit).
   void InsertScan(const Eigen::Vector2d& sensor_world,
                   const std::vector<Eigen::Vector2d>& points_world,
-                  std::vector<int>* changed_cells, const std::vector<uint8_t>* labels = nullptr);
+                  std::vector<int>* changed_cells, const std::vector<uint8_t>* labels = nullptr,
+                  const std::vector<float>* heights = nullptr);
+  static constexpr int kWallLabelBit = 3;  // PointLabel::kWall
 
   // One observation of the cell containing `p_world` from outside the laser model (map merging,
   // merger/map_merge.h: a teammate's map is one observation per cell): its log-odds change by
@@ -120,6 +128,9 @@ class OccupancyGrid {
   // Scan counter stamps so that a cell is updated at most once per scan.
   std::vector<uint32_t> last_update_;
   std::vector<uint8_t> labels_;  // label layer; empty until the first labelled insertion
+  // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); empty
+  // until the first insertion with heights.
+  std::vector<uint8_t> height_min_, height_max_;
   uint32_t scan_counter_ = 0;
   bool frozen_ = false;
   CellIndex observed_min_{1, 1};

@@ -1,5 +1,6 @@
-// The hetslam multi-sensor robot log and team manifest (the simulator's output format; any
-// robot can be logged into it). Full description with examples in datasets/README.md.
+// The hetslam multi-sensor robot log (the simulator's output format; any robot can be logged
+// into it) and its reader. Full description with examples in datasets/README.md; the writer is
+// core/robot_log_writer.h, the team manifest core/team_manifest.h.
 //
 // A dataset is a directory with a team manifest `team.txt` and one directory per robot holding
 // `log.txt` and its camera images. Everything is text, one message per line, fields separated
@@ -44,13 +45,6 @@
 //   TRUTH t x y z roll pitch yaw        ground truth world_T_body (simulated data only), at
 //                                       every LASER and IMAGE stamp
 //
-// Team manifest (`team.txt`):
-//   HSTEAM version                      first non-comment line; version 1
-//   robot name kind directory           one per robot; directory relative to the manifest
-//   tag id family size x y z roll pitch yaw
-//                                       ground truth of a fiducial: world_T_tag, size = edge of
-//                                       the black square in metres (evaluation only)
-//
 // Errors, as for CARMEN logs (core/carmen_log.h): every message names file and line
 // ("uav/log.txt:120: MARG needs 9 numbers after the stamp (gx .. mz), found 7"). A malformed
 // line (unknown message, wrong field count, a non-numeric or non-finite number where one is
@@ -58,7 +52,7 @@
 // LASER range limits not 0 <= range_min < range_max) is an error unless
 // `lenient` is set, in which case it is skipped and counted. Time stamps going backwards
 // within one message type are counted and the first few reported in `warnings`, never
-// reordered. A missing or wrong HSLOG/HSTEAM header is an error even when lenient.
+// reordered. A missing or wrong HSLOG header is an error even when lenient.
 #ifndef HETSLAM_CORE_ROBOT_LOG_H_
 #define HETSLAM_CORE_ROBOT_LOG_H_
 
@@ -123,49 +117,6 @@ struct RobotLog {
 };
 
 Status ReadRobotLog(const std::string& path, const RobotLogReadOptions& options, RobotLog* log);
-
-// Writes every message of `log` merged by time stamp (at equal stamps in the order MOUNT,
-// ODOM, MARG, ATTITUDE, ALTITUDE, COMMAND, TRUTH, LASER, IMAGE; within a type in vector
-// order), after the HSLOG line, `comment_lines` as '#' lines and the PARAMs (sorted by name).
-// Numbers are printed so that reading gives back the same doubles (the shortest such text,
-// std::to_chars: locale independent); the same
-// log gives the same bytes. Laser scans must have evenly spaced angles (else an error), and
-// each scan's robot_T_sensor must be the MOUNT in force at its stamp (identity before the
-// first MOUNT), else an error: the log stores mounts only as MOUNT messages. Poses are stored
-// as roll/pitch/yaw, so rotations read back equal to rounding (~1e-16), not bit for bit;
-// non-finite ranges are written as "nan".
-Status WriteRobotLog(const std::string& path, const RobotLog& log,
-                     const std::vector<std::string>& comment_lines);
-
-struct TeamRobot {
-  std::string name;
-  std::string kind;       // wheeled | uav | humanoid
-  std::string directory;  // as written (relative to the manifest)
-  int line_number = 0;
-};
-
-struct TagTruth {
-  int id = 0;
-  std::string family;  // e.g. tag36h11
-  double size_meters = 0.0;
-  Eigen::Isometry3d world_T_tag = Eigen::Isometry3d::Identity();
-  int line_number = 0;
-};
-
-struct TeamManifest {
-  std::string path;
-  std::string directory;
-  std::vector<TeamRobot> robots;
-  std::vector<TagTruth> tags;
-
-  // `directory`/robot.directory/log.txt
-  std::string RobotLogPath(const TeamRobot& robot) const;
-};
-
-// Errors name file and line; robot names must be unique and kinds known; tag sizes > 0.
-Status ReadTeamManifest(const std::string& path, TeamManifest* manifest);
-Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
-                         const std::vector<std::string>& comment_lines);
 
 }  // namespace hetslam
 

@@ -2,18 +2,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace hetslam {
+namespace {
 
-AbsoluteTrajectoryError ComputeAbsoluteTrajectoryError(const std::vector<StampedPose2>& estimate,
-                                                       const std::vector<StampedPose2>& truth,
-                                                       double match_tolerance_seconds) {
-  AbsoluteTrajectoryError ate;
+// (estimate, truth) pose pairs: each estimate pose with the truth pose nearest in time, when
+// within the tolerance.
+std::vector<std::pair<Pose2, Pose2>> MatchByStamp(const std::vector<StampedPose2>& estimate,
+                                                  const std::vector<StampedPose2>& truth,
+                                                  double match_tolerance_seconds) {
   // Truth sorted by time for nearest-stamp lookups (input order is kept elsewhere).
   std::vector<StampedPose2> sorted_truth = truth;
   std::stable_sort(sorted_truth.begin(), sorted_truth.end(),
                    [](const StampedPose2& a, const StampedPose2& b) { return a.stamp_seconds < b.stamp_seconds; });
-  std::vector<std::pair<Pose2, Pose2>> pairs;  // (estimate, truth)
+  std::vector<std::pair<Pose2, Pose2>> pairs;
   for (const StampedPose2& e : estimate) {
     auto it = std::lower_bound(sorted_truth.begin(), sorted_truth.end(), e.stamp_seconds,
                                [](const StampedPose2& a, double t) { return a.stamp_seconds < t; });
@@ -29,9 +32,13 @@ AbsoluteTrajectoryError ComputeAbsoluteTrajectoryError(const std::vector<Stamped
       pairs.emplace_back(e.pose, best->pose);
     }
   }
-  ate.matched = static_cast<int>(pairs.size());
-  if (pairs.empty()) return ate;
+  return pairs;
+}
 
+TrajectoryAlignment AlignPairs(const std::vector<std::pair<Pose2, Pose2>>& pairs) {
+  TrajectoryAlignment alignment;
+  alignment.matched = static_cast<int>(pairs.size());
+  if (pairs.empty()) return alignment;
   Eigen::Vector2d mean_e = Eigen::Vector2d::Zero(), mean_t = Eigen::Vector2d::Zero();
   for (const auto& [e, t] : pairs) {
     mean_e += e.translation();
@@ -40,14 +47,43 @@ AbsoluteTrajectoryError ComputeAbsoluteTrajectoryError(const std::vector<Stamped
   mean_e /= pairs.size();
   mean_t /= pairs.size();
   double sxx = 0, sxy = 0;  // cross terms of the rotation that best maps estimate onto truth
+  double truth_spread_sq = 0;
+  double heading_cos = 0, heading_sin = 0;
   for (const auto& [e, t] : pairs) {
     const Eigen::Vector2d a = e.translation() - mean_e, b = t.translation() - mean_t;
     sxx += a.dot(b);
     sxy += a.x() * b.y() - a.y() * b.x();
+    truth_spread_sq += b.squaredNorm();
+    const double d = t.theta() - e.theta();
+    heading_cos += std::cos(d);
+    heading_sin += std::sin(d);
   }
-  const double yaw = pairs.size() > 1 ? std::atan2(sxy, sxx) : WrapAngle(pairs[0].second.theta() - pairs[0].first.theta());
+  const double spread = std::sqrt(truth_spread_sq / pairs.size());
+  alignment.rotation_from_headings = pairs.size() < 2 || spread < kMinAlignmentSpreadMeters;
+  const double yaw = alignment.rotation_from_headings ? std::atan2(heading_sin, heading_cos)
+                                                      : std::atan2(sxy, sxx);
   const Pose2 rotation(0.0, 0.0, yaw);
-  ate.truth_T_estimate = Pose2(mean_t - rotation * mean_e, yaw);
+  alignment.truth_T_estimate = Pose2(mean_t - rotation * mean_e, yaw);
+  return alignment;
+}
+
+}  // namespace
+
+TrajectoryAlignment AlignTrajectory(const std::vector<StampedPose2>& estimate,
+                                    const std::vector<StampedPose2>& truth,
+                                    double match_tolerance_seconds) {
+  return AlignPairs(MatchByStamp(estimate, truth, match_tolerance_seconds));
+}
+
+AbsoluteTrajectoryError ComputeAbsoluteTrajectoryError(const std::vector<StampedPose2>& estimate,
+                                                       const std::vector<StampedPose2>& truth,
+                                                       double match_tolerance_seconds) {
+  AbsoluteTrajectoryError ate;
+  const std::vector<std::pair<Pose2, Pose2>> pairs =
+      MatchByStamp(estimate, truth, match_tolerance_seconds);
+  ate.matched = static_cast<int>(pairs.size());
+  if (pairs.empty()) return ate;
+  ate.truth_T_estimate = AlignPairs(pairs).truth_T_estimate;
 
   double sum_sq_t = 0, sum_t = 0, sum_sq_r = 0;
   for (const auto& [e, t] : pairs) {

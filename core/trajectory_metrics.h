@@ -14,9 +14,32 @@
 
 namespace hetslam {
 
+// The alignment of an estimate (in its own frame, e.g. a robot's start frame) to the truth.
+struct TrajectoryAlignment {
+  int matched = 0;        // pose pairs found; 0: no alignment (truth_T_estimate is identity)
+  Pose2 truth_T_estimate;  // maps estimate-frame points (trajectory, map) into the truth frame
+  // True when the rotation came from the headings instead of the positions: a single pair, or
+  // truth positions within kMinAlignmentSpreadMeters (RMS) of their centroid (a robot that
+  // stood still), where the positions do not fix a rotation.
+  bool rotation_from_headings = false;
+};
+
+// Below this RMS distance of the matched truth positions from their centroid the alignment
+// takes its rotation from the headings (see TrajectoryAlignment).
+constexpr double kMinAlignmentSpreadMeters = 0.1;
+
+// The rigid SE(2) transform truth_T_estimate that minimises sum |truth_T_estimate * e_i - t_i|²
+// over the position pairs (e_i, t_i) matched by nearest stamp within match_tolerance_seconds:
+// t = mean_t - R mean_e, R from the 2x2 cross-covariance of the centred positions. When the
+// positions cannot fix the rotation (see TrajectoryAlignment) the rotation is the circular
+// mean of the heading differences theta_t - theta_e instead. The alignment ATE uses.
+TrajectoryAlignment AlignTrajectory(const std::vector<StampedPose2>& estimate,
+                                    const std::vector<StampedPose2>& truth,
+                                    double match_tolerance_seconds = 1e-3);
+
 struct AbsoluteTrajectoryError {
   int matched = 0;
-  Pose2 truth_T_estimate;          // the alignment applied to the estimate
+  Pose2 truth_T_estimate;          // the alignment applied to the estimate (AlignTrajectory)
   double translation_rmse_meters = 0.0;
   double translation_mean_meters = 0.0;
   double translation_max_meters = 0.0;

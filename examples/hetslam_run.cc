@@ -22,6 +22,7 @@
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
 #include "frontends/online_estimator.h"
+#include "merger/map_picture.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
 
@@ -29,7 +30,7 @@ DEFINE_string(log, "", "Log to map: a CARMEN log (.clf: FLASER/ROBOTLASER1/RAWLA
               "hetslam robot log (a file whose first line is `HSLOG 1`, e.g. a simulated robot's <dir>/<robot>/log.txt: "
               "LASER scans with their MOUNT, ODOM optional, TRUTH used as --truth when that is not given; ATTITUDE/ALTITUDE "
               "for the 2.5D projection, see --use_attitude). Required.");
-DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm, map.yaml, map.png, trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
+DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png (a readable picture: walls, other structure, floor obstacles, the trajectory, a scale bar and a legend), planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
@@ -101,6 +102,16 @@ DEFINE_string(attitude_source, "marg", "Where the attitude for the 2.5D projecti
               "the log's raw MARG samples) or logged (the log's ATTITUDE lines, the sensor's own filter).");
 DEFINE_double(floor_max_height, 0.08, "With an attitude: end points lower than this above the floor (metres) are floor "
               "hits, neither matched nor mapped.");
+DEFINE_double(floor_obstacle_max_height, 0.35, "With an attitude: points at most this high above the floor (metres) and "
+              "at least --floor_obstacle_min_drop below the sensor (a beam tilted down) are floor obstacles: never "
+              "matched, never in map.pgm, kept in planner.pgm and floor_obstacles.pgm (paper III-E); 0 = off.");
+DEFINE_double(floor_obstacle_min_drop, 0.15, "See --floor_obstacle_max_height (metres; exceeds what a degree of attitude "
+              "error makes at the laser's range, so a level laser labels none).");
+DEFINE_double(suspend_floor_fraction, 0.2, "With an attitude: when more than this fraction of a scan's valid beams hit the "
+              "floor, matching and map updates stop for that scan and the EKF carries the pose (paper III-A); 1 = never.");
+DEFINE_double(wall_weight, 1.0, "Scan-matching weight of points that land on wall cells (cells hit at heights spanning "
+              "--wall_min_height_span: invariant under the 2.5D assumption, paper III-E); other points weigh 1.");
+DEFINE_double(wall_min_height_span, 0.3, "A cell hit at heights spanning at least this much (metres) is a wall.");
 DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a motion source (commands or MARG rates through the "
               "EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
               "of the larger (a corridor, a tilted head seeing side walls only), keep the prediction along the weak "
@@ -141,6 +152,11 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
   options->max_point_range_meters = FLAGS_max_range;
   options->floor_max_height_meters = FLAGS_floor_max_height;
+  options->floor_obstacle_max_height_meters = FLAGS_floor_obstacle_max_height;
+  options->floor_obstacle_min_drop_meters = FLAGS_floor_obstacle_min_drop;
+  options->suspend_floor_fraction = FLAGS_suspend_floor_fraction;
+  options->wall_weight = FLAGS_wall_weight;
+  options->grid.wall_min_height_span_meters = FLAGS_wall_min_height_span;
   options->densify_max_gap_meters = FLAGS_densify_max_gap;
   options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;
   options->matching_voxel_meters = FLAGS_matching_voxel;
@@ -216,6 +232,13 @@ std::string Summary(const OnlineEstimator& estimator) {
                 s.floor_points,
                 s.degenerate_matches, s.ekf_predicted_scans, s.scans_without_attitude);
   std::string out = line;
+  if (s.floor_points > 0 || s.floor_obstacle_points > 0 || s.suspended_scans > 0) {
+    std::snprintf(line, sizeof(line),
+                  "semantics: %lld floor hits dropped, %lld floor-obstacle points (planner map only, never matched), "
+                  "%d scans suspended (laser facing the floor: the EKF carried the pose)\n",
+                  s.floor_points, s.floor_obstacle_points, s.suspended_scans);
+    out += line;
+  }
   if (s.marg_samples > 0) {
     std::snprintf(line, sizeof(line), "MARG: %d samples (%d refused), EKF: %d updates refused, %lld replayed\n",
                   s.marg_samples, s.marg_errors, s.ekf_errors, static_cast<long long>(estimator.ekf().num_replayed()));
@@ -313,8 +336,28 @@ int Run() {
   const std::string trajectory_path = (out / "trajectory.txt").string();
   std::vector<Pose2> path;
   for (const StampedPose2& p : trajectory) path.push_back(p.pose);
-  std::vector<Status> written = {WriteMapPgmYaml(*grid, base), WriteMapPng(*grid, {path}, base + ".png"),
-                                 WriteTrajectory(trajectory_path, trajectory)};
+  // Level scans (CARMEN logs) have no floor obstacles or walls: the planner map is the map.
+  const OnlineEstimatorStats& stats = estimator.stats();
+  std::unique_ptr<OccupancyGrid> obstacles;
+  if (stats.floor_obstacle_points > 0) obstacles = estimator.RenderMap(SubmapGraph::Layer::kFloorObstacles);
+  std::vector<Status> written = {
+      WriteMapPgmYaml(*grid, base),
+      WriteMapPicture(base + ".png", *grid, obstacles.get(), {{"estimate", path}}, {}, MapPictureOptions()),
+      WriteTrajectory(trajectory_path, trajectory)};
+  if (obstacles != nullptr) {
+    written.push_back(WriteMapPgmYaml(*obstacles, (out / "floor_obstacles").string()));
+    obstacles.reset();
+    written.push_back(
+        WriteMapPgmYaml(*estimator.RenderMap(SubmapGraph::Layer::kPlanner), (out / "planner").string()));
+  } else {
+    written.push_back(WriteMapPgmYaml(*grid, (out / "planner").string()));
+  }
+  if (stats.projected_scans > 0) {
+    const std::unique_ptr<OccupancyGrid> walls = estimator.RenderMap(SubmapGraph::Layer::kWalls);
+    if (walls->observed_max().x >= walls->observed_min().x) {
+      written.push_back(WriteMapPgmYaml(*walls, (out / "walls").string()));
+    }
+  }
   if (options.loop_closure) {
     written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator.graph().LoopClosures()));
     written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator.LocalTrajectory()));

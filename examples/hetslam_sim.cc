@@ -8,7 +8,8 @@
 // (timestamp x y theta at every scan), DIR/commands.txt (body-frame velocity commands) and
 // DIR/world.png. A scenario with robot_begin .. robot_end blocks gives a team dataset:
 // DIR/team.txt (HSTEAM manifest with tag truth), DIR/<robot>/log.txt (HSLOG),
-// DIR/<robot>/images/NNNNNN.png and DIR/world.png (datasets/README.md). Then a summary is
+// DIR/<robot>/images/NNNNNN.png, DIR/truth_layers/ (the true walls, furniture and
+// floor_obstacles maps, world frame) and DIR/world.png (datasets/README.md). Then a summary is
 // printed. The same --scenario and --seed always give the same files, byte for byte.
 #include <cmath>
 #include <cstdint>
@@ -34,7 +35,8 @@ DEFINE_string(scenario, HETSLAM_DEFAULT_SCENARIO,
               "datasets/README.md). Default: the shipped office loop.");
 DEFINE_string(out, "", "Output folder, created if missing. Single robot: receives log.clf, "
               "truth.txt, commands.txt and world.png. Team: team.txt, <robot>/log.txt, "
-              "<robot>/images/*.png and world.png. Required.");
+              "<robot>/images/*.png, truth_layers/{walls,furniture,floor_obstacles}.{pgm,yaml} "
+              "and world.png. Required.");
 DEFINE_uint64(seed, 1, "Seed of the one std::mt19937_64 behind every random number (sensor "
               "noise, dropouts, odometry noise, random obstacles, image noise). Same seed, same "
               "bytes.");
@@ -120,6 +122,8 @@ int RunTeam(const sim::Scenario& scenario) {
               << " IMAGE)\n";
   }
   std::cout << "wrote " << files.images_written << " images\n"
+            << "wrote " << files.truth_layers_directory << "/ ("
+            << files.truth_layer_paths.size() / 2 << " true map layers)\n"
             << "wrote " << files.world_image_path << "\n"
             << "scenario " << scenario.source_name << ", seed " << FLAGS_seed << "\n";
   for (const sim::RobotSimulation& robot : result.robots) {
@@ -233,7 +237,8 @@ int main(int argc, char** argv) {
       "  hetslam_sim --out=DIR [--scenario=FILE] [--seed=N]\n"
       "single-robot scenarios write DIR/log.clf, DIR/truth.txt, DIR/commands.txt, DIR/world.png;\n"
       "scenarios with robot blocks write DIR/team.txt, DIR/<robot>/log.txt,\n"
-      "DIR/<robot>/images/NNNNNN.png and DIR/world.png (format: datasets/README.md)");
+      "DIR/<robot>/images/NNNNNN.png, DIR/truth_layers/ (true map layers) and DIR/world.png\n"
+      "(format: datasets/README.md)");
   hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, true);
   google::InitGoogleLogging(argv[0]);

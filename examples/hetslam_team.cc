@@ -19,6 +19,7 @@
 #include "core/map_io.h"
 #include "core/measurement_log.h"
 #include "core/robot_log.h"
+#include "core/team_manifest.h"
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
@@ -53,7 +54,6 @@ DEFINE_bool(more_constraints, true, "After two robots share a frame, search more
 DEFINE_double(inter_min_score, 0.5, "Minimum mean likelihood of a scan match between robots already in one frame.");
 DEFINE_double(second_constraint_min_distance, 3.0, "The second constraint of a robot pair lies at least this many "
               "metres from its first link.");
-DEFINE_int32(pixels_per_cell, 2, "merged_map.png: pixels per map cell, in [1, 16].");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {
@@ -82,7 +82,6 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->search_more_constraints = FLAGS_more_constraints;
   team->inter_min_score = FLAGS_inter_min_score;
   team->second_constraint_min_distance_meters = FLAGS_second_constraint_min_distance;
-  if (FLAGS_pixels_per_cell < 1 || FLAGS_pixels_per_cell > 16) return (*error = "--pixels_per_cell must be in [1, 16]"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
   if (!team->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
@@ -252,9 +251,11 @@ int Run() {
   }
   const std::unique_ptr<OccupancyGrid> merged = team.RenderMergedMap(MapMergeOptions());
   written.push_back(WriteMapPgmYaml(*merged, (out / "merged_map").string()));
-  TeamPictureOptions picture_options;
-  picture_options.pixels_per_cell = FLAGS_pixels_per_cell;
-  written.push_back(WriteTeamPicturePng(*merged, team.Picture(), picture_options, (out / "merged_map.png").string()));
+  std::vector<MapPictureTrajectory> trajectories;
+  std::vector<MapPictureMarker> markers;
+  team.PictureContents(&trajectories, &markers);
+  written.push_back(WriteMapPicture((out / "merged_map.png").string(), *merged, nullptr, trajectories, markers,
+                                    MapPictureOptions()));
   written.push_back(WriteConstraints((out / "constraints.txt").string(), team));
   written.push_back(WriteFrames((out / "frames.txt").string(), team));
   for (const Status& s : written) {
@@ -305,7 +306,7 @@ int Run() {
     // merger's alone (how well it joined the maps as they were built).
     std::vector<Pose2> world_T_built(team.num_robots());
     for (int r = 0; r < team.num_robots(); ++r) {
-      const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(team.graph().Trajectory(r), robots[r].log.truth);
+      const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(team.estimator(r).Trajectory(), robots[r].log.truth);
       world_T_built[r] = ate.truth_T_estimate;
       std::printf("truth: %s own map: ATE rmse %.3f m, %.2f deg (after SE(2) alignment)\n", robots[r].name.c_str(),
                   ate.translation_rmse_meters, ate.rotation_rmse_degrees);

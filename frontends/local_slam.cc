@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "Eigen/Eigenvalues"
+#include "core/euler.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -43,6 +44,10 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
   if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
   if (!(densify_max_gap_meters >= 0)) msg << "densify_max_gap_meters must be >= 0; ";
+  if (!(wall_weight > 0)) msg << "wall_weight must be > 0; ";
+  if (!(floor_obstacle_max_height_meters >= 0 && floor_obstacle_min_drop_meters >= 0))
+    msg << "floor obstacle height and drop must be >= 0; ";
+  if (!(suspend_floor_fraction > 0 && suspend_floor_fraction <= 1)) msg << "suspend_floor_fraction must be in (0, 1]; ";
   if (!(degenerate_eigenvalue_ratio >= 0 && degenerate_eigenvalue_ratio < 1))
     msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
   if (!(matching_voxel_meters >= 0)) msg << "matching_voxel_meters must be >= 0; ";
@@ -105,13 +110,29 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   const float floor_height = static_cast<float>(options.floor_max_height_meters);
   const float max_gap = static_cast<float>(options.densify_max_gap_meters);
   const float step = static_cast<float>(options.grid.resolution_meters);
+  const BodyAttitude body = attitude.value_or(BodyAttitude());
+  // Height of the sensor above the floor: a point well below it and low is a floor obstacle.
+  const float sensor_height = static_cast<float>(
+      (RotationFromRollPitchYaw(body.roll_radians, body.pitch_radians, 0.0) * scan.robot_T_sensor.translation()).z() +
+      body.base_height_meters);
+  const float obstacle_max_height = static_cast<float>(options.floor_obstacle_max_height_meters);
+  const float obstacle_min_drop = static_cast<float>(options.floor_obstacle_min_drop_meters);
   int previous_beam = -2;
-  for (const ProjectedPoint& p : ProjectScan(scan, attitude.value_or(BodyAttitude()))) {
+  points.projected = attitude.has_value();
+  for (const ProjectedPoint& p : ProjectScan(scan, body)) {
+    ++points.valid_points;
     if (attitude.has_value() && p.z_meters < floor_height) {
       ++points.floor_points;
       continue;
     }
     if (p.p_robot.norm() > max_range) continue;
+    if (attitude.has_value() && obstacle_max_height > 0 && p.z_meters <= obstacle_max_height &&
+        p.z_meters < sensor_height - obstacle_min_drop) {
+      // Paper §III-E: above the floor but low, seen by a beam tilted down: an object on the floor
+      // that breaks the 2.5D assumption. Kept for planners, never matched or mapped as structure.
+      points.floor_obstacles.push_back(p.p_robot);
+      continue;
+    }
     if (max_gap > 0 && p.beam_index == previous_beam + 1) {
       // Neighbouring beams on one surface: fill the gap at the grid resolution.
       const Eigen::Vector2f from = points.all.back();
@@ -160,6 +181,14 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   result.stamp_seconds = stamp_seconds;
   result.predicted = prediction.pose;
   result.local_pose = prediction.pose;
+  // Paper §III-A/E: while the laser faces the floor, matching and map updates stop; the caller's
+  // prediction (the EKF) carries the pose until walls come back.
+  if (points.valid_points > 0 && options_.suspend_floor_fraction < 1.0 &&
+      points.floor_points > options_.suspend_floor_fraction * points.valid_points) {
+    result.suspended = true;
+    result.points = std::move(points);
+    return result;
+  }
   if (static_cast<int>(points.all.size()) < options_.min_points) return result;
   LocalSlamState& state = state_;
   // Match against the oldest active submap, in its frame.
@@ -167,6 +196,23 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     const ActiveSubmap& target = state.active.front();
     const Pose2 predicted_submap = target.local_T_submap.inverse() * prediction.pose;
     result.matched = true;
+    if (options_.wall_weight != 1.0 && target.map.grid().has_labels()) {
+      // Paper §III-E: points that land on wall cells (hit at several heights: invariant under
+      // the 2.5D assumption) weigh more; where the prediction puts them.
+      const OccupancyGrid& grid = target.map.grid();
+      points.matching_weights.assign(points.matching.size(), 1.0f);
+      bool any_wall = false;
+      for (size_t k = 0; k < points.matching.size(); ++k) {
+        const Eigen::Vector2d p = predicted_submap * points.matching[k].cast<double>();
+        const CellIndex c = grid.geometry().WorldToCell(p);
+        if (!grid.geometry().Contains(c)) continue;
+        if (grid.LabelMask(grid.geometry().LinearIndex(c)) & (1u << OccupancyGrid::kWallLabelBit)) {
+          points.matching_weights[k] = static_cast<float>(options_.wall_weight);
+          any_wall = true;
+        }
+      }
+      if (!any_wall) points.matching_weights.clear();
+    }
     result.match = matcher_.Match(target.map, predicted_submap, points.matching, points.matching_weights,
                                   prediction.external || NarrowSearchTrusted(options_, state.recent));
     if (result.match.converged) {
@@ -190,7 +236,10 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   }
   for (ActiveSubmap& submap : state.active) {
     const Pose2 submap_T_node = submap.local_T_submap.inverse() * result.local_pose;
-    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all, &points.labels);
+    // Labels and heights (the label layer, walls) only for 2.5D-projected scans: a level
+    // scan's points are all structure at one height.
+    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all, points.projected ? &points.labels : nullptr,
+                          points.projected ? &points.heights_meters : nullptr);
     ++submap.num_scans;
     result.insertions.push_back({submap.index, submap_T_node});
   }

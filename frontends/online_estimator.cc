@@ -215,6 +215,11 @@ std::optional<BodyAttitude> OnlineEstimator::AttitudeAt(double stamp_seconds) co
 Status OnlineEstimator::AddScan(const LaserReading& reading) {
   const double stamp = reading.scan.stamp_seconds;
   ++stats_.scans;
+  if (reading.scan.angles_radians.size() != reading.scan.ranges_meters.size()) {
+    ++stats_.scans_refused;
+    return Status::Error(Where(reading.line_number) + "scan has " + std::to_string(reading.scan.angles_radians.size()) +
+                         " angles but " + std::to_string(reading.scan.ranges_meters.size()) + " ranges (refused)");
+  }
   // A log's clock glitch (a scan stamped before its predecessor) is processed in arrival order
   // and counted: the file order is the order the scans were taken in.
   if (last_scan_stamp_.has_value() && stamp < *last_scan_stamp_) ++stats_.scans_stamped_backwards;
@@ -234,6 +239,7 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   }
   ScanPoints points = PrepareScanPoints(options_.local, reading.scan, attitude);
   stats_.floor_points += points.floor_points;
+  stats_.projected_scans += points.projected;
 
   // Prediction: odometry, else the EKF when motion inputs reach the scan, else extrapolation.
   std::optional<Pose2> odometry;
@@ -250,7 +256,24 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
     prediction.external = true;
     ++stats_.ekf_predicted_scans;
   }
+  stats_.floor_obstacle_points += static_cast<long long>(points.floor_obstacles.size());
   LocalResult result = local_.AddScan(stamp, std::move(points), prediction);
+  if (result.suspended) {
+    // The EKF carries the pose; floor obstacles seen meanwhile stay in the planner map, tied to
+    // the last node so that the graph's corrections move them too.
+    ++stats_.suspended_scans;
+    const int nodes = graph_->num_nodes(options_.robot);
+    if (nodes > 0) {
+      const NodeId last{options_.robot, nodes - 1};
+      const Pose2 node_T_scan = graph_->NodeLocalPose(last).inverse() * prediction.pose;
+      suspended_poses_.push_back({stamp, last, node_T_scan});
+      if (!result.points.floor_obstacles.empty()) {
+        suspended_obstacles_.push_back(
+            {last, node_T_scan, result.points.sensor_robot, std::move(result.points.floor_obstacles)});
+      }
+    }
+    return Status::Ok();
+  }
   if (!result.inserted) {
     ++stats_.skipped_too_few_points;
     return Status::Ok();
@@ -343,7 +366,17 @@ std::vector<StampedPose2> OnlineEstimator::AdvanceTo(double stamp_seconds) {
   return poses;
 }
 
-std::vector<StampedPose2> OnlineEstimator::Trajectory() const { return graph_->Trajectory(options_.robot); }
+std::vector<StampedPose2> OnlineEstimator::Trajectory() const {
+  std::vector<StampedPose2> trajectory = graph_->Trajectory(options_.robot);
+  if (suspended_poses_.empty()) return trajectory;
+  // Scans whose matching was suspended, at the EKF's pose relative to the node before them.
+  for (const SuspendedPose& p : suspended_poses_) {
+    trajectory.push_back({p.stamp_seconds, graph_->NodePose(p.node) * p.node_T_scan});
+  }
+  std::stable_sort(trajectory.begin(), trajectory.end(),
+                   [](const StampedPose2& a, const StampedPose2& b) { return a.stamp_seconds < b.stamp_seconds; });
+  return trajectory;
+}
 
 std::vector<StampedPose2> OnlineEstimator::LocalTrajectory() const {
   std::vector<StampedPose2> trajectory;
@@ -356,8 +389,9 @@ std::vector<StampedPose2> OnlineEstimator::LocalTrajectory() const {
   return trajectory;
 }
 
-std::unique_ptr<OccupancyGrid> OnlineEstimator::RenderMap() const {
-  return graph_->RenderMap(options_.robot, WithFieldMargin(options_.local.grid, options_.local.field));
+std::unique_ptr<OccupancyGrid> OnlineEstimator::RenderMap(SubmapGraph::Layer layer) const {
+  return graph_->RenderMap(options_.robot, WithFieldMargin(options_.local.grid, options_.local.field), layer,
+                           suspended_obstacles_);
 }
 
 }  // namespace hetslam

@@ -100,6 +100,9 @@ struct OnlineEstimatorStats {
   int match_failures = 0;           // inserted at the prediction
   int degenerate_matches = 0;       // weak direction kept the prediction
   long long floor_points = 0;       // end points dropped as floor hits
+  long long floor_obstacle_points = 0;  // end points labelled floor obstacles (planner map only)
+  int suspended_scans = 0;          // the laser faced the floor: the EKF carried the pose
+  int projected_scans = 0;          // projected with an attitude (2.5D)
   int scans_without_attitude = 0;   // the stream has attitudes, but none near the scan: level
   int ekf_predicted_scans = 0;      // scans predicted by the EKF
   int marg_samples = 0;
@@ -130,12 +133,15 @@ class OnlineEstimator {
   // The pose at a past stamp: the EKF's filtered estimate within its history window, else the
   // nodes' poses interpolated (or the nearest end). Error before the first scan.
   Status PoseAt(double stamp_seconds, Pose2* pose) const;
-  // Optimised poses of every inserted scan (robot frame).
+  // Optimised poses of every inserted scan (robot frame), and of the scans whose matching was
+  // suspended (the EKF's pose, relative to the node before them), in stamp order.
   std::vector<StampedPose2> Trajectory() const;
   // The front end's (drifting, never corrected) poses of the inserted scans.
   std::vector<StampedPose2> LocalTrajectory() const;
-  // An occupancy grid of every inserted scan at its optimised pose.
-  std::unique_ptr<OccupancyGrid> RenderMap() const;
+  // An occupancy grid of a layer of the map at the optimised poses: the structure localisation
+  // uses (every inserted scan), the floor obstacles (also those seen while matching was
+  // suspended), or both for a planner.
+  std::unique_ptr<OccupancyGrid> RenderMap(SubmapGraph::Layer layer = SubmapGraph::Layer::kStructure) const;
   const SubmapGraph& graph() const { return *graph_; }
   // For constraints found by other means (a fiducial, a teammate): added like loop closures.
   SubmapGraph& mutable_graph() { return *graph_; }
@@ -177,6 +183,13 @@ class OnlineEstimator {
   int nodes_since_solve_ = 0;
   bool finished_ = false;
   std::vector<double> match_scores_;
+  std::vector<SubmapGraph::AnchoredPoints> suspended_obstacles_;
+  struct SuspendedPose {
+    double stamp_seconds;
+    NodeId node;
+    Pose2 node_T_scan;
+  };
+  std::vector<SuspendedPose> suspended_poses_;
   OnlineEstimatorStats stats_;
 };
 

@@ -242,19 +242,80 @@ std::vector<StampedPose2> SubmapGraph::Trajectory(int robot_id) const {
   return trajectory;
 }
 
-std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const OccupancyGridOptions& grid_options) const {
+std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const OccupancyGridOptions& grid_options,
+                                                     Layer layer, const std::vector<AnchoredPoints>& extra) const {
   auto grid = std::make_unique<OccupancyGrid>(grid_options);
   const auto it = robots_.find(robot_id);
   if (it == robots_.end()) return grid;
+  if (layer == Layer::kWalls) {
+    // The structure with its label layer first; then only the points on its wall cells.
+    const std::unique_ptr<OccupancyGrid> all = RenderMap(robot_id, grid_options, Layer::kStructure);
+    std::vector<Eigen::Vector2d> walls;
+    for (const Node& node : it->second.nodes) {
+      const Pose2 world_T_node = problem_.pose(node.pose);
+      walls.clear();
+      for (const Eigen::Vector2f& p : node.points.all) {
+        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+        const int cell = all->geometry().LinearIndex(all->geometry().WorldToCell(world));
+        if (all->IsOccupied(cell) && (all->LabelMask(cell) & (1u << OccupancyGrid::kWallLabelBit))) walls.push_back(world);
+      }
+      if (!walls.empty()) grid->InsertScan(world_T_node * node.points.sensor_robot, walls, nullptr);
+    }
+    return grid;
+  }
   std::vector<Eigen::Vector2d> points_world;
   std::vector<uint8_t> labels;
+  if (layer == Layer::kStructure) {
+    for (const Node& node : it->second.nodes) {
+      if (node.points.all.empty()) continue;
+      const Pose2 world_T_node = problem_.pose(node.pose);
+      points_world.clear();
+      labels.clear();
+      for (size_t k = 0; k < node.points.all.size(); ++k) {
+        points_world.push_back(world_T_node * node.points.all[k].cast<double>());
+        labels.push_back(static_cast<uint8_t>(node.points.labels[k]));
+      }
+      grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels,
+                       node.points.projected ? &node.points.heights_meters : nullptr);
+    }
+    return grid;
+  }
+  // Floor obstacles, over the structure for a planner. A floor-obstacle point within a cell of
+  // occupied structure is the bottom of a wall or of furniture seen by a beam tilted down (the
+  // map knows better than the one scan): it is left out.
+  std::unique_ptr<OccupancyGrid> structure = RenderMap(robot_id, grid_options, Layer::kStructure);
+  const GridGeometry& g = structure->geometry();
+  auto near_structure = [&](const Eigen::Vector2d& world) {
+    const CellIndex c = g.WorldToCell(world);
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const CellIndex n{c.x + dx, c.y + dy};
+        if (g.Contains(n) && structure->IsOccupied(g.LinearIndex(n))) return true;
+      }
+    }
+    return false;
+  };
+  std::vector<std::pair<Pose2, const std::vector<Eigen::Vector2f>*>> scans;
+  std::vector<Eigen::Vector2d> sensors;
   for (const Node& node : it->second.nodes) {
-    const Pose2 world_T_node = problem_.pose(node.pose);
+    scans.push_back({problem_.pose(node.pose), &node.points.floor_obstacles});
+    sensors.push_back(node.points.sensor_robot);
+  }
+  for (const AnchoredPoints& points : extra) {
+    if (points.node.robot != robot_id || points.node.index >= static_cast<int>(it->second.nodes.size())) continue;
+    scans.push_back({NodePose(points.node) * points.node_T_scan, &points.floor_obstacles});
+    sensors.push_back(points.sensor_robot);
+  }
+  if (layer == Layer::kPlanner) grid = std::make_unique<OccupancyGrid>(*structure);  // checks stay on the structure
+  for (size_t k = 0; k < scans.size(); ++k) {
     points_world.clear();
-    for (const Eigen::Vector2f& p : node.points.all) points_world.push_back(world_T_node * p.cast<double>());
-    labels.clear();
-    for (PointLabel label : node.points.labels) labels.push_back(static_cast<uint8_t>(label));
-    grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels);
+    for (const Eigen::Vector2f& p : *scans[k].second) {
+      const Eigen::Vector2d world = scans[k].first * p.cast<double>();
+      if (!near_structure(world)) points_world.push_back(world);
+    }
+    if (points_world.empty()) continue;
+    labels.assign(points_world.size(), static_cast<uint8_t>(PointLabel::kFloorObstacle));
+    grid->InsertScan(scans[k].first * sensors[k], points_world, nullptr, &labels);
   }
   return grid;
 }

@@ -146,8 +146,24 @@ class SubmapGraph {
 
   // Optimised poses of a robot's nodes, robot frame.
   std::vector<StampedPose2> Trajectory(int robot) const;
-  // An occupancy grid of every scan of `robot` inserted at its optimised pose (robot frame).
-  std::unique_ptr<OccupancyGrid> RenderMap(int robot, const OccupancyGridOptions& grid) const;
+  // Scan points seen at a pose relative to a node (a scan that was not inserted, e.g. while
+  // matching was suspended): rendered wherever the node's optimised pose puts them.
+  struct AnchoredPoints {
+    NodeId node;
+    Pose2 node_T_scan;
+    Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();
+    std::vector<Eigen::Vector2f> floor_obstacles;  // scan frame
+  };
+  enum class Layer {
+    kStructure,       // what localisation uses (map.pgm)
+    kFloorObstacles,  // objects on the floor (paper §III-E)
+    kPlanner,         // both: everything a planner must avoid
+    kWalls,           // the structure points on wall cells (hit at several heights, paper §III-E)
+  };
+  // An occupancy grid of `robot`'s scans at their optimised poses (robot frame): the layer's
+  // points of every node, and for floor obstacles also those of `extra`.
+  std::unique_ptr<OccupancyGrid> RenderMap(int robot, const OccupancyGridOptions& grid, Layer layer = Layer::kStructure,
+                                           const std::vector<AnchoredPoints>& extra = {}) const;
   // The graph of one robot: its submaps then its nodes as vertices, intra then loop edges.
   PoseGraph2d ExportGraph(int robot) const;
   std::vector<LoopClosureReport> LoopClosures() const;

@@ -56,23 +56,4 @@ int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_
   return static_cast<int>(observations.size());
 }
 
-std::unique_ptr<OccupancyGrid> RenderRobotMap(const SubmapGraph& graph, int robot, const Pose2& frame_T_robot,
-                                              const OccupancyGridOptions& grid_options) {
-  auto grid = std::make_unique<OccupancyGrid>(grid_options);
-  std::vector<Eigen::Vector2d> points_frame;
-  std::vector<uint8_t> labels;
-  for (int i = 0; i < graph.num_nodes(robot); ++i) {
-    const NodeId node{robot, i};
-    const Pose2 frame_T_node = frame_T_robot * graph.NodePose(node);
-    const ScanPoints& points = graph.NodePoints(node);
-    points_frame.clear();
-    for (const Eigen::Vector2f& p : points.all) points_frame.push_back(frame_T_node * p.cast<double>());
-    labels.clear();
-    for (PointLabel label : points.labels) labels.push_back(static_cast<uint8_t>(label));
-    grid->InsertScan(frame_T_node * points.sensor_robot, points_frame, nullptr,
-                     labels.size() == points_frame.size() ? &labels : nullptr);
-  }
-  return grid;
-}
-
 }  // namespace hetslam

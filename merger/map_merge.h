@@ -12,12 +12,10 @@
 #ifndef HETSLAM_MERGER_MAP_MERGE_H_
 #define HETSLAM_MERGER_MAP_MERGE_H_
 
-#include <memory>
 #include <string>
 
 #include "core/occupancy_grid.h"
 #include "core/se2.h"
-#include "frontends/submap_graph.h"
 
 namespace hetslam {
 
@@ -33,11 +31,6 @@ struct MapMergeOptions {
 // cells that received an observation.
 int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_T_teammate,
                              const MapMergeOptions& options, OccupancyGrid* merged);
-
-// Every scan of `robot` in `graph` inserted at its optimised pose, in the frame `frame_T_robot`
-// (identity: the robot's own frame; an anchor for the team's common frame).
-std::unique_ptr<OccupancyGrid> RenderRobotMap(const SubmapGraph& graph, int robot, const Pose2& frame_T_robot,
-                                              const OccupancyGridOptions& grid_options);
 
 }  // namespace hetslam
 

@@ -743,23 +743,27 @@ bool TeamEstimator::RelativePose(int robot_i, int robot_j, Pose2* i_T_j) const {
 }
 
 std::vector<StampedPose2> TeamEstimator::CommonTrajectory(int robot) const {
-  std::vector<StampedPose2> trajectory = graph_->Trajectory(robot);
+  std::vector<StampedPose2> trajectory = robots_.at(robot).estimator->Trajectory();
   const Pose2 common_T_robot = CommonTRobot(robot);
   for (StampedPose2& p : trajectory) p.pose = common_T_robot * p.pose;
   return trajectory;
 }
 
 std::unique_ptr<OccupancyGrid> TeamEstimator::RenderRobotMapInCommonFrame(int robot) const {
-  return RenderRobotMap(*graph_, robot, CommonTRobot(robot), robots_.at(robot).estimator->options().local.grid);
+  std::unique_ptr<OccupancyGrid> own = robots_.at(robot).estimator->RenderMap();
+  const Pose2 common_T_robot = CommonTRobot(robot);
+  if (common_T_robot.ToVector() == Pose2::Identity().ToVector()) return own;
+  // One observation per cell into an empty grid keeps every cell's state (occupied, free).
+  auto resampled = std::make_unique<OccupancyGrid>(own->options());
+  MergeMapAsOneObservation(*own, common_T_robot, MapMergeOptions(), resampled.get());
+  return resampled;
 }
 
 std::unique_ptr<OccupancyGrid> TeamEstimator::RenderMergedMap(const MapMergeOptions& merge) const {
-  std::unique_ptr<OccupancyGrid> merged = RenderRobotMapInCommonFrame(0);
+  std::unique_ptr<OccupancyGrid> merged = robots_.at(0).estimator->RenderMap();
   for (int r = 1; r < num_robots(); ++r) {
     if (!InCommonFrame(r)) continue;
-    const std::unique_ptr<OccupancyGrid> own =
-        RenderRobotMap(*graph_, r, Pose2::Identity(), robots_[r].estimator->options().local.grid);
-    MergeMapAsOneObservation(*own, CommonTRobot(r), merge, merged.get());
+    MergeMapAsOneObservation(*robots_[r].estimator->RenderMap(), CommonTRobot(r), merge, merged.get());
   }
   return merged;
 }
@@ -772,38 +776,35 @@ std::vector<TeamTagPlace> TeamEstimator::TagPlaces() const {
   return all;
 }
 
-}  // namespace hetslam
 
-namespace hetslam {
-
-TeamPicture TeamEstimator::Picture() const {
-  TeamPicture picture;
+void TeamEstimator::PictureContents(std::vector<MapPictureTrajectory>* trajectories,
+                                    std::vector<MapPictureMarker>* markers) const {
   for (int r = 0; r < num_robots(); ++r) {
-    TeamPicture::Robot robot;
-    robot.name = robots_[r].name;
-    if (InCommonFrame(r)) {
-      for (const StampedPose2& p : CommonTrajectory(r)) robot.trajectory.push_back(p.pose);
-    } else {
-      robot.note = " (not merged: own frame, not drawn)";
-    }
-    picture.robots.push_back(std::move(robot));
+    if (!InCommonFrame(r)) continue;
+    MapPictureTrajectory trajectory;
+    trajectory.name = robots_[r].name;
+    for (const StampedPose2& p : CommonTrajectory(r)) trajectory.poses.push_back(p.pose);
+    trajectories->push_back(std::move(trajectory));
   }
   for (const TeamTagPlace& tag : TagPlaces()) {
     if (!tag.place.confirmed || !InCommonFrame(tag.robot)) continue;
-    picture.tags.push_back({tag.robot, tag.place.tag_id, (CommonTRobot(tag.robot) * tag.place.robot_T_tag).translation()});
+    MapPictureMarker marker;
+    marker.kind = MapPictureMarker::Kind::kTag;
+    marker.world = (CommonTRobot(tag.robot) * tag.place.robot_T_tag).translation();
+    marker.label = "tag " + std::to_string(tag.place.tag_id) + " (" + robots_[tag.robot].name + ")";
+    markers->push_back(marker);
   }
   const std::vector<bool> kept = InterConstraintsKept();
   for (size_t i = 0; i < inter_constraints_.size(); ++i) {
     const InterConstraint& c = inter_constraints_[i];
     if (!kept[i] || !InCommonFrame(c.robot_a) || !InCommonFrame(c.robot_b)) continue;
-    TeamPicture::Link link;
-    link.robot = c.node.robot;
-    link.from = (CommonTRobot(c.node.robot) * graph_->NodePose(c.node)).translation();
-    link.to = (CommonTRobot(c.submap.robot) * graph_->SubmapPose(c.submap)).translation();
-    link.first_link = c.first_link;
-    picture.links.push_back(link);
+    MapPictureMarker marker;
+    marker.kind = MapPictureMarker::Kind::kConstraint;
+    marker.world = (CommonTRobot(c.node.robot) * graph_->NodePose(c.node)).translation();
+    marker.line_to_world = (CommonTRobot(c.submap.robot) * graph_->SubmapPose(c.submap)).translation();
+    if (c.first_link) marker.label = "link";
+    markers->push_back(marker);
   }
-  return picture;
 }
 
 }  // namespace hetslam

@@ -80,7 +80,7 @@
 #include "merger/map_merge.h"
 #include "merger/tag_detector.h"
 #include "merger/tag_places.h"
-#include "merger/team_picture.h"
+#include "merger/map_picture.h"
 
 namespace hetslam {
 
@@ -241,17 +241,22 @@ class TeamEstimator {
   bool RelativePose(int robot_i, int robot_j, Pose2* i_T_j) const;
   // The group of robots sharing `robot`'s frame (robot indices, sorted).
   std::vector<int> Group(int robot) const;
-  // The robot's optimised node poses in the common frame (its own when not in it).
+  // The robot's trajectory (OnlineEstimator::Trajectory) in the common frame (its own when not
+  // in it).
   std::vector<StampedPose2> CommonTrajectory(int robot) const;
-  // The robot's map in the common frame (its own when not in it).
+  // The robot's map (OnlineEstimator::RenderMap) in the common frame (its own when not in it):
+  // resampled cell by cell, each cell keeping its state.
   std::unique_ptr<OccupancyGrid> RenderRobotMapInCommonFrame(int robot) const;
-  // Robot 0's map with every robot of the common frame merged in as one observation
+  // Robot 0's map with every other robot of the common frame merged in as one observation
   // (merger/map_merge.h), in the common frame.
   std::unique_ptr<OccupancyGrid> RenderMergedMap(const MapMergeOptions& merge) const;
 
-  // The common frame's trajectories, tag places and inter-robot constraints for a picture of the
-  // merged map (merger/team_picture.h); robots outside the common frame are listed, not drawn.
-  TeamPicture Picture() const;
+  // What a picture of the merged map shows (merger/map_picture.h), in the common frame: the
+  // trajectory of every robot in it, the tag places of its robots ("tag <id> (<robot>)") and the
+  // inter-robot constraints kept in the graph (a marker at the node, a line to the origin of the
+  // teammate's submap it was matched in; "link" for the first link's). Robots outside the common
+  // frame are not drawn.
+  void PictureContents(std::vector<MapPictureTrajectory>* trajectories, std::vector<MapPictureMarker>* markers) const;
 
   const std::vector<TeamConstraintRecord>& constraints() const { return records_; }
   const std::vector<TeamMergeEvent>& events() const { return events_; }

@@ -8,6 +8,9 @@
 #include <system_error>
 
 #include "core/euler.h"
+#include "core/map_layers.h"
+#include "core/robot_log_writer.h"
+#include "core/team_manifest.h"
 #include "datasets/sim/sim_random.h"
 #include "datasets/sim/sim_text.h"
 #include "datasets/sim/simulator.h"
@@ -533,6 +536,9 @@ bool TeamSimulatorOptions::IsValid(std::string* error) const {
   } else if (!(world_image_pixels_per_meter > 0.0 && world_image_pixels_per_meter <= 1000.0)) {
     why << "world image pixels per metre must be in (0, 1000], got "
         << world_image_pixels_per_meter;
+  } else {
+    std::string truth_error;
+    if (!truth_layers.IsValid(&truth_error)) why << "truth layers: " << truth_error;
   }
   if (why.str().empty()) return true;
   if (error != nullptr) *error = why.str();
@@ -830,6 +836,12 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
       ++files->images_written;
     }
   }
+  TruthLayerMaps truth_layers;
+  HETSLAM_RETURN_IF_ERROR(RasterizeTruthLayers(result.world, options.truth_layers, &truth_layers));
+  files->truth_layers_directory = (root / kTruthLayersFolder).string();
+  HETSLAM_RETURN_IF_ERROR(WriteTruthLayers(files->truth_layers_directory, truth_layers,
+                                           options.truth_layers, &files->truth_layer_paths));
+
   files->world_image_path = (root / "world.png").string();
   return WriteTeamWorldImage(files->world_image_path, scenario, result,
                              options.world_image_pixels_per_meter);

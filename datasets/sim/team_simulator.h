@@ -1,7 +1,7 @@
 // The team simulator: several robots (wheeled, UAV, humanoid) in a 2.5D world, each with a 3D
 // ray-cast 2D laser, a MARG unit, a camera that sees AprilTags and ground truth, written as an
-// HSLOG/HSTEAM dataset (core/robot_log.h). The single-robot 2D path (simulator.h) is separate
-// and unchanged.
+// HSLOG/HSTEAM dataset (core/robot_log.h, core/team_manifest.h). The single-robot 2D path
+// (simulator.h) is separate and unchanged.
 //
 // Time: every robot starts at t = 0. The controller runs and the 6D truth is integrated at the
 // control rate (dt = 1 / control_rate_hz); sensors sample that truth at their own rates,
@@ -52,6 +52,7 @@
 #include "core/robot_log.h"
 #include "core/status.h"
 #include "datasets/sim/scenario.h"
+#include "datasets/sim/truth_layers.h"
 
 namespace hetslam {
 namespace sim {
@@ -61,8 +62,10 @@ struct TeamSimulatorOptions {
   double max_duration_seconds = 0.0; // > 0: stop here if earlier than the scenario's limit
   bool render_images = true;         // false: IMAGE lines are logged, no PNG is written
   double world_image_pixels_per_meter = 40.0;
+  TruthLayerOptions truth_layers;    // the true map layers written with the dataset
 
-  // Control rate in (0, 1000] Hz, max duration finite and >= 0, pixels per metre in (0, 1000].
+  // Control rate in (0, 1000] Hz, max duration finite and >= 0, pixels per metre in (0, 1000],
+  // valid truth layer options.
   bool IsValid(std::string* error) const;
 };
 
@@ -126,13 +129,16 @@ struct TeamDatasetFiles {
   std::string manifest_path;                 // <dir>/team.txt
   std::vector<std::string> robot_log_paths;  // <dir>/<robot>/log.txt
   std::string world_image_path;              // <dir>/world.png
+  std::string truth_layers_directory;        // <dir>/truth_layers
+  std::vector<std::string> truth_layer_paths;  // its .pgm and .yaml files (WriteTruthLayers)
   int images_written = 0;
 };
 
 // Writes the dataset: <dir>/team.txt (robots and tag truth), <dir>/<robot>/log.txt,
-// <dir>/<robot>/images/NNNNNN.png (rendered by TagCamera when options.render_images) and
-// <dir>/world.png. `directory` is created if missing. `comment_lines` go into the manifest and
-// every log (e.g. scenario and seed).
+// <dir>/<robot>/images/NNNNNN.png (rendered by TagCamera when options.render_images),
+// <dir>/truth_layers/{walls,furniture,floor_obstacles}.{pgm,yaml} (the true map layers of
+// result.world, truth_layers.h) and <dir>/world.png. `directory` is created if missing.
+// `comment_lines` go into the manifest and every log (e.g. scenario and seed).
 Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
                         const TeamSimulationResult& result, const TeamSimulatorOptions& options,
                         const std::vector<std::string>& comment_lines, TeamDatasetFiles* files);

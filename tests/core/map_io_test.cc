@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <random>
@@ -275,6 +276,120 @@ TEST(MapPngTest, RejectsNothingToDrawAndFarAwayPoses) {
   status = WriteMapPng(empty, {{Pose2(0, 0, 0), Pose2(1, 1, 0)}}, TempPath("only_path.png"));
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_FALSE(cv::imread(TempPath("only_path.png")).empty());
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+TEST(MapReaderTest, GridLayerRoundTripsThroughPgmYaml) {
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> state(0, 2);
+  // An odd size, an origin off the lattice of whole metres, a resolution other than 5 cm.
+  GridLayer layer = GridLayer::Filled(GridGeometry(Eigen::Vector2d(-1.25, 2.5), 0.1, 7, 5),
+                                      CellState::kUnknown);
+  for (CellState& cell : layer.cells) cell = static_cast<CellState>(state(rng));
+  layer.set({0, 0}, CellState::kOccupied);  // the lower-left cell: last raster row, first byte
+  const std::string base = TempPath("layer");
+  const Status written = WriteMapPgmYaml(layer, base, {"a comment", "another"});
+  ASSERT_TRUE(written.ok()) << written.message();
+  const std::string yaml = ReadFile(base + ".yaml");
+  EXPECT_EQ(0u, yaml.find("# a comment\n# another\nimage: map_io_test_layer.pgm\n"));
+  // Image row 0 is the top: the lower-left cell is the first byte of the last row.
+  const std::string pgm = ReadFile(base + ".pgm");
+  ASSERT_EQ(std::string("P5\n7 5\n255\n").size() + 35, pgm.size());
+  EXPECT_EQ(static_cast<char>(kPgmOccupied), pgm[pgm.size() - 7]);
+
+  GridLayer read;
+  const Status status = ReadMapPgmYaml(base + ".yaml", &read);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(7, read.geometry.width());
+  EXPECT_EQ(5, read.geometry.height());
+  EXPECT_DOUBLE_EQ(0.1, read.geometry.resolution_meters());
+  EXPECT_DOUBLE_EQ(-1.25, read.geometry.origin().x());
+  EXPECT_DOUBLE_EQ(2.5, read.geometry.origin().y());
+  EXPECT_TRUE(layer.cells == read.cells);
+}
+
+TEST(MapReaderTest, ReadsAnOccupancyGridMapBackCellForCell) {
+  const OccupancyGrid grid = SquareRoomGrid();
+  const std::string base = TempPath("room_read");
+  ASSERT_TRUE(WriteMapPgmYaml(grid, base).ok());
+  GridLayer read;
+  const Status status = ReadMapPgmYaml(base + ".yaml", &read);
+  ASSERT_TRUE(status.ok()) << status.message();
+  CellIndex lo, hi;
+  ObservedBox(grid, &lo, &hi);
+  // The read map is the observed box plus the border, in the grid's own world frame.
+  ASSERT_EQ(hi.x - lo.x + 1 + 2 * kMapBorderCells, read.geometry.width());
+  for (int y = 0; y < read.geometry.height(); ++y) {
+    for (int x = 0; x < read.geometry.width(); ++x) {
+      const Eigen::Vector2d centre = read.geometry.CellCenter({x, y});
+      const CellIndex c = grid.geometry().WorldToCell(centre);
+      const CellState expected =
+          grid.geometry().Contains(c) ? grid.State(c) : CellState::kUnknown;
+      ASSERT_EQ(expected, read.at({x, y})) << x << "," << y;
+    }
+  }
+}
+
+TEST(MapReaderTest, FollowsMapServerOptions) {
+  // Header comments, max value 100, negate 1, a relative image path in a sub-folder, quotes,
+  // comments and unknown keys in the YAML.
+  std::filesystem::create_directories(TempPath("sub"));
+  std::string pgm = "P5\n# made by hand\n3 1\n100\n";
+  pgm += std::string{static_cast<char>(0), static_cast<char>(50), static_cast<char>(100)};
+  WriteText(TempPath("sub/hand.pgm"), pgm);
+  WriteText(TempPath("hand.yaml"),
+            "# hand made\nimage: \"map_io_test_sub/hand.pgm\"\nresolution: 0.5\norigin: [1, -2, 0]\n"
+            "negate: 1\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n"
+            "something_else: 3\n");
+  GridLayer read;
+  const Status status = ReadMapPgmYaml(TempPath("hand.yaml"), &read);
+  ASSERT_TRUE(status.ok()) << status.message();
+  // negate 1: p = v / max. 0 -> free, 0.5 -> unknown, 1 -> occupied.
+  ASSERT_EQ(3u, read.cells.size());
+  EXPECT_EQ(CellState::kFree, read.at({0, 0}));
+  EXPECT_EQ(CellState::kUnknown, read.at({1, 0}));
+  EXPECT_EQ(CellState::kOccupied, read.at({2, 0}));
+  EXPECT_EQ(Eigen::Vector2d(1.0, -2.0), read.geometry.origin());
+}
+
+TEST(MapReaderTest, ErrorsNameTheFile) {
+  const std::string yaml = TempPath("bad.yaml");
+  const std::string image_line = "image: map_io_test_bad.pgm\n";  // TempPath("bad.pgm")
+  WriteText(TempPath("bad.pgm"), "P5\n2 2\n255\n\xfe\xfe\xfe\xfe");
+  GridLayer read;
+  struct Case {
+    std::string yaml_text;
+    std::string expected;
+  } cases[] = {
+      {"resolution: 0.05\norigin: [0, 0, 0]\n", "bad.yaml: no 'image' key"},
+      {image_line + "origin: [0, 0, 0]\n", "no 'resolution' key"},
+      {image_line + "resolution: -1\norigin: [0, 0, 0]\n", "bad.yaml:2: resolution must be"},
+      {image_line + "resolution: 0.05\norigin: [0, 0, 0.3]\n", "origin yaw 0.3 is not supported"},
+      {image_line + "resolution: 0.05\norigin: 0 0 0\n", "origin must be `[x, y, yaw]`"},
+      {image_line + "resolution: 0.05\norigin: [0, 0, 0]\nmode: scale\n", "mode 'scale'"},
+      {image_line + "resolution 0.05\n", "bad.yaml:2: expected `key: value`"},
+      {"image: missing.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n", "missing.pgm"},
+  };
+  for (const Case& c : cases) {
+    WriteText(yaml, c.yaml_text);
+    const Status status = ReadMapPgmYaml(yaml, &read);
+    ASSERT_FALSE(status.ok()) << c.yaml_text;
+    EXPECT_THAT(status.message(), HasSubstr(c.expected)) << c.yaml_text;
+  }
+  EXPECT_THAT(ReadMapPgmYaml(TempPath("no_such.yaml"), &read).message(),
+              HasSubstr("no_such.yaml"));
+  // Image problems name the image.
+  WriteText(yaml, image_line + "resolution: 0.05\norigin: [0, 0, 0]\n");
+  WriteText(TempPath("bad.pgm"), "P2\n2 2\n255\n0 0 0 0\n");
+  EXPECT_THAT(ReadMapPgmYaml(yaml, &read).message(), HasSubstr("bad.pgm' is not a binary PGM"));
+  WriteText(TempPath("bad.pgm"), "P5\n2 2\n255\n\xfe");
+  EXPECT_THAT(ReadMapPgmYaml(yaml, &read).message(), HasSubstr("raster is truncated"));
+  WriteText(TempPath("bad.pgm"), "P5\n2 x\n255\n");
+  EXPECT_THAT(ReadMapPgmYaml(yaml, &read).message(), HasSubstr("PGM height 'x'"));
 }
 
 }  // namespace

@@ -104,5 +104,31 @@ TEST(MeasurementLogTest, ErrorsNameTheFile) {
   EXPECT_THAT(ReadMeasurementLog(bad, invalid, &log).message(), HasSubstr("flaser_fov_radians"));
 }
 
+TEST(ReadTruthTrajectoryTest, ReadsARobotLogsTruthOrATrajectoryFile) {
+  std::vector<StampedPose2> truth;
+  const std::string log = WriteText("truth_log.txt",
+                                    "HSLOG 1\n"
+                                    "TRUTH 0.1 1 2 0.3 0.01 0.02 0.5\n"
+                                    "TRUTH 0.2 1.5 2 0.3 0 0 0.6\n");
+  Status status = ReadTruthTrajectory(log, &truth);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_EQ(2u, truth.size());
+  EXPECT_EQ(0.2, truth[1].stamp_seconds);
+  EXPECT_EQ(1.5, truth[1].pose.x());
+  EXPECT_NEAR(0.6, truth[1].pose.theta(), 1e-12);
+
+  const std::string file = WriteText("truth.txt", "# timestamp x y theta\n0.5 3 4 0.25\n");
+  status = ReadTruthTrajectory(file, &truth);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_EQ(1u, truth.size());
+  EXPECT_EQ(4.0, truth[0].pose.y());
+
+  const std::string no_truth = WriteText("no_truth.txt", "HSLOG 1\nCOMMAND 0.1 0.2 0 0.1\n");
+  EXPECT_THAT(ReadTruthTrajectory(no_truth, &truth).message(),
+              HasSubstr("no_truth.txt' has no TRUTH lines"));
+  EXPECT_THAT(ReadTruthTrajectory(::testing::TempDir() + "/no_such_truth.txt", &truth).message(),
+              HasSubstr("no_such_truth.txt"));
+}
+
 }  // namespace
 }  // namespace hetslam

@@ -32,5 +32,27 @@ TEST(OccupancyGridTest, LabelLayerRecordsEveryLabelThatHitACellAndSurvivesGrowth
   EXPECT_EQ(1 << 3, grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell({25.0, 0.0}))));
 }
 
+// Walls are the invariants of the 2.5D assumption (paper §III-E): a cell hit at heights spanning
+// at least wall_min_height_span_meters (default 0.3 m) gets the wall bit; one hit at many
+// nearly equal heights (a level laser, a low box) does not.
+TEST(OccupancyGridTest, CellsHitAtSeveralHeightsAreWalls) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  const Eigen::Vector2d sensor(0.0, 0.0);
+  const std::vector<uint8_t> structure = {0};
+  const auto wall_bit = [&](const Eigen::Vector2d& p) {
+    return (grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell(p))) >>
+            OccupancyGrid::kWallLabelBit) & 1;
+  };
+  for (float h : {0.50f, 0.52f, 0.49f, 0.70f}) {  // span 0.21 m: not yet a wall
+    const std::vector<float> height = {h};
+    grid.InsertScan(sensor, {{2.0, 0.0}}, nullptr, &structure, &height);
+  }
+  EXPECT_EQ(0, wall_bit({2.0, 0.0}));
+  const std::vector<float> low = {0.21f};  // span 0.49 m
+  grid.InsertScan(sensor, {{2.0, 0.0}}, nullptr, &structure, &low);
+  EXPECT_EQ(1, wall_bit({2.0, 0.0}));
+  EXPECT_EQ(1, grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell({2.0, 0.0}))) & 1);
+}
+
 }  // namespace
 }  // namespace hetslam

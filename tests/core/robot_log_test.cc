@@ -1,15 +1,16 @@
 #include "core/robot_log.h"
 
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <random>
-#include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "core/robot_log_writer.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/core/robot_log_test_util.h"
 
 namespace hetslam {
 namespace {
@@ -17,43 +18,14 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-std::string TempPath(const std::string& name) {
-  return ::testing::TempDir() + "/robot_log_test_" + name;
-}
-
-std::string WriteText(const std::string& name, const std::string& text) {
-  const std::string path = TempPath(name);
-  std::ofstream(path) << text;
-  return path;
-}
-
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 Status Read(const std::string& path, RobotLog* log, bool lenient = false) {
   RobotLogReadOptions options;
   options.lenient = lenient;
   return ReadRobotLog(path, options, log);
 }
 
-// Angle-free comparison of rotations: the largest entry of R_a - R_b.
-double RotationGap(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return (a - b).cwiseAbs().maxCoeff();
-}
-
 double Uniform(std::mt19937_64* rng, double lo, double hi) {
   return lo + (hi - lo) * static_cast<double>((*rng)() >> 11) * (1.0 / 9007199254740992.0);
-}
-
-Eigen::Isometry3d MakePose(double x, double y, double z, double roll, double pitch, double yaw) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = Eigen::Vector3d(x, y, z);
-  pose.linear() = RotationFromRollPitchYaw(roll, pitch, yaw);
-  return pose;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -138,12 +110,6 @@ RobotLog MakeFullLog() {
     log.commands.push_back(command);
   }
   return log;
-}
-
-void ExpectSamePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  // Translations are stored as numbers; rotations pass through roll/pitch/yaw and back.
-  EXPECT_EQ(a.translation(), b.translation());
-  EXPECT_LT(RotationGap(a.linear(), b.linear()), 4e-16 * 4);
 }
 
 TEST(RobotLogTest, WriteThenReadGivesTheSameValues) {
@@ -234,42 +200,6 @@ TEST(RobotLogTest, WriteThenReadGivesTheSameValues) {
   ASSERT_EQ(log.lasers.size(), log2.lasers.size());
   EXPECT_EQ(log.lasers[3].scan.angles_radians, log2.lasers[3].scan.angles_radians);
   EXPECT_EQ(log.lasers[3].scan.ranges_meters, log2.lasers[3].scan.ranges_meters);
-}
-
-TEST(RobotLogTest, WriterMergesByStampWithTheDocumentedTieOrder) {
-  RobotLog log;
-  const double t = 1.5;
-  LaserReading laser;
-  laser.scan.stamp_seconds = t;
-  laser.scan.angles_radians = EvenlySpacedAngles(2, 0.0, 0.5);
-  laser.scan.ranges_meters = {1.0, 2.0};
-  log.lasers.push_back(laser);
-  log.images.push_back({t, "a.png", 0});
-  log.truth.push_back({t, Eigen::Isometry3d::Identity(), 0});
-  log.commands.push_back({t, 0.1, 0.0, 0.0, 0});
-  log.altitudes.push_back({t, 1.0, 0});
-  log.attitudes.push_back({t, 0.0, 0.0, 0.0, 0});
-  log.marg.push_back(MargSample{t});
-  log.odometry.push_back({t, Pose2(), 0});
-  log.mounts.push_back({t, Eigen::Isometry3d::Identity(), 0});
-  // An earlier ODOM and a later MARG, to see the merge across types.
-  log.odometry.insert(log.odometry.begin(), OdometryReading{0.5, Pose2(1, 0, 0), 0});
-  log.marg.push_back(MargSample{2.0});
-  log.params["robot_name"] = "r";
-  log.params["a_first"] = "x";
-  const std::string path = TempPath("order.txt");
-  const Status status = WriteRobotLog(path, log, {"comment"});
-  ASSERT_TRUE(status.ok()) << status.message();
-  std::vector<std::string> types;
-  std::istringstream lines(ReadText(path));
-  std::string line;
-  while (std::getline(lines, line)) types.push_back(line.substr(0, line.find(' ')));
-  const std::vector<std::string> expected = {
-      "HSLOG", "#",        "PARAM",    "PARAM",   "ODOM",  "MOUNT", "ODOM",
-      "MARG",  "ATTITUDE", "ALTITUDE", "COMMAND", "TRUTH", "LASER", "IMAGE", "MARG"};
-  EXPECT_EQ(expected, types);
-  // PARAMs sorted by name.
-  EXPECT_THAT(ReadText(path), HasSubstr("PARAM a_first x\nPARAM robot_name r\n"));
 }
 
 TEST(RobotLogTest, MountAppliesToTheScansAfterIt) {
@@ -455,65 +385,6 @@ TEST(RobotLogTest, BackwardsStampsAreCountedPerTypeAndKeptInFileOrder) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Writer errors.
-
-TEST(RobotLogTest, WriterRejectsWhatTheFormatCannotStore) {
-  const std::string path = TempPath("rejected.txt");
-  {
-    RobotLog log;
-    LaserReading laser;
-    laser.scan.angles_radians = {0.0, 0.1, 0.3};
-    laser.scan.ranges_meters = {1, 2, 3};
-    log.lasers.push_back(laser);
-    EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("evenly spaced"));
-  }
-  {
-    RobotLog log;
-    LaserReading laser;
-    laser.scan.angles_radians = {0.0, 0.1};
-    laser.scan.ranges_meters = {1};
-    log.lasers.push_back(laser);
-    EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("2 angles but 1 ranges"));
-  }
-  {
-    // A scan whose mount is not in a MOUNT message would lose it.
-    RobotLog log;
-    LaserReading laser;
-    laser.scan.stamp_seconds = 1.0;
-    laser.scan.robot_T_sensor.translation().z() = 0.3;
-    log.lasers.push_back(laser);
-    EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("MOUNT in force"));
-    log.mounts.push_back({1.0, laser.scan.robot_T_sensor, 0});  // same stamp: comes first
-    EXPECT_TRUE(WriteRobotLog(path, log, {}).ok());
-  }
-  {
-    RobotLog log;
-    log.marg.push_back(MargSample{std::numeric_limits<double>::quiet_NaN()});
-    EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("MARG 0"));
-  }
-  {
-    RobotLog log;
-    log.images.push_back({0.0, "has space.png", 0});
-    EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("IMAGE 0"));
-  }
-  {
-    RobotLog log;
-    log.params["name"] = "two  spaces";
-    EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("PARAM 'name'"));
-  }
-  {
-    RobotLog log;
-    StampedPose3 bad;
-    bad.pose.linear() *= 2.0;
-    log.truth.push_back(bad);
-    EXPECT_THAT(WriteRobotLog(path, log, {}).message(), HasSubstr("not a rigid pose"));
-  }
-  EXPECT_THAT(WriteRobotLog(::testing::TempDir() + "/no_such_dir/log.txt", RobotLog(), {})
-                  .message(),
-              HasSubstr("cannot open"));
-}
-
-// ---------------------------------------------------------------------------------------------
 // Camera model and paths.
 
 TEST(RobotLogTest, CameraModelFromParams) {
@@ -557,7 +428,7 @@ TEST(RobotLogTest, CameraModelFromParams) {
               HasSubstr("PARAM laser_T_camera ('0 0 0 0 0') is not 6 finite numbers"));
 }
 
-TEST(RobotLogTest, PathsAreRelativeToTheLogAndManifest) {
+TEST(RobotLogTest, ImagePathsAreRelativeToTheLog) {
   const std::string path = WriteText("paths.txt", "HSLOG 1\nIMAGE 1 images/000001.png\n");
   RobotLog log;
   ASSERT_TRUE(Read(path, &log).ok());
@@ -575,109 +446,6 @@ TEST(RobotLogTest, PathsAreRelativeToTheLogAndManifest) {
   bare.directory = ".";
   EXPECT_EQ("./a.png", bare.ImagePath({0.0, "a.png", 0}));
   EXPECT_EQ("/abs/a.png", bare.ImagePath({0.0, "/abs/a.png", 0}));
-  TeamManifest manifest;
-  manifest.directory = "data/team";
-  TeamRobot robot;
-  robot.directory = "uav1";
-  EXPECT_EQ("data/team/uav1/log.txt", manifest.RobotLogPath(robot));
-}
-
-// ---------------------------------------------------------------------------------------------
-// Team manifest.
-
-TEST(TeamManifestTest, WriteThenRead) {
-  TeamManifest original;
-  original.robots.push_back({"ugv1", "wheeled", "ugv1", 0});
-  original.robots.push_back({"uav1", "uav", "robots/uav1", 0});
-  original.robots.push_back({"nao", "humanoid", "nao", 0});
-  TagTruth tag;
-  tag.id = 17;
-  tag.family = "tag36h11";
-  tag.size_meters = 0.16;
-  tag.world_T_tag = MakePose(3.0, -1.25, 1.1, M_PI / 2, 0.0, M_PI);
-  original.tags.push_back(tag);
-  tag.id = 0;
-  tag.world_T_tag = MakePose(0.1, 0.2, 0.3, 0.4, 0.5, 0.6);
-  original.tags.push_back(tag);
-  const std::string path = TempPath("team.txt");
-  const Status write = WriteTeamManifest(path, original, {"three robots"});
-  ASSERT_TRUE(write.ok()) << write.message();
-  TeamManifest manifest;
-  const Status read = ReadTeamManifest(path, &manifest);
-  ASSERT_TRUE(read.ok()) << read.message();
-  EXPECT_EQ(path, manifest.path);
-  ASSERT_EQ(3u, manifest.robots.size());
-  for (size_t i = 0; i < 3; ++i) {
-    EXPECT_EQ(original.robots[i].name, manifest.robots[i].name);
-    EXPECT_EQ(original.robots[i].kind, manifest.robots[i].kind);
-    EXPECT_EQ(original.robots[i].directory, manifest.robots[i].directory);
-  }
-  EXPECT_EQ(3, manifest.robots[0].line_number);
-  ASSERT_EQ(2u, manifest.tags.size());
-  for (size_t i = 0; i < 2; ++i) {
-    EXPECT_EQ(original.tags[i].id, manifest.tags[i].id);
-    EXPECT_EQ("tag36h11", manifest.tags[i].family);
-    EXPECT_EQ(0.16, manifest.tags[i].size_meters);
-    ExpectSamePose(original.tags[i].world_T_tag, manifest.tags[i].world_T_tag);
-  }
-  EXPECT_EQ(manifest.directory + "/robots/uav1/log.txt",
-            manifest.RobotLogPath(manifest.robots[1]));
-  const std::string again = TempPath("team_again.txt");
-  ASSERT_TRUE(WriteTeamManifest(again, original, {"three robots"}).ok());
-  EXPECT_EQ(ReadText(path), ReadText(again));
-}
-
-TEST(TeamManifestTest, ErrorsNameFileAndLine) {
-  const std::string head = "HSTEAM 1\n# robots\nrobot a wheeled a\n";
-  const std::vector<std::pair<std::string, std::string>> cases = {
-      {"robot a uav b\n", ":4: robot name 'a' is already used on line 3"},
-      {"robot b tank b\n", ":4: robot b has unknown kind 'tank' (wheeled, uav or humanoid)"},
-      {"robot b uav\n", ":4: robot needs 3 fields (name kind directory), found 2"},
-      {"tag 1 tag36h11 0 0 0 0 0 0 0\n", ":4: tag size ('0') is not a positive number"},
-      {"tag 1 tag36h11 -0.1 0 0 0 0 0 0\n", ":4: tag size ('-0.1') is not a positive number"},
-      {"tag 1 tag36h11 nan 0 0 0 0 0 0\n", ":4: tag size ('nan') is not a positive number"},
-      {"tag -1 tag36h11 0.1 0 0 0 0 0 0\n", ":4: tag id ('-1') is not a non-negative integer"},
-      {"tag 1 tag36h11 0.1 0 0 0 0 0\n", ":4: tag needs 9 fields"},
-      {"tag 1 tag36h11 0.1 0 0 0 0 x 0\n", ":4: tag pitch ('x') is not a finite number"},
-      {"tag 1 tag36h11 0.1 0 0 0 0 0 0\ntag 1 tag36h11 0.2 1 0 0 0 0 0\n",
-       ":5: tag tag36h11 1 is already placed on line 4"},
-      {"camera 1\n", ":4: unknown message 'camera' (robot or tag)"},
-      {"HSTEAM 1\n", ":4: HSTEAM header repeated"},
-  };
-  for (size_t c = 0; c < cases.size(); ++c) {
-    const std::string path =
-        WriteText("team_bad_" + std::to_string(c) + ".txt", head + cases[c].first);
-    TeamManifest manifest;
-    const Status status = ReadTeamManifest(path, &manifest);
-    ASSERT_FALSE(status.ok()) << cases[c].first;
-    EXPECT_THAT(status.message(), StartsWith(path + cases[c].second));
-  }
-  for (const std::string& text : {std::string(""), std::string("robot a wheeled a\n"),
-                                  std::string("HSLOG 1\n"), std::string("HSTEAM 3\n")}) {
-    const std::string path = WriteText("team_header.txt", text);
-    TeamManifest manifest;
-    const Status status = ReadTeamManifest(path, &manifest);
-    ASSERT_FALSE(status.ok()) << text;
-    EXPECT_THAT(status.message(), StartsWith(path + ":1: ")) << text;
-    EXPECT_THAT(status.message(), HasSubstr("HSTEAM")) << text;
-  }
-}
-
-TEST(TeamManifestTest, WriterRejectsInvalidManifests) {
-  const std::string path = TempPath("team_rejected.txt");
-  TeamManifest duplicate;
-  duplicate.robots.push_back({"a", "uav", "a", 0});
-  duplicate.robots.push_back({"a", "uav", "b", 0});
-  EXPECT_THAT(WriteTeamManifest(path, duplicate, {}).message(), HasSubstr("used twice"));
-  TeamManifest kind;
-  kind.robots.push_back({"a", "boat", "a", 0});
-  EXPECT_THAT(WriteTeamManifest(path, kind, {}).message(), HasSubstr("unknown kind 'boat'"));
-  TeamManifest size;
-  TagTruth tag;
-  tag.family = "tag36h11";
-  tag.size_meters = 0.0;
-  size.tags.push_back(tag);
-  EXPECT_THAT(WriteTeamManifest(path, size, {}).message(), HasSubstr("positive size"));
 }
 
 }  // namespace

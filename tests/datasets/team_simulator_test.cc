@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/robot_log.h"
+#include "core/team_manifest.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 

@@ -156,12 +156,20 @@ TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) 
 
   const ScanPoints projected = PrepareScanPoints(options, scan, BodyAttitude());
   EXPECT_GT(projected.floor_points, 40);
-  EXPECT_EQ(181u, projected.all.size() + projected.floor_points);
+  EXPECT_EQ(181, projected.valid_points);
+  // The bottoms of the walls, seen by beams tilted down, are low: labelled floor obstacles
+  // (z <= 0.35 m and more than 0.15 m below the 0.5 m sensor), kept apart from the structure.
+  EXPECT_GT(projected.floor_obstacles.size(), 0u);
+  for (const Eigen::Vector2f& p : projected.floor_obstacles) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4);
+  EXPECT_EQ(181u, projected.all.size() + projected.floor_points + projected.floor_obstacles.size());
+  options.floor_obstacle_max_height_meters = 0.0;  // off: every non-floor point is structure
+  EXPECT_EQ(181u, PrepareScanPoints(options, scan, BodyAttitude()).all.size() + projected.floor_points);
+  options.floor_obstacle_max_height_meters = 0.35;
   ASSERT_EQ(projected.all.size(), projected.labels.size());
   ASSERT_EQ(projected.all.size(), projected.heights_meters.size());
   for (size_t i = 0; i < projected.all.size(); ++i) {
     EXPECT_EQ(PointLabel::kStructure, projected.labels[i]);
-    EXPECT_GE(projected.heights_meters[i], options.floor_max_height_meters);  // wall hits, above the floor
+    EXPECT_GT(projected.heights_meters[i], 0.35);  // wall hits above the floor-obstacle band
   }
   for (const Eigen::Vector2f& p : projected.all) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4) << p.transpose();
 }

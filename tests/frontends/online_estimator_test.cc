@@ -242,10 +242,10 @@ TEST(OnlineEstimatorOptionsTest, RejectsBadValues) {
 
 // The first `seconds` of the shipped humanoid_explore scenario (seed 1) as a measurement stream:
 // a walking humanoid whose head pitches, with MARG samples at 100 Hz, commands and scans at 10 Hz.
-MeasurementLog HumanoidStream(double seconds) {
+MeasurementLog HumanoidStream(double seconds, const std::string& name = "humanoid_explore") {
   sim::Scenario scenario;
   const Status read = sim::ReadScenarioFile(
-      std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/humanoid_explore.scenario", &scenario);
+      std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/" + name + ".scenario", &scenario);
   CHECK(read.ok()) << read.message();
   sim::TeamSimulatorOptions options;
   options.max_duration_seconds = seconds;
@@ -315,6 +315,37 @@ TEST(OnlineEstimatorStreamingTest, DelayedScansGiveTheStampOrderTrajectory) {
   }
   const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(late, log.truth);
   EXPECT_LT(ate.translation_rmse_meters, 0.15);
+}
+
+// Paper §III-A/E, Fig. 1-2: a standing humanoid tilts its head level -> 40° down -> level. While
+// the floor dominates the scans, matching and map updates stop and the EKF (zero commands) holds
+// the pose; when the walls come back, matching resumes. The estimate never leaves the start.
+TEST(OnlineEstimatorStreamingTest, SuspendPredictResumeKeepsAStandingHumanoidInPlace) {
+  const MeasurementLog log = HumanoidStream(0.0, "humanoid_static_tilt");
+  OnlineEstimator estimator{OnlineEstimatorOptions()};
+  int scans = 0, suspended_before = 0, resumed = 0;
+  for (const Measurement& m : log.measurements) {
+    ASSERT_TRUE(estimator.Add(m).ok());
+    if (!std::holds_alternative<LaserReading>(m)) continue;
+    ++scans;
+    if (estimator.stats().suspended_scans > suspended_before) {
+      suspended_before = estimator.stats().suspended_scans;
+    } else if (suspended_before > 0) {
+      ++resumed;  // inserted after a suspension
+    }
+  }
+  estimator.Finish();
+  EXPECT_GT(estimator.stats().suspended_scans, 20);
+  EXPECT_GT(resumed, 10);
+  EXPECT_GT(estimator.stats().floor_obstacle_points, 0);
+  const std::vector<StampedPose2> trajectory = estimator.Trajectory();
+  ASSERT_EQ(static_cast<size_t>(scans), trajectory.size());  // every scan has a pose, suspended or not
+  const Pose2 start = trajectory.front().pose;
+  for (const StampedPose2& p : trajectory) {
+    const Pose2 moved = Between(start, p.pose);
+    EXPECT_LT(moved.translation().norm(), 0.04) << "t=" << p.stamp_seconds;
+    EXPECT_LT(std::abs(moved.theta()), 0.6 * M_PI / 180) << "t=" << p.stamp_seconds;
+  }
 }
 
 // Bad data is returned as an error and leaves the estimator usable.

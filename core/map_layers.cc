@@ -1,0 +1,220 @@
+#include "core/map_layers.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+
+#include "core/file_io.h"
+#include "glog/logging.h"
+
+namespace hetslam {
+namespace {
+
+// Counts the occupied cells of `from` and those whose centre, mapped by `to_T_from` into the
+// frame of `to`, falls within k cells (in x and in y) of an occupied cell of `to`. The
+// neighbourhood may reach past the edge of `to`: a cell just outside still matches the
+// occupied cell on the edge.
+void CountMatches(const GridLayer& from, const Pose2& to_T_from, const GridLayer& to, int k,
+                  int* occupied, int* matched) {
+  *occupied = 0;
+  *matched = 0;
+  const GridGeometry& g = from.geometry;
+  const GridGeometry& h = to.geometry;
+  for (int y = 0; y < g.height(); ++y) {
+    for (int x = 0; x < g.width(); ++x) {
+      if (from.at({x, y}) != CellState::kOccupied) continue;
+      ++*occupied;
+      const CellIndex c = h.WorldToCell(to_T_from * g.CellCenter({x, y}));
+      bool found = false;
+      for (int ny = std::max(0, c.y - k); ny <= std::min(h.height() - 1, c.y + k) && !found; ++ny) {
+        for (int nx = std::max(0, c.x - k); nx <= std::min(h.width() - 1, c.x + k); ++nx) {
+          if (to.at({nx, ny}) == CellState::kOccupied) {
+            found = true;
+            break;
+          }
+        }
+      }
+      if (found) ++*matched;
+    }
+  }
+}
+
+double Ratio(int numerator, int denominator) {
+  return denominator > 0 ? static_cast<double>(numerator) / denominator
+                         : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::string JoinTruth(const RunLayerSpec& spec, const char* separator) {
+  std::string joined;
+  for (size_t i = 0; i < spec.truth_stems.size(); ++i) {
+    joined += (i > 0 ? separator : "") + spec.truth_stems[i];
+  }
+  return joined;
+}
+
+std::string FormatNumber(const char* format, double value) {
+  if (std::isnan(value)) return "nan";
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), format, value);
+  return buffer;
+}
+
+}  // namespace
+
+const std::vector<RunLayerSpec>& StandardRunLayers() {
+  static const std::vector<RunLayerSpec> layers = {
+      {"map", {kWallsLayer, kFurnitureLayer}},
+      {"walls", {kWallsLayer}},
+      {"floor_obstacles", {kFloorObstaclesLayer}},
+      {"planner", {kWallsLayer, kFurnitureLayer, kFloorObstaclesLayer}},
+  };
+  return layers;
+}
+
+bool LayerScoreOptions::IsValid(std::string* error) const {
+  if (tolerance_cells < 0 || tolerance_cells > 100) {
+    if (error != nullptr) {
+      *error = "tolerance_cells must be in [0, 100] (got " + std::to_string(tolerance_cells) + ")";
+    }
+    return false;
+  }
+  return true;
+}
+
+double LayerScore::precision() const { return Ratio(run_correct_cells, run_occupied_cells); }
+double LayerScore::recall() const { return Ratio(truth_found_cells, truth_occupied_cells); }
+
+LayerScore ScoreLayer(const GridLayer& run, const Pose2& world_T_map, const GridLayer& truth,
+                      const LayerScoreOptions& options) {
+  std::string error;
+  CHECK(options.IsValid(&error)) << "invalid LayerScoreOptions: " << error;
+  CHECK_EQ(run.cells.size(), static_cast<size_t>(run.geometry.num_cells()));
+  CHECK_EQ(truth.cells.size(), static_cast<size_t>(truth.geometry.num_cells()));
+  LayerScore score;
+  CountMatches(run, world_T_map, truth, options.tolerance_cells, &score.run_occupied_cells,
+               &score.run_correct_cells);
+  CountMatches(truth, world_T_map.inverse(), run, options.tolerance_cells,
+               &score.truth_occupied_cells, &score.truth_found_cells);
+  return score;
+}
+
+Status UnionOfLayers(const std::vector<GridLayer>& layers, const std::vector<std::string>& names,
+                     GridLayer* union_layer) {
+  CHECK(union_layer != nullptr);
+  CHECK_EQ(layers.size(), names.size()) << "one name per layer";
+  if (layers.empty()) return Status::Error("no layer to unite");
+  const GridGeometry& g = layers[0].geometry;
+  GridLayer result = GridLayer::Filled(g, CellState::kFree);
+  for (size_t i = 0; i < layers.size(); ++i) {
+    const GridGeometry& other = layers[i].geometry;
+    const double r = g.resolution_meters();
+    if (other.width() != g.width() || other.height() != g.height() ||
+        std::abs(other.resolution_meters() - r) > 1e-9 * r ||
+        (other.origin() - g.origin()).norm() > 1e-6 * r) {
+      return Status::Error("layers '" + names[0] + "' and '" + names[i] +
+                           "' are not on the same grid (size, resolution or origin differ)");
+    }
+    for (size_t c = 0; c < result.cells.size(); ++c) {
+      if (layers[i].cells[c] == CellState::kOccupied) result.cells[c] = CellState::kOccupied;
+    }
+  }
+  *union_layer = std::move(result);
+  return Status::Ok();
+}
+
+Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
+                      const Pose2& world_T_map, const LayerScoreOptions& options,
+                      RunLayersReport* report) {
+  CHECK(report != nullptr);
+  namespace fs = std::filesystem;
+  std::string error;
+  if (!options.IsValid(&error)) return Status::Error(error);
+  RunLayersReport result;
+  result.run_dir = run_dir;
+  result.truth_dir = truth_dir;
+  result.world_T_map = world_T_map;
+  result.options = options;
+  std::string looked_for;
+  for (const RunLayerSpec& spec : StandardRunLayers()) {
+    RunLayerResult layer;
+    layer.spec = spec;
+    const fs::path base = fs::path(run_dir) / spec.run_stem;
+    layer.run_path = base.string() + ".yaml";
+    const std::string pgm_path = base.string() + ".pgm";
+    looked_for += (looked_for.empty() ? "" : ", ") + spec.run_stem + ".pgm";
+    layer.present = fs::exists(layer.run_path) || fs::exists(pgm_path);
+    if (layer.present) {
+      GridLayer run;
+      HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml(layer.run_path, &run));
+      std::vector<GridLayer> truth_layers(spec.truth_stems.size());
+      for (size_t i = 0; i < spec.truth_stems.size(); ++i) {
+        const std::string truth_path =
+            (fs::path(truth_dir) / (spec.truth_stems[i] + ".yaml")).string();
+        HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml(truth_path, &truth_layers[i]));
+      }
+      GridLayer truth;
+      HETSLAM_RETURN_IF_ERROR(UnionOfLayers(truth_layers, spec.truth_stems, &truth));
+      layer.score = ScoreLayer(run, world_T_map, truth, options);
+    }
+    result.layers.push_back(std::move(layer));
+  }
+  if (std::none_of(result.layers.begin(), result.layers.end(),
+                   [](const RunLayerResult& l) { return l.present; })) {
+    return Status::Error("'" + run_dir + "' holds none of the run layers (" + looked_for + ")");
+  }
+  *report = std::move(result);
+  return Status::Ok();
+}
+
+std::string FormatRunLayersTable(const RunLayersReport& report) {
+  std::ostringstream out;
+  char line[256];
+  std::snprintf(line, sizeof(line), "%-20s %-36s %9s %9s %21s %21s\n", "layer", "truth",
+                "precision", "recall", "run correct/occupied", "truth found/occupied");
+  out << line;
+  for (const RunLayerResult& layer : report.layers) {
+    const std::string name = layer.spec.run_stem + ".pgm";
+    const std::string truth = JoinTruth(layer.spec, " + ");
+    if (!layer.present) {
+      std::snprintf(line, sizeof(line), "%-20s %-36s %9s\n", name.c_str(), truth.c_str(),
+                    "absent");
+    } else {
+      const LayerScore& s = layer.score;
+      const std::string run_counts =
+          std::to_string(s.run_correct_cells) + "/" + std::to_string(s.run_occupied_cells);
+      const std::string truth_counts =
+          std::to_string(s.truth_found_cells) + "/" + std::to_string(s.truth_occupied_cells);
+      std::snprintf(line, sizeof(line), "%-20s %-36s %9s %9s %21s %21s\n", name.c_str(),
+                    truth.c_str(), FormatNumber("%.4f", s.precision()).c_str(),
+                    FormatNumber("%.4f", s.recall()).c_str(), run_counts.c_str(),
+                    truth_counts.c_str());
+    }
+    out << line;
+  }
+  return out.str();
+}
+
+Status WriteRunLayersCsv(const RunLayersReport& report, const std::string& path) {
+  std::ostringstream csv;
+  csv << "layer,truth,status,precision,recall,run_occupied,run_correct,truth_occupied,"
+         "truth_found,tolerance_cells\n";
+  for (const RunLayerResult& layer : report.layers) {
+    csv << layer.spec.run_stem << "," << JoinTruth(layer.spec, "+") << ",";
+    if (!layer.present) {
+      csv << "absent,,,,,,," << report.options.tolerance_cells << "\n";
+      continue;
+    }
+    const LayerScore& s = layer.score;
+    csv << "scored," << FormatNumber("%.6f", s.precision()) << ","
+        << FormatNumber("%.6f", s.recall()) << "," << s.run_occupied_cells << ","
+        << s.run_correct_cells << "," << s.truth_occupied_cells << "," << s.truth_found_cells
+        << "," << report.options.tolerance_cells << "\n";
+  }
+  const std::string text = csv.str();
+  return WriteFileBytes(path, text.data(), text.size());
+}
+
+}  // namespace hetslam

@@ -1,0 +1,118 @@
+// Scoring a run's map layers against the true layers of a simulated world (paper §III-E: walls,
+// other structure, floor obstacles).
+//
+// Truth: a folder (DIR/truth_layers of a simulated team dataset, datasets/README.md) holding
+// map_server maps in the WORLD frame named after the layers below (walls, furniture,
+// floor_obstacles), all on one grid. Run: a folder holding map_server maps in the run's MAP
+// frame (the frame of its trajectory, a robot's start pose), named after what they contain:
+//
+//   run file              scored against
+//   map.pgm               walls ∪ furniture          (all structure used for localisation)
+//   walls.pgm             walls
+//   floor_obstacles.pgm   floor_obstacles
+//   planner.pgm           walls ∪ furniture ∪ floor_obstacles
+//
+// Each `X.pgm` is read through its `X.yaml` (core/map_io.h, ReadMapPgmYaml); a run file that is
+// absent is reported as absent, not as an error.
+//
+// Metric: occupied cells only, with a tolerance of k cells (default 1). world_T_map maps the
+// run's map frame into the world (AlignTrajectory of core/trajectory_metrics.h, the ATE
+// alignment of the run's trajectory onto the truth). A run cell is correct when the truth cell
+// containing world_T_map * (its centre) has an occupied truth cell within k cells in x and in y
+// (its (2k+1)² neighbourhood on the truth grid); precision = correct run cells / run occupied
+// cells. Symmetrically a truth cell is found when the run cell containing map_T_world * (its
+// centre) has an occupied run cell in its (2k+1)² neighbourhood on the run grid; recall =
+// found truth cells / truth occupied cells. A neighbourhood may reach past the other grid's
+// edge (beyond it the other side has no cell). Precision (recall) is NaN when the run (truth)
+// has no occupied cell.
+#ifndef HETSLAM_CORE_MAP_LAYERS_H_
+#define HETSLAM_CORE_MAP_LAYERS_H_
+
+#include <string>
+#include <vector>
+
+#include "core/map_io.h"
+#include "core/se2.h"
+#include "core/status.h"
+
+namespace hetslam {
+
+// File stems (without .pgm / .yaml) of the true layers and of the truth folder of a dataset.
+constexpr char kTruthLayersFolder[] = "truth_layers";
+constexpr char kWallsLayer[] = "walls";
+constexpr char kFurnitureLayer[] = "furniture";
+constexpr char kFloorObstaclesLayer[] = "floor_obstacles";
+
+// One run layer and the true layers whose union it is scored against.
+struct RunLayerSpec {
+  std::string run_stem;                  // "map" for map.pgm / map.yaml
+  std::vector<std::string> truth_stems;  // e.g. {"walls", "furniture"}
+};
+
+// The four run layers of the table above, in that order.
+const std::vector<RunLayerSpec>& StandardRunLayers();
+
+struct LayerScoreOptions {
+  int tolerance_cells = 1;  // k above, in [0, 100]
+
+  bool IsValid(std::string* error) const;
+};
+
+struct LayerScore {
+  int run_occupied_cells = 0;
+  int run_correct_cells = 0;     // run cells with a truth cell within tolerance
+  int truth_occupied_cells = 0;
+  int truth_found_cells = 0;     // truth cells with a run cell within tolerance
+
+  double precision() const;  // run_correct / run_occupied; NaN without run cells
+  double recall() const;     // truth_found / truth_occupied; NaN without truth cells
+};
+
+// Scores `run` (map frame) against `truth` (world frame) as described above. Any two
+// resolutions work: each side's neighbourhood is taken on its own grid.
+LayerScore ScoreLayer(const GridLayer& run, const Pose2& world_T_map, const GridLayer& truth,
+                      const LayerScoreOptions& options);
+
+// The union of layers on one grid: a cell is occupied when it is occupied in any layer, free
+// otherwise. An error when `layers` is empty or the grids differ (size, resolution, origin
+// beyond 1e-6 of a cell); `names` (one per layer) name them in the message.
+Status UnionOfLayers(const std::vector<GridLayer>& layers, const std::vector<std::string>& names,
+                     GridLayer* union_layer);
+
+struct RunLayerResult {
+  RunLayerSpec spec;
+  bool present = false;  // the run folder has <run_stem>.yaml
+  std::string run_path;  // <run_dir>/<run_stem>.yaml
+  LayerScore score;      // when present
+};
+
+struct RunLayersReport {
+  std::string run_dir;
+  std::string truth_dir;
+  Pose2 world_T_map;
+  LayerScoreOptions options;
+  std::vector<RunLayerResult> layers;  // StandardRunLayers() order, absent ones included
+};
+
+// Scores every layer of StandardRunLayers() present in `run_dir` against the true layers of
+// `truth_dir`. The true layers a present run layer needs must exist (an error names the
+// missing file); a run folder with none of the run layers is an error naming the files looked
+// for. A malformed map is an error naming its file.
+Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
+                      const Pose2& world_T_map, const LayerScoreOptions& options,
+                      RunLayersReport* report);
+
+// A fixed-width table, one row per layer (absent layers say so):
+//   layer  truth  precision  recall  run_correct/run_occupied  truth_found/truth_occupied
+std::string FormatRunLayersTable(const RunLayersReport& report);
+
+// The report as CSV with the header
+//   layer,truth,status,precision,recall,run_occupied,run_correct,truth_occupied,truth_found,
+//   tolerance_cells
+// (truth = the true layers joined by '+', status = scored or absent, empty numbers and
+// "nan" precision/recall where there is nothing to count). An error names the file.
+Status WriteRunLayersCsv(const RunLayersReport& report, const std::string& path);
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_CORE_MAP_LAYERS_H_
