@@ -41,7 +41,7 @@ struct TagSightingOptions {
   double translation_sigma_meters = 0.02;   // sigma_t: at the reference range, head-on
   double rotation_sigma_radians = 0.0175;   // sigma_theta: 1° at the reference range, head-on
   // Sightings farther or more oblique than this are refused (too few pixels to trust).
-  double max_range_meters = 6.0;
+  double max_range_meters = 8.0;
   double max_view_angle_radians = 70.0 * M_PI / 180.0;
 
   bool IsValid(std::string* error) const;

@@ -92,11 +92,23 @@ std::vector<TagPlace> GroupTagSightings(const std::vector<PlacedTagSighting>& si
     place.covariance = covariance_sum / (static_cast<double>(place.votes) *
                                          std::min(place.votes, options.max_independent_sightings));
   }
+  // Two confirmed places of one id side by side are one tag whose heading came out split (a
+  // far tag's pose can flip between two solutions): the place with more votes keeps the id.
+  // Confirmed places of one id farther apart make it ambiguous.
   for (TagPlace& place : places) {
     if (!place.confirmed) continue;
     for (const TagPlace& other : places) {
-      if (&other != &place && other.confirmed && other.tag_id == place.tag_id) place.ambiguous = true;
+      if (&other == &place || !other.confirmed || other.tag_id != place.tag_id) continue;
+      const double distance = (other.robot_T_tag.translation() - place.robot_T_tag.translation()).norm();
+      if (distance > 2.0 * options.radius_meters) {
+        place.ambiguous = true;
+      } else if (other.votes > place.votes || (other.votes == place.votes && &other < &place)) {
+        place.outvoted = true;
+      }
     }
+  }
+  for (TagPlace& place : places) {
+    if (place.outvoted) place.confirmed = false;
   }
   return places;
 }

@@ -7,8 +7,10 @@
 // A tag, though, stays where it is: all sightings of one physical tag fall at one place of the
 // robot's map. So places, not single sightings, carry ids: a place's id is the one most of its
 // sightings report, trusted once it has `min_votes` of them and at least `min_vote_fraction` of
-// the place's sightings; the others are outvoted. An id that wins at two places of one robot is
-// ambiguous there (one of them must be wrong) and not used.
+// the place's sightings; the others are outvoted. An id that wins at two places of one robot more
+// than twice the radius apart is ambiguous there (one of them must be wrong) and not used; two
+// such places side by side are one tag whose heading estimates split (a far tag's pose can flip
+// between two solutions), and the one with more votes keeps the id.
 //
 // Places are built greedily in sighting order: a sighting joins the place whose mean is nearest
 // within `radius_meters` and `max_heading_difference_radians`, else starts one. Tags of a team are
@@ -50,8 +52,11 @@ struct TagPlace {
   // translational covariance, heading by 1 / its variance), and its covariance.
   Pose2 robot_T_tag;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
-  bool confirmed = false;  // enough votes (see the header)
-  bool ambiguous = false;  // another confirmed place of the same robot won the same id
+  bool confirmed = false;  // enough votes (see the header), and not outvoted
+  // Another place within twice the radius won the same id with more votes (a split heading):
+  // this one is then not confirmed.
+  bool outvoted = false;
+  bool ambiguous = false;  // a confirmed place farther away won the same id
 };
 
 std::vector<TagPlace> GroupTagSightings(const std::vector<PlacedTagSighting>& sightings,

@@ -195,7 +195,7 @@ Status TeamEstimator::AddImage(int robot_index, const CameraImage& image) {
   const double stamp = image.stamp_seconds;
   Pose2 robot_T_body;
   HETSLAM_RETURN_IF_ERROR(robot.estimator->PoseAt(stamp, &robot_T_body));
-  if (robot.last_detected_image_stamp.has_value()) {
+  if (robot.last_detected_image_stamp.has_value() && !robot.tag_in_view) {
     if (stamp - *robot.last_detected_image_stamp < options_.min_image_interval_seconds) return Status::Ok();
     const Pose2 moved = Between(*robot.last_detected_image_pose, robot_T_body);
     if (moved.translation().norm() < options_.skip_image_within_meters &&
@@ -218,6 +218,9 @@ Status TeamEstimator::AddImage(int robot_index, const CameraImage& image) {
   ++stats_.images_detected;
   robot.last_detected_image_stamp = stamp;
   robot.last_detected_image_pose = robot_T_body;
+  robot.tag_in_view = std::any_of(detections.begin(), detections.end(), [&](const TagDetection& d) {
+    return options_.tag_sizes_meters.count(d.id) > 0;
+  });
 
   double roll = 0.0, pitch = 0.0;
   if (options_.use_attitude) {

@@ -96,10 +96,12 @@ struct TeamEstimatorOptions {
   // Project sightings with the robot's logged ATTITUDE roll/pitch (level without readings).
   bool use_attitude = true;
   double attitude_max_age_seconds = 0.2;
-  // Images of one robot closer in time than this to its previous detected image are skipped
-  // (0 = detect every image): tag detection is the team estimator's largest cost.
+  // Image skipping (tag detection, mostly the PNG decode, is the team estimator's largest cost).
+  // While the robot's previous detected image showed no known tag: images less than
+  // min_image_interval_seconds after it are skipped, and so are images taken while the robot
+  // moved less than skip_image_within_meters and turned less than skip_image_within_radians since
+  // it (a standing robot sees the same picture). While a tag is in view every image is detected.
   double min_image_interval_seconds = 0.0;
-  // ... and also while the robot stands: less than these since its previous detected image.
   double skip_image_within_meters = 0.0;
   double skip_image_within_radians = 0.0;
 
@@ -288,6 +290,7 @@ class TeamEstimator {
     std::deque<AttitudeReading> attitudes;
     std::optional<double> last_detected_image_stamp;
     std::optional<Pose2> last_detected_image_pose;
+    bool tag_in_view = false;  // the last detected image showed a known tag
     std::vector<Sighting> sightings;
     int nodes_seen = 0;          // nodes already considered by the inter-robot search
     std::optional<Pose2> last_search_pose;  // robot frame

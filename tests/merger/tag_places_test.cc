@@ -99,6 +99,21 @@ TEST(TagPlacesTest, AnIdWinningTwoPlacesIsAmbiguous) {
   EXPECT_EQ(nullptr, FindTagPlace(places, 1));
 }
 
+// A far tag whose heading flipped in a few sightings: two places side by side, one id. The
+// place with more votes keeps it; the id is not ambiguous.
+TEST(TagPlacesTest, ASplitHeadingAtOnePlaceIsNotAmbiguous) {
+  std::vector<PlacedTagSighting> sightings;
+  for (int i = 0; i < 10; ++i) sightings.push_back(At(2, 16.0, 5.0, 180));
+  for (int i = 0; i < 4; ++i) sightings.push_back(At(2, 16.1, 5.05, 140));
+  const std::vector<TagPlace> places = GroupTagSightings(sightings, TagPlaceOptions());
+  ASSERT_EQ(2u, places.size());
+  const TagPlace* two = FindTagPlace(places, 2);
+  ASSERT_NE(nullptr, two);
+  EXPECT_EQ(10, two->votes);
+  EXPECT_TRUE(places[1].outvoted);
+  EXPECT_FALSE(places[1].confirmed);
+}
+
 TEST(TagPlacesTest, SameHeadingRequired) {
   // Two tags on either side of a thin wall: same place, opposite normals.
   std::vector<PlacedTagSighting> sightings;
