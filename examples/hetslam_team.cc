@@ -48,6 +48,8 @@ DEFINE_double(skip_static_images_within, 0.02, "While no tag is in view, also sk
 DEFINE_double(skip_static_images_within_deg, 1.0, "See --skip_static_images_within.");
 DEFINE_string(attitude_source, "marg", "Each robot's attitude for the 2.5D scan projection: marg (our MARG filter on "
               "the raw samples), logged (the log's ATTITUDE lines) or level.");
+DEFINE_bool(use_odometry, false, "Robots whose log has ODOM lines (wheeled) predict each scan's pose from their odometry. "
+            "Off by default: the pipeline is odometry-free (the EKF predicts from commands and MARG rates).");
 DEFINE_double(link_min_score, 0.55, "A scan match refining a tag link counts when its mean likelihood is at least this.");
 DEFINE_int32(link_min_matches, 2, "Agreeing scan matches a tag link needs before two robots are merged.");
 DEFINE_bool(more_constraints, true, "After two robots share a frame, search more inter-robot constraints by scan "
@@ -184,6 +186,13 @@ int Run() {
     TeamRobotOptions options;
     options.name = robot.name;
     options.estimator = robot_options;
+    const bool has_odometry = std::any_of(robot.log.measurements.begin(), robot.log.measurements.end(),
+                                          [](const Measurement& m) { return std::holds_alternative<OdometryReading>(m); });
+    if (FLAGS_use_odometry && has_odometry) {
+      options.estimator.use_odometry = true;
+      options.estimator.use_commands = false;
+      options.estimator.local.prediction = MotionPrediction::kOdometry;
+    }
     options.has_camera = robot.has_camera;
     options.intrinsics = robot.intrinsics;
     options.laser_T_camera = robot.laser_T_camera;

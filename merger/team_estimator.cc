@@ -6,6 +6,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "Eigen/Eigenvalues"
 #include "frontends/loop_closer.h"
 #include "glog/logging.h"
 #include "opencv2/imgcodecs.hpp"
@@ -28,6 +29,17 @@ std::string Text(const Pose2& p) {
 
 // Uniform in [0, 1) from 53 random bits: the same numbers on every platform.
 double Uniform(std::mt19937_64* rng) { return static_cast<double>((*rng)() >> 11) * 0x1.0p-53; }
+
+// Smaller over larger eigenvalue of a scan match's translational information (J^T J of the scan
+// cost with the yaw marginalised out): near 0 when the scan constrains one direction only.
+double TranslationalInformationRatio(const Eigen::Matrix3d& information) {
+  if (!(information(2, 2) > 0)) return 0.0;
+  const Eigen::Matrix2d translational = information.topLeftCorner<2, 2>() -
+                                        information.topRightCorner<2, 1>() * information.bottomLeftCorner<1, 2>() /
+                                            information(2, 2);
+  const Eigen::Vector2d values = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(translational).eigenvalues();
+  return values(1) > 0 ? std::max(0.0, values(0)) / values(1) : 0.0;
+}
 
 bool Within(const Pose2& difference, double meters, double radians) {
   return difference.translation().norm() <= meters && std::abs(difference.theta()) <= radians;
@@ -80,6 +92,7 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   if (!(link_min_score >= 0 && link_min_score < 1 && inter_min_score >= 0 && inter_min_score < 1))
     msg << "link_min_score and inter_min_score must be in [0, 1); ";
   if (link_min_matches < 1 || link_max_nodes_per_robot < 1) msg << "link_min_matches and link_max_nodes_per_robot must be >= 1; ";
+  if (!(link_node_radius_meters >= 0 && link_node_spacing_meters >= 0)) msg << "link node radius and spacing must be >= 0; ";
   if (!(link_agreement_meters > 0 && link_agreement_radians > 0 && tag_agreement_meters > 0 && tag_agreement_radians > 0))
     msg << "agreement bounds must be > 0; ";
   if (!(link_window_min_meters > 0 && link_window_max_meters >= link_window_min_meters && link_window_min_radians > 0 &&
@@ -92,6 +105,11 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
     msg << "inter-robot search windows must be > 0, travel, spacing and distances >= 0; ";
   if (!(min_submap_overlap >= 0 && min_submap_overlap <= 1) || max_submaps_per_match < 1)
     msg << "min_submap_overlap must be in [0, 1], max_submaps_per_match >= 1; ";
+  if (min_agreeing_submaps < 1 || min_agreeing_submaps > max_submaps_per_match)
+    msg << "min_agreeing_submaps must be in [1, max_submaps_per_match]; ";
+  if (!(submap_agreement_meters > 0 && submap_agreement_radians > 0 && min_information_ratio >= 0 &&
+        min_information_ratio <= 1))
+    msg << "submap agreement bounds must be > 0, min_information_ratio in [0, 1]; ";
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
   if (!(wrong_tag_id_rate >= 0 && wrong_tag_id_rate <= 1)) msg << "wrong_tag_id_rate must be in [0, 1]; ";
   if (error != nullptr) *error = msg.str();
@@ -377,17 +395,33 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
     const int other = seer == b ? a : b;
     const TagPlace& seer_place = seer == b ? place_b : place_a;
     const TagPlace& other_place = seer == b ? place_a : place_b;
-    std::vector<std::pair<double, int>> nodes;  // (range, node index), best seen first
+    // Its sighting nodes, best seen first, then its other nodes near the tag, nearest first;
+    // nodes closer than link_node_spacing_meters to one already chosen are passed over.
+    std::vector<std::pair<double, int>> sighting_nodes, near_nodes;  // (range or distance, node index)
     for (int i : seer_place.members) {
       const Sighting& s = robots_[seer].sightings[i];
-      if (s.tag_id == tag_id) nodes.emplace_back(s.range_meters, s.node.index);
+      if (s.tag_id == tag_id) sighting_nodes.emplace_back(s.range_meters, s.node.index);
     }
-    std::sort(nodes.begin(), nodes.end());
-    std::vector<int> tried;
-    for (const auto& [range, index] : nodes) {
-      if (static_cast<int>(tried.size()) >= options_.link_max_nodes_per_robot) break;
-      if (std::find(tried.begin(), tried.end(), index) != tried.end()) continue;
-      tried.push_back(index);
+    std::sort(sighting_nodes.begin(), sighting_nodes.end());
+    for (int i = 0; i < graph_->num_nodes(seer); ++i) {
+      const double distance =
+          (graph_->NodePose({seer, i}).translation() - seer_place.robot_T_tag.translation()).norm();
+      if (distance <= options_.link_node_radius_meters) near_nodes.emplace_back(distance, i);
+    }
+    std::sort(near_nodes.begin(), near_nodes.end());
+    sighting_nodes.insert(sighting_nodes.end(), near_nodes.begin(), near_nodes.end());
+    std::vector<int> chosen;
+    for (const auto& [unused, index] : sighting_nodes) {
+      if (static_cast<int>(chosen.size()) >= options_.link_max_nodes_per_robot) break;
+      const Eigen::Vector2d p = graph_->NodePose({seer, index}).translation();
+      if (std::any_of(chosen.begin(), chosen.end(), [&](int c) {
+            return (graph_->NodePose({seer, c}).translation() - p).norm() < options_.link_node_spacing_meters;
+          })) {
+        continue;
+      }
+      chosen.push_back(index);
+    }
+    for (const int index : chosen) {
       const NodeId node{seer, index};
       const Pose2 seer_T_node = graph_->NodePose(node);
       const Pose2 robot_T_node = seer_T_node;
@@ -566,32 +600,50 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
   std::sort(candidates.begin(), candidates.end());
   if (static_cast<int>(candidates.size()) > options_.max_submaps_per_match) candidates.resize(options_.max_submaps_per_match);
   if (covered != nullptr && !candidates.empty()) *covered = true;
-  std::optional<ConstraintCandidate> best;
+  std::vector<ConstraintCandidate> found;
+  std::vector<Pose2> robot_T_matched;  // each match's node pose in the submap robot's frame
   for (const auto& [negative_overlap, s] : candidates) {
     const SubmapId submap{submap_robot, s};
     const Pose2 predicted = graph_->SubmapPose(submap).inverse() * submap_robot_T_node;
     const ScanMatchResult match = matcher_.MatchWithinWindow(*graph_->FinishedSubmapMap(submap), predicted,
                                                              points.matching, linear_window, angular_window,
                                                              points.matching_weights);
+    const double ratio = TranslationalInformationRatio(match.information);
     VLOG(2) << "match robot " << node.robot << " node " << node.index << " in robot " << submap_robot << " submap " << s
             << " (overlap " << -negative_overlap << "): converged " << match.converged << " score " << match.score
-            << " correction " << Between(predicted, match.pose);
+            << " information ratio " << ratio << " correction " << Between(predicted, match.pose);
     if (!match.converged || match.score < min_score) continue;
+    // A scan that pins the pose in one direction only (one wall, a corridor) slides along the other.
+    if (ratio < options_.min_information_ratio) continue;
     // The window's border: the peak may lie outside it.
     const Pose2 correction = Between(predicted, match.pose);
     if (correction.translation().cwiseAbs().maxCoeff() > linear_window || std::abs(correction.theta()) > angular_window) {
       continue;
     }
-    if (best.has_value() && match.score <= best->score) continue;
     ConstraintCandidate candidate;
     candidate.submap = submap;
     candidate.node = node;
     candidate.submap_T_node = match.pose;
     candidate.score = match.score;
     candidate.robust = true;
-    best = candidate;
+    found.push_back(candidate);
+    robot_T_matched.push_back(graph_->SubmapPose(submap) * match.pose);
   }
-  return best;
+  // A well-constrained scan lands at the same place in every submap of the teammate that sees
+  // it; one that slides (a wall, a corridor, a half-seen room) lands wherever each submap's
+  // partial view pulls it.
+  if (static_cast<int>(found.size()) < options_.min_agreeing_submaps) return std::nullopt;
+  for (size_t i = 0; i < found.size(); ++i) {
+    for (size_t j = i + 1; j < found.size(); ++j) {
+      if (!Within(Between(robot_T_matched[i], robot_T_matched[j]), options_.submap_agreement_meters,
+                  options_.submap_agreement_radians)) {
+        return std::nullopt;
+      }
+    }
+  }
+  return *std::max_element(found.begin(), found.end(), [](const ConstraintCandidate& x, const ConstraintCandidate& y) {
+    return x.score < y.score;
+  });
 }
 
 void TeamEstimator::SearchInterRobot(double stamp_seconds, const NodeId& node) {

@@ -21,7 +21,7 @@
 //  - every other tag id both robots have a confirmed place for must agree with it within
 //    tag_agreement_*, else the link is rejected (a wrong id that won a vote);
 //  - refinement (paper: "a local scan-matching step"): nodes of each robot near the tag (its
-//    sighting nodes, best seen first) are matched against the other robot's finished submaps
+//    sighting nodes, best seen first, then its other nodes near the tag) are matched against the other robot's finished submaps
 //    (ScanMatcher::MatchWithinWindow, Ceres refinement over factors/scan_cost.h) within a window
 //    of 3 sigma of the eq. 4 estimate (clamped to link_window_*); a match counts when it scores
 //    >= link_min_score; the link needs link_min_matches of them agreeing with each other within
@@ -110,7 +110,11 @@ struct TeamEstimatorOptions {
   // First constraint (link).
   double link_min_score = 0.55;
   int link_min_matches = 2;
-  int link_max_nodes_per_robot = 4;  // sighting nodes tried per robot and attempt
+  // Nodes tried per robot and attempt: its sighting nodes (best seen first), then its nodes
+  // within link_node_radius_meters of the tag, no two closer than link_node_spacing_meters.
+  int link_max_nodes_per_robot = 6;
+  double link_node_radius_meters = 4.0;
+  double link_node_spacing_meters = 0.3;
   double link_agreement_meters = 0.15;
   double link_agreement_radians = 2.0 * M_PI / 180.0;
   double link_window_min_meters = 0.3, link_window_max_meters = 1.5;
@@ -133,6 +137,15 @@ struct TeamEstimatorOptions {
   double submap_margin_meters = 4.0;
   double min_submap_overlap = 0.6;
   int max_submaps_per_match = 3;
+  // A match counts only when its translational information (J^T J, yaw marginalised) has a smaller
+  // eigenvalue of at least this fraction of the larger (else it slides along a wall or corridor),
+  // and a node's matches count only when at least min_agreeing_submaps of those submaps gave
+  // one and all of them put the node at the same pose (in the teammate's frame) within
+  // submap_agreement_*: a scan that slides lands wherever each submap's partial view pulls it.
+  double min_information_ratio = 0.15;
+  int min_agreeing_submaps = 2;
+  double submap_agreement_meters = 0.05;
+  double submap_agreement_radians = 0.5 * M_PI / 180.0;
   int max_iterations_per_solve = 20;
   int max_iterations_final = 50;
 
