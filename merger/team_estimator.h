@@ -117,7 +117,7 @@ struct TeamEstimatorOptions {
   double link_node_spacing_meters = 0.3;
   double link_agreement_meters = 0.15;
   double link_agreement_radians = 2.0 * M_PI / 180.0;
-  double link_window_min_meters = 0.3, link_window_max_meters = 1.5;
+  double link_window_min_meters = 0.5, link_window_max_meters = 1.5;
   double link_window_min_radians = 3.0 * M_PI / 180.0, link_window_max_radians = 20.0 * M_PI / 180.0;
   double tag_agreement_meters = 0.5;
   double tag_agreement_radians = 10.0 * M_PI / 180.0;
@@ -144,8 +144,8 @@ struct TeamEstimatorOptions {
   // submap_agreement_*: a scan that slides lands wherever each submap's partial view pulls it.
   double min_information_ratio = 0.15;
   int min_agreeing_submaps = 2;
-  double submap_agreement_meters = 0.05;
-  double submap_agreement_radians = 0.5 * M_PI / 180.0;
+  double submap_agreement_meters = 0.1;
+  double submap_agreement_radians = 1.0 * M_PI / 180.0;
   int max_iterations_per_solve = 20;
   int max_iterations_final = 50;
 
