@@ -41,6 +41,26 @@ double TranslationalInformationRatio(const Eigen::Matrix3d& information) {
   return values(1) > 0 ? std::max(0.0, values(0)) / values(1) : 0.0;
 }
 
+// A record of a constraint between robots a and b measuring a_T_b; `match` (optional) the scan
+// match it comes from.
+TeamConstraintRecord MakeRecord(double stamp_seconds, int a, int b, TeamConstraintKind kind, int tag_id,
+                                const Pose2& a_T_b, const ConstraintCandidate* match) {
+  TeamConstraintRecord record;
+  record.stamp_seconds = stamp_seconds;
+  record.robot_a = a;
+  record.robot_b = b;
+  record.kind = kind;
+  record.tag_id = tag_id;
+  record.a_T_b = a_T_b;
+  if (match != nullptr) {
+    record.submap = match->submap;
+    record.node = match->node;
+    record.submap_T_node = match->submap_T_node;
+    record.score = match->score;
+  }
+  return record;
+}
+
 bool Within(const Pose2& difference, double meters, double radians) {
   return difference.translation().norm() <= meters && std::abs(difference.theta()) <= radians;
 }
@@ -346,13 +366,8 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
   LinkState& state = link_states_[{a, b, tag_id}];
   const RelativePoseEstimate tag_estimate =
       RelativePoseFromLandmark(place_a.robot_T_tag, place_a.covariance, place_b.robot_T_tag, place_b.covariance);
-  TeamConstraintRecord tag_record;
-  tag_record.stamp_seconds = stamp_seconds;
-  tag_record.robot_a = a;
-  tag_record.robot_b = b;
-  tag_record.kind = TeamConstraintKind::kTagRelativePose;
-  tag_record.tag_id = tag_id;
-  tag_record.a_T_b = tag_estimate.robot1_T_robot2;
+  TeamConstraintRecord tag_record = MakeRecord(stamp_seconds, a, b, TeamConstraintKind::kTagRelativePose, tag_id,
+                                               tag_estimate.robot1_T_robot2, nullptr);
   auto finish = [&](bool accepted, const std::string& reason, std::vector<TeamConstraintRecord> matches) {
     // Record an attempt only when its outcome differs from the previous attempt's.
     if (!accepted && reason == state.last_outcome) return accepted;
@@ -449,18 +464,8 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
   }
   std::vector<TeamConstraintRecord> match_records;
   for (const Match& m : matches) {
-    TeamConstraintRecord r;
-    r.stamp_seconds = stamp_seconds;
-    r.robot_a = a;
-    r.robot_b = b;
-    r.kind = TeamConstraintKind::kTagScanMatch;
-    r.tag_id = tag_id;
-    r.a_T_b = m.a_T_b;
-    r.submap = m.candidate.submap;
-    r.node = m.candidate.node;
-    r.submap_T_node = m.candidate.submap_T_node;
-    r.score = m.candidate.score;
-    match_records.push_back(r);
+    match_records.push_back(
+        MakeRecord(stamp_seconds, a, b, TeamConstraintKind::kTagScanMatch, tag_id, m.a_T_b, &m.candidate));
   }
   if (matches.empty()) {
     const std::string reason = any_submap ? "rejected: no scan match around the tag estimate scores >= " +
@@ -670,17 +675,9 @@ void TeamEstimator::SearchInterRobot(double stamp_seconds, const NodeId& node) {
         node, a, a_T_node, options_.inter_window_meters, options_.inter_window_radians, options_.inter_min_score, nullptr);
     if (!found.has_value()) continue;
     const std::pair<int, int> pair{std::min(a, q), std::max(a, q)};
-    TeamConstraintRecord record;
-    record.stamp_seconds = stamp_seconds;
-    record.robot_a = pair.first;
-    record.robot_b = pair.second;
-    record.kind = TeamConstraintKind::kScanMatch;
     const Pose2 a_T_q = graph_->SubmapPose(found->submap) * found->submap_T_node * graph_->NodePose(node).inverse();
-    record.a_T_b = a == pair.first ? a_T_q : a_T_q.inverse();
-    record.submap = found->submap;
-    record.node = found->node;
-    record.submap_T_node = found->submap_T_node;
-    record.score = found->score;
+    TeamConstraintRecord record = MakeRecord(stamp_seconds, pair.first, pair.second, TeamConstraintKind::kScanMatch,
+                                             -1, a == pair.first ? a_T_q : a_T_q.inverse(), &*found);
     if (!graph_->AddConstraint(*found)) continue;
     inter_constraints_.push_back({a, q, found->submap, found->node, false});
     ++stats_.inter_constraints;
