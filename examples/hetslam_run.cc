@@ -339,7 +339,11 @@ int Run() {
   // Level scans (CARMEN logs) have no floor obstacles or walls: the planner map is the map.
   const OnlineEstimatorStats stats = estimator->stats();
   std::unique_ptr<OccupancyGrid> obstacles;
-  if (stats.floor_obstacle_points > 0) obstacles = estimator->RenderMap(SubmapGraph::Layer::kFloorObstacles);
+  if (stats.floor_obstacle_points > 0) {
+    obstacles = estimator->RenderMap(SubmapGraph::Layer::kFloorObstacles);
+    // Every candidate may have lain next to mapped structure (and been left out).
+    if (obstacles->observed_max().x < obstacles->observed_min().x) obstacles.reset();
+  }
   std::vector<Status> written = {WriteMapPgmYaml(*grid, base), WriteTrajectory(trajectory_path, trajectory)};
   if (obstacles != nullptr) {
     written.push_back(WriteMapPgmYaml(*obstacles, (out / "floor_obstacles").string()));
