@@ -216,6 +216,13 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
   }
 }
 
+void OccupancyGrid::AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds) {
+  CHECK(p_world.allFinite()) << "AddCellObservation at a non-finite point";
+  CHECK(std::isfinite(delta_log_odds)) << "AddCellObservation with a non-finite log-odds change";
+  EnsureContains(p_world, p_world);
+  UpdateCell(geometry_.LinearIndex(geometry_.WorldToCell(p_world)), delta_log_odds, nullptr);
+}
+
 void OccupancyGrid::Freeze() {
   frozen_ = true;
   std::vector<Eigen::Vector2f>().swap(hit_sum_);

@@ -71,6 +71,13 @@ class OccupancyGrid {
                   const std::vector<float>* heights = nullptr);
   static constexpr int kWallLabelBit = 3;  // PointLabel::kWall
 
+  // One observation of the cell containing `p_world` from outside the laser model (map merging,
+  // merger/map_merge.h: a teammate's map is one observation per cell): its log-odds change by
+  // `delta_log_odds`, clamped as for scans, and it counts as observed. The grid grows to contain
+  // the point (grow it once with EnsureContains first when adding many). A cell that turns free
+  // forgets its hit point; no hit point is added.
+  void AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds);
+
   CellState State(int linear_index) const {
     if (!observed_[linear_index]) return CellState::kUnknown;
     return IsOccupied(linear_index) ? CellState::kOccupied : CellState::kFree;

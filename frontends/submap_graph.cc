@@ -201,6 +201,12 @@ Pose2 SubmapGraph::Anchor(int robot) const {
   return it == robots_.end() || it->second.anchor < 0 ? Pose2::Identity() : problem_.pose(it->second.anchor);
 }
 
+bool SubmapGraph::SetAnchorEstimate(int robot_id, const Pose2& world_T_robot) {
+  if (robots_.count(robot_id) == 0 || robot_id == first_robot_) return false;
+  problem_.set_pose(EnsureAnchor(robot_id), world_T_robot);
+  return true;
+}
+
 double SubmapGraph::NodeStamp(const NodeId& node) const { return robots_.at(node.robot).nodes.at(node.index).stamp_seconds; }
 
 const ScanPoints& SubmapGraph::NodePoints(const NodeId& node) const {

@@ -127,6 +127,14 @@ class SubmapGraph {
   Pose2 SubmapPose(const SubmapId& submap) const;  // robot frame
   Pose2 LocalToRobot(int robot) const;             // latest local -> robot frame correction
   Pose2 Anchor(int robot) const;                   // world_T_robot (identity before any link)
+  // Sets `robot`'s anchor world_T_robot (creating it if needed): the starting value of the next
+  // solve, e.g. a relative pose from a shared landmark (merger/team_estimator.h) given before
+  // the robot's first inter-robot constraint, which would otherwise start it at identity.
+  // Returns false, changing nothing, for an unknown robot or the world robot (its anchor is held
+  // constant at identity).
+  bool SetAnchorEstimate(int robot, const Pose2& world_T_robot);
+  // The robot whose anchor is the team's world: the first robot that added a node (-1 before).
+  int world_robot() const { return first_robot_; }
   double NodeStamp(const NodeId& node) const;
   const ScanPoints& NodePoints(const NodeId& node) const;
   const Pose2& NodeLocalPose(const NodeId& node) const;

@@ -1,0 +1,59 @@
+#include "merger/map_merge.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+#include "glog/logging.h"
+
+namespace hetslam {
+
+bool MapMergeOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (!(occupied_log_odds > 0)) msg << "occupied_log_odds must be > 0; ";
+  if (!(free_log_odds < 0)) msg << "free_log_odds must be < 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_T_teammate,
+                             const MapMergeOptions& options, OccupancyGrid* merged) {
+  std::string error;
+  CHECK(options.IsValid(&error)) << "invalid MapMergeOptions: " << error;
+  const CellIndex lo = teammate.observed_min(), hi = teammate.observed_max();
+  if (hi.x < lo.x || hi.y < lo.y) return 0;  // nothing observed
+  const GridGeometry& source = teammate.geometry();
+  // The teammate's observed box in the merged frame.
+  const Eigen::Vector2d box_min = source.CellMinCorner(lo);
+  const Eigen::Vector2d box_max = source.CellMinCorner({hi.x + 1, hi.y + 1});
+  Eigen::Vector2d min = Eigen::Vector2d::Constant(INFINITY), max = Eigen::Vector2d::Constant(-INFINITY);
+  for (const Eigen::Vector2d& corner : {box_min, box_max, Eigen::Vector2d(box_min.x(), box_max.y()),
+                                        Eigen::Vector2d(box_max.x(), box_min.y())}) {
+    const Eigen::Vector2d p = merged_T_teammate * corner;
+    min = min.cwiseMin(p);
+    max = max.cwiseMax(p);
+  }
+  merged->EnsureContains(min, max);
+  const GridGeometry& target = merged->geometry();
+  const CellIndex first = target.WorldToCell(min), last = target.WorldToCell(max);
+  const Pose2 teammate_T_merged = merged_T_teammate.inverse();
+  // Decide every cell first, then add: the grid does not grow inside the box (EnsureContains
+  // above), but keep the reads of `teammate` apart from the writes in case both are one grid.
+  std::vector<std::pair<Eigen::Vector2d, float>> observations;
+  for (int y = first.y; y <= last.y; ++y) {
+    for (int x = first.x; x <= last.x; ++x) {
+      const Eigen::Vector2d centre = target.CellCenter({x, y});
+      const CellIndex c = source.WorldToCell(teammate_T_merged * centre);
+      if (!source.Contains(c)) continue;
+      const CellState state = teammate.State(c);
+      if (state == CellState::kUnknown) continue;
+      observations.emplace_back(centre, static_cast<float>(state == CellState::kOccupied ? options.occupied_log_odds
+                                                                                          : options.free_log_odds));
+    }
+  }
+  for (const auto& [centre, delta] : observations) merged->AddCellObservation(centre, delta);
+  return static_cast<int>(observations.size());
+}
+
+}  // namespace hetslam

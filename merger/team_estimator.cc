@@ -1,0 +1,813 @@
+#include "merger/team_estimator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+#include "frontends/loop_closer.h"
+#include "glog/logging.h"
+#include "opencv2/imgcodecs.hpp"
+
+namespace hetslam {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+std::string Text(const Pose2& p) {
+  std::ostringstream out;
+  out.precision(3);
+  out << std::fixed << "(" << p.x() << ", " << p.y() << ", " << p.theta() / kDeg << " deg)";
+  return out.str();
+}
+
+// Uniform in [0, 1) from 53 random bits: the same numbers on every platform.
+double Uniform(std::mt19937_64* rng) { return static_cast<double>((*rng)() >> 11) * 0x1.0p-53; }
+
+bool Within(const Pose2& difference, double meters, double radians) {
+  return difference.translation().norm() <= meters && std::abs(difference.theta()) <= radians;
+}
+
+}  // namespace
+
+const char* TeamConstraintKindName(TeamConstraintKind kind) {
+  switch (kind) {
+    case TeamConstraintKind::kTagRelativePose:
+      return "tag_eq4";
+    case TeamConstraintKind::kTagScanMatch:
+      return "tag_scan_match";
+    case TeamConstraintKind::kScanMatch:
+      return "scan_match";
+  }
+  return "unknown";
+}
+
+TagDetectorOptions TeamEstimatorOptions::DefaultTeamDetectorOptions() {
+  TagDetectorOptions options;
+  options.decimate = 1.5;
+  options.sigma_pixels = 0.7;
+  return options;
+}
+
+ScanMatcherOptions TeamEstimatorOptions::DefaultTeamMatcherOptions() {
+  ScanMatcherOptions options = LoopCloserOptions::DefaultMatcherOptions();
+  // The window is set per search from what is known about the relative pose; no motion prior
+  // inside it (the estimate is not a prediction of a moving robot).
+  options.translation_penalty_per_square_meter = 0.0;
+  options.rotation_penalty_per_square_radian = 0.0;
+  return options;
+}
+
+bool TeamEstimatorOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  std::string sub;
+  if (!graph.IsValid(&sub)) msg << "graph: " << sub;
+  if (!detector.IsValid(&sub)) msg << "detector: " << sub;
+  if (!sighting.IsValid(&sub)) msg << "sighting: " << sub;
+  if (!places.IsValid(&sub)) msg << "places: " << sub;
+  if (!matcher.IsValid(&sub)) msg << "matcher: " << sub;
+  for (const auto& [id, size] : tag_sizes_meters) {
+    if (!(size > 0)) msg << "tag " << id << " size must be > 0; ";
+  }
+  if (!(attitude_max_age_seconds >= 0 && min_image_interval_seconds >= 0 && skip_image_within_meters >= 0 &&
+        skip_image_within_radians >= 0))
+    msg << "attitude age, image interval and skip bounds must be >= 0; ";
+  if (!(link_min_score >= 0 && link_min_score < 1 && inter_min_score >= 0 && inter_min_score < 1))
+    msg << "link_min_score and inter_min_score must be in [0, 1); ";
+  if (link_min_matches < 1 || link_max_nodes_per_robot < 1) msg << "link_min_matches and link_max_nodes_per_robot must be >= 1; ";
+  if (!(link_agreement_meters > 0 && link_agreement_radians > 0 && tag_agreement_meters > 0 && tag_agreement_radians > 0))
+    msg << "agreement bounds must be > 0; ";
+  if (!(link_window_min_meters > 0 && link_window_max_meters >= link_window_min_meters && link_window_min_radians > 0 &&
+        link_window_max_radians >= link_window_min_radians))
+    msg << "link windows must satisfy 0 < min <= max; ";
+  if (!(link_retry_seconds >= 0)) msg << "link_retry_seconds must be >= 0; ";
+  if (!(inter_search_travel_meters >= 0 && inter_search_turn_radians >= 0 && inter_window_meters > 0 &&
+        inter_window_radians > 0 && inter_min_spacing_meters >= 0 && second_constraint_min_distance_meters >= 0 &&
+        submap_margin_meters >= 0))
+    msg << "inter-robot search windows must be > 0, travel, spacing and distances >= 0; ";
+  if (!(min_submap_overlap >= 0 && min_submap_overlap <= 1) || max_submaps_per_match < 1)
+    msg << "min_submap_overlap must be in [0, 1], max_submaps_per_match >= 1; ";
+  if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
+  if (!(wrong_tag_id_rate >= 0 && wrong_tag_id_rate <= 1)) msg << "wrong_tag_id_rate must be in [0, 1]; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+TeamEstimator::TeamEstimator(const TeamEstimatorOptions& options)
+    : options_(options),
+      graph_(std::make_unique<SubmapGraph>(options.graph)),
+      detector_(options.detector),
+      matcher_(options.matcher),
+      fault_rng_(options.fault_seed) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid TeamEstimatorOptions: " << error;
+  for (const auto& [id, size] : options_.tag_sizes_meters) known_tag_ids_.push_back(id);
+}
+
+TeamEstimator::~TeamEstimator() = default;
+
+Status TeamEstimator::AddRobot(const TeamRobotOptions& robot_options, int* index) {
+  if (started_) return Status::Error("AddRobot after the first measurement");
+  OnlineEstimatorOptions estimator_options = robot_options.estimator;
+  estimator_options.robot = num_robots();
+  std::string error;
+  if (!estimator_options.IsValid(&error)) {
+    return Status::Error("robot '" + robot_options.name + "': invalid estimator options: " + error);
+  }
+  if (robot_options.has_camera) {
+    const CameraIntrinsics& k = robot_options.intrinsics;
+    if (!(k.fx > 0 && k.fy > 0 && k.width > 0 && k.height > 0)) {
+      return Status::Error("robot '" + robot_options.name + "': camera intrinsics need fx, fy, width, height > 0");
+    }
+  }
+  Robot robot;
+  robot.name = robot_options.name;
+  robot.estimator = std::make_unique<OnlineEstimator>(estimator_options, graph_.get());
+  robot.has_camera = robot_options.has_camera;
+  robot.intrinsics = robot_options.intrinsics;
+  robot.laser_T_camera = robot_options.laser_T_camera;
+  robots_.push_back(std::move(robot));
+  parent_.push_back(num_robots() - 1);
+  *index = num_robots() - 1;
+  return Status::Ok();
+}
+
+const std::string& TeamEstimator::robot_name(int robot) const { return robots_.at(robot).name; }
+
+const OnlineEstimator& TeamEstimator::estimator(int robot) const { return *robots_.at(robot).estimator; }
+
+Status TeamEstimator::Add(int robot_index, const Measurement& measurement) {
+  if (robot_index < 0 || robot_index >= num_robots()) {
+    return Status::Error("measurement for unknown robot " + std::to_string(robot_index));
+  }
+  if (finished_) return Status::Error("TeamEstimator::Add after Finish()");
+  started_ = true;
+  Robot& robot = robots_[robot_index];
+  const double stamp = StampOf(measurement);
+  if (const auto* image = std::get_if<CameraImage>(&measurement)) return AddImage(robot_index, *image);
+  if (const auto* attitude = std::get_if<AttitudeReading>(&measurement)) {
+    robot.attitudes.push_back(*attitude);
+    while (robot.attitudes.size() > 2 && robot.attitudes[1].stamp_seconds < stamp - 2.0) robot.attitudes.pop_front();
+  }
+  const auto* laser = std::get_if<LaserReading>(&measurement);
+  if (laser != nullptr) robot.body_T_laser = laser->scan.robot_T_sensor;
+  const Status status = robot.estimator->Add(measurement);
+  if (laser != nullptr && status.ok()) AfterScan(robot_index, stamp);
+  return status;
+}
+
+void TeamEstimator::AfterScan(int robot_index, double stamp_seconds) {
+  Robot& robot = robots_[robot_index];
+  const int nodes = graph_->num_nodes(robot_index);
+  if (nodes == robot.nodes_seen) return;
+  robot.nodes_seen = nodes;
+  // Links waiting for a finished submap.
+  for (const auto& [key, state] : link_states_) {
+    if (stamp_seconds >= state.next_attempt_stamp && Root(std::get<0>(key)) != Root(std::get<1>(key))) {
+      TryLinks(stamp_seconds);
+      break;
+    }
+  }
+  if (!options_.search_more_constraints || Group(robot_index).size() < 2) return;
+  const NodeId node{robot_index, nodes - 1};
+  const Pose2 pose = graph_->NodePose(node);
+  if (robot.last_search_pose.has_value()) {
+    const Pose2 moved = Between(*robot.last_search_pose, pose);
+    if (moved.translation().norm() < options_.inter_search_travel_meters &&
+        std::abs(moved.theta()) < options_.inter_search_turn_radians) {
+      return;
+    }
+  }
+  robot.last_search_pose = pose;
+  SearchInterRobot(stamp_seconds, node);
+}
+
+Status TeamEstimator::AddImage(int robot_index, const CameraImage& image) {
+  Robot& robot = robots_[robot_index];
+  ++stats_.images;
+  if (!robot.has_camera || known_tag_ids_.empty()) return Status::Ok();
+  if (graph_->num_nodes(robot_index) == 0) return Status::Ok();  // no pose to see from yet
+  const double stamp = image.stamp_seconds;
+  Pose2 robot_T_body;
+  HETSLAM_RETURN_IF_ERROR(robot.estimator->PoseAt(stamp, &robot_T_body));
+  if (robot.last_detected_image_stamp.has_value() && !robot.tag_in_view) {
+    if (stamp - *robot.last_detected_image_stamp < options_.min_image_interval_seconds) return Status::Ok();
+    const Pose2 moved = Between(*robot.last_detected_image_pose, robot_T_body);
+    if (moved.translation().norm() < options_.skip_image_within_meters &&
+        std::abs(moved.theta()) < options_.skip_image_within_radians) {
+      return Status::Ok();
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const cv::Mat gray = cv::imread(image.path, cv::IMREAD_GRAYSCALE);
+  if (gray.empty()) {
+    return Status::Error((image.line_number > 0 ? "line " + std::to_string(image.line_number) + ": " : std::string()) +
+                         "cannot read image '" + image.path + "'");
+  }
+  // Detected with a unit tag: a pinhole pose's translation scales with the tag's size, its
+  // rotation does not, so each tag's own size is applied afterwards.
+  std::vector<TagDetection> detections;
+  const Status detected = detector_.Detect(gray, robot.intrinsics, 1.0, &detections);
+  stats_.detect_seconds += Seconds(start);
+  if (!detected.ok()) return Status::Error("image '" + image.path + "': " + detected.message());
+  ++stats_.images_detected;
+  robot.last_detected_image_stamp = stamp;
+  robot.last_detected_image_pose = robot_T_body;
+  robot.tag_in_view = std::any_of(detections.begin(), detections.end(), [&](const TagDetection& d) {
+    return options_.tag_sizes_meters.count(d.id) > 0;
+  });
+
+  double roll = 0.0, pitch = 0.0;
+  if (options_.use_attitude) {
+    for (auto it = robot.attitudes.rbegin(); it != robot.attitudes.rend(); ++it) {
+      if (it->stamp_seconds > stamp) continue;
+      if (stamp - it->stamp_seconds <= options_.attitude_max_age_seconds) {
+        roll = it->roll_radians;
+        pitch = it->pitch_radians;
+      }
+      break;
+    }
+  }
+  const Eigen::Isometry3d body_T_camera = robot.body_T_laser * robot.laser_T_camera;
+  for (TagDetection& detection : detections) {
+    auto size = options_.tag_sizes_meters.find(detection.id);
+    if (size == options_.tag_sizes_meters.end()) continue;
+    ++stats_.detections;
+    if (options_.wrong_tag_id_rate > 0 && known_tag_ids_.size() >= 2 &&
+        Uniform(&fault_rng_) < options_.wrong_tag_id_rate) {
+      // Another known id, uniformly.
+      std::vector<int> others;
+      for (int id : known_tag_ids_) {
+        if (id != detection.id) others.push_back(id);
+      }
+      const int pick = std::min(static_cast<int>(others.size()) - 1,
+                                static_cast<int>(Uniform(&fault_rng_) * static_cast<double>(others.size())));
+      detection.id = others[pick];
+      ++stats_.detections_relabelled;
+    }
+    Eigen::Isometry3d camera_T_tag = detection.camera_T_tag;
+    camera_T_tag.translation() *= size->second;
+    PlanarTagSighting sighting;
+    if (!PlanarTagPose(body_T_camera, camera_T_tag, roll, pitch, options_.sighting, &sighting).ok()) {
+      ++stats_.sightings_refused;
+      continue;
+    }
+    HETSLAM_RETURN_IF_ERROR(AddTagSighting(robot_index, stamp, detection.id, sighting));
+  }
+  return Status::Ok();
+}
+
+Status TeamEstimator::AddTagSighting(int robot_index, double stamp_seconds, int tag_id,
+                                     const PlanarTagSighting& sighting) {
+  if (robot_index < 0 || robot_index >= num_robots()) {
+    return Status::Error("tag sighting for unknown robot " + std::to_string(robot_index));
+  }
+  if (finished_) return Status::Error("TeamEstimator::AddTagSighting after Finish()");
+  started_ = true;
+  Robot& robot = robots_[robot_index];
+  const int nodes = graph_->num_nodes(robot_index);
+  if (nodes == 0) {
+    ++stats_.sightings_refused;
+    return Status::Ok();
+  }
+  Pose2 robot_T_body;
+  HETSLAM_RETURN_IF_ERROR(robot.estimator->PoseAt(stamp_seconds, &robot_T_body));
+  // Tied to the newest node: the sighting then moves with it when the graph is re-optimised.
+  Sighting s;
+  s.tag_id = tag_id;
+  s.stamp_seconds = stamp_seconds;
+  s.node = {robot_index, nodes - 1};
+  const Pose2 node_T_body = Between(graph_->NodePose(s.node), robot_T_body);
+  s.node_T_tag = node_T_body * sighting.body_T_tag;
+  s.covariance = RotateCovariance(node_T_body, sighting.covariance);
+  s.range_meters = sighting.range_meters;
+  robot.sightings.push_back(s);
+  ++stats_.sightings;
+  TryLinks(stamp_seconds);
+  return Status::Ok();
+}
+
+std::vector<TagPlace> TeamEstimator::Places(int robot_index) const {
+  std::vector<PlacedTagSighting> placed;
+  for (const Sighting& s : robots_[robot_index].sightings) {
+    const Pose2 robot_T_node = graph_->NodePose(s.node);
+    placed.push_back({s.tag_id, robot_T_node * s.node_T_tag, RotateCovariance(robot_T_node, s.covariance)});
+  }
+  return GroupTagSightings(placed, options_.places);
+}
+
+void TeamEstimator::TryLinks(double stamp_seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<std::vector<TagPlace>> places(num_robots());
+  for (int r = 0; r < num_robots(); ++r) places[r] = Places(r);
+  for (int a = 0; a < num_robots(); ++a) {
+    for (int b = a + 1; b < num_robots(); ++b) {
+      if (Root(a) == Root(b)) continue;
+      for (const TagPlace& place_a : places[a]) {
+        if (!place_a.confirmed || place_a.ambiguous) continue;
+        const TagPlace* place_b = FindTagPlace(places[b], place_a.tag_id);
+        if (place_b == nullptr) continue;
+        LinkState& state = link_states_[{a, b, place_a.tag_id}];
+        if (stamp_seconds < state.next_attempt_stamp) continue;
+        state.next_attempt_stamp = stamp_seconds + options_.link_retry_seconds;
+        if (TryLink(stamp_seconds, a, b, place_a.tag_id, place_a, *place_b)) break;
+      }
+    }
+  }
+  stats_.link_seconds += Seconds(start);
+}
+
+bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, const TagPlace& place_a,
+                            const TagPlace& place_b) {
+  ++stats_.link_attempts;
+  LinkState& state = link_states_[{a, b, tag_id}];
+  const RelativePoseEstimate tag_estimate =
+      RelativePoseFromLandmark(place_a.robot_T_tag, place_a.covariance, place_b.robot_T_tag, place_b.covariance);
+  TeamConstraintRecord tag_record;
+  tag_record.stamp_seconds = stamp_seconds;
+  tag_record.robot_a = a;
+  tag_record.robot_b = b;
+  tag_record.kind = TeamConstraintKind::kTagRelativePose;
+  tag_record.tag_id = tag_id;
+  tag_record.a_T_b = tag_estimate.robot1_T_robot2;
+  auto finish = [&](bool accepted, const std::string& reason, std::vector<TeamConstraintRecord> matches) {
+    // Record an attempt only when its outcome differs from the previous attempt's.
+    if (!accepted && reason == state.last_outcome) return accepted;
+    state.last_outcome = reason;
+    tag_record.accepted = accepted;
+    tag_record.reason = reason;
+    Record(tag_record);
+    for (TeamConstraintRecord& m : matches) Record(std::move(m));
+    return accepted;
+  };
+
+  // Every other tag both robots have placed must tell the same relative pose (compared at the
+  // tag, where the two estimates are measured, not at the frames' origins).
+  const std::vector<TagPlace> places_a = Places(a), places_b = Places(b);
+  for (const TagPlace& other_a : places_a) {
+    if (!other_a.confirmed || other_a.ambiguous || other_a.tag_id == tag_id) continue;
+    const TagPlace* other_b = FindTagPlace(places_b, other_a.tag_id);
+    if (other_b == nullptr) continue;
+    const Pose2 other_a_T_b = other_a.robot_T_tag * other_b->robot_T_tag.inverse();
+    const Pose2 at_other_tag = Between(tag_estimate.robot1_T_robot2 * other_b->robot_T_tag, other_a.robot_T_tag);
+    if (!Within(at_other_tag, options_.tag_agreement_meters, options_.tag_agreement_radians)) {
+      std::ostringstream reason;
+      reason << "rejected: tag " << other_a.tag_id << " gives " << Text(other_a_T_b) << ", " << at_other_tag.translation().norm()
+             << " m / " << std::abs(at_other_tag.theta()) / kDeg << " deg from tag " << tag_id
+             << " (a wrong id or a wrong place)";
+      return finish(false, reason.str(), {});
+    }
+  }
+
+  // Scan-match refinement: sighting nodes of each robot against the other's finished submaps,
+  // each predicted through the two tag places (the node's own eq. 4 estimate and covariance).
+  struct Match {
+    ConstraintCandidate candidate;
+    Pose2 a_T_b;    // implied relative pose of the frames
+    Pose2 a_T_tag;  // where it puts b's tag place in a's frame
+  };
+  std::vector<Match> matches;
+  bool any_submap = false;
+  for (const int seer : {b, a}) {
+    const int other = seer == b ? a : b;
+    const TagPlace& seer_place = seer == b ? place_b : place_a;
+    const TagPlace& other_place = seer == b ? place_a : place_b;
+    std::vector<std::pair<double, int>> nodes;  // (range, node index), best seen first
+    for (int i : seer_place.members) {
+      const Sighting& s = robots_[seer].sightings[i];
+      if (s.tag_id == tag_id) nodes.emplace_back(s.range_meters, s.node.index);
+    }
+    std::sort(nodes.begin(), nodes.end());
+    std::vector<int> tried;
+    for (const auto& [range, index] : nodes) {
+      if (static_cast<int>(tried.size()) >= options_.link_max_nodes_per_robot) break;
+      if (std::find(tried.begin(), tried.end(), index) != tried.end()) continue;
+      tried.push_back(index);
+      const NodeId node{seer, index};
+      const Pose2 seer_T_node = graph_->NodePose(node);
+      const Pose2 robot_T_node = seer_T_node;
+      const Pose2 node_T_tag = robot_T_node.inverse() * seer_place.robot_T_tag;
+      const RelativePoseEstimate predicted =
+          RelativePoseFromLandmark(other_place.robot_T_tag, other_place.covariance, node_T_tag,
+                                   RotateCovariance(robot_T_node.inverse(), seer_place.covariance));
+      const double sigma_xy = std::sqrt(std::max(predicted.covariance(0, 0), predicted.covariance(1, 1)));
+      const double linear = std::clamp(3.0 * sigma_xy, options_.link_window_min_meters, options_.link_window_max_meters);
+      const double angular = std::clamp(3.0 * std::sqrt(predicted.covariance(2, 2)), options_.link_window_min_radians,
+                                        options_.link_window_max_radians);
+      bool covered = false;
+      const std::optional<ConstraintCandidate> found =
+          MatchNodeAgainstRobot(node, other, predicted.robot1_T_robot2, linear, angular, options_.link_min_score, &covered);
+      any_submap = any_submap || covered;
+      if (!found.has_value()) continue;
+      // other_T_seer implied by the match.
+      const Pose2 other_T_seer = graph_->SubmapPose(found->submap) * found->submap_T_node * seer_T_node.inverse();
+      Match match;
+      match.candidate = *found;
+      match.a_T_b = seer == b ? other_T_seer : other_T_seer.inverse();
+      match.a_T_tag = match.a_T_b * place_b.robot_T_tag;
+      matches.push_back(match);
+    }
+  }
+  std::vector<TeamConstraintRecord> match_records;
+  for (const Match& m : matches) {
+    TeamConstraintRecord r;
+    r.stamp_seconds = stamp_seconds;
+    r.robot_a = a;
+    r.robot_b = b;
+    r.kind = TeamConstraintKind::kTagScanMatch;
+    r.tag_id = tag_id;
+    r.a_T_b = m.a_T_b;
+    r.submap = m.candidate.submap;
+    r.node = m.candidate.node;
+    r.submap_T_node = m.candidate.submap_T_node;
+    r.score = m.candidate.score;
+    match_records.push_back(r);
+  }
+  if (matches.empty()) {
+    const std::string reason = any_submap ? "rejected: no scan match around the tag estimate scores >= " +
+                                                std::to_string(options_.link_min_score)
+                                          : "waiting: no finished submap covers the sightings yet";
+    return finish(false, reason, {});
+  }
+  // The largest set of matches that agree with each other (at the tag): the first one found
+  // with the most agreeing, ties broken by total score.
+  std::vector<int> best_set;
+  double best_score = -1.0;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    std::vector<int> set;
+    double score = 0.0;
+    for (size_t j = 0; j < matches.size(); ++j) {
+      if (Within(Between(matches[i].a_T_tag, matches[j].a_T_tag), options_.link_agreement_meters,
+                 options_.link_agreement_radians)) {
+        set.push_back(static_cast<int>(j));
+        score += matches[j].candidate.score;
+      }
+    }
+    if (set.size() > best_set.size() || (set.size() == best_set.size() && score > best_score)) {
+      best_set = set;
+      best_score = score;
+    }
+  }
+  if (static_cast<int>(best_set.size()) < options_.link_min_matches) {
+    std::ostringstream reason;
+    reason << "rejected: " << matches.size() << " scan matches, at most " << best_set.size() << " agreeing (need "
+           << options_.link_min_matches << ")";
+    for (TeamConstraintRecord& r : match_records) r.reason = "not enough agreeing matches";
+    return finish(false, reason.str(), match_records);
+  }
+
+  // Accepted. The refined estimate: the best-scoring agreeing match.
+  int best = best_set.front();
+  for (int i : best_set) {
+    if (matches[i].candidate.score > matches[best].candidate.score) best = i;
+  }
+  const Pose2 a_T_b = matches[best].a_T_b;
+  // Anchors: the group that does not hold the world's anchor moves onto the other.
+  const int world = graph_->world_robot();
+  const bool move_b = Root(b) != Root(world);
+  const int fixed_robot = move_b ? a : b, moving_robot = move_b ? b : a;
+  const Pose2 fixed_T_moving = move_b ? a_T_b : a_T_b.inverse();
+  const Pose2 world_T_moving_new = graph_->Anchor(fixed_robot) * fixed_T_moving;
+  const Pose2 world_T_moving_old = graph_->Anchor(moving_robot);
+  for (int q : Group(moving_robot)) {
+    graph_->SetAnchorEstimate(q, world_T_moving_new * Between(world_T_moving_old, graph_->Anchor(q)));
+  }
+  std::vector<Eigen::Vector2d> link_places;
+  for (int i : best_set) {
+    if (!graph_->AddConstraint(matches[i].candidate)) continue;
+    const ConstraintCandidate& c = matches[i].candidate;
+    inter_constraints_.push_back({c.submap.robot, c.node.robot, c.submap, c.node, true});
+    link_places.push_back(NodeInRobotFrame(c.node, a).translation());
+    match_records[i].accepted = true;
+    match_records[i].reason = "first constraint";
+    ++stats_.inter_constraints;
+  }
+  for (TeamConstraintRecord& r : match_records) {
+    if (!r.accepted && r.reason.empty()) r.reason = "disagrees with the agreeing matches";
+  }
+  parent_[Root(moving_robot)] = Root(fixed_robot);
+  Solve(options_.max_iterations_final);
+  const bool linked = Root(a) == Root(b);
+  std::ostringstream reason;
+  reason << (linked ? "accepted" : "rejected after the solve (the graph's consistency check removed it)") << ": tag "
+         << tag_id << " refined by " << best_set.size() << " of " << matches.size() << " scan matches";
+  finish(linked, reason.str(), match_records);
+  if (!linked) return false;
+  ++stats_.links;
+  first_link_places_[{a, b}] = link_places;
+  TeamMergeEvent event;
+  event.kind = TeamMergeEvent::Kind::kFirstLink;
+  event.stamp_seconds = stamp_seconds;
+  event.robot_a = a;
+  event.robot_b = b;
+  std::ostringstream description;
+  description << "tag " << tag_id << " (eq. 4 " << Text(tag_estimate.robot1_T_robot2) << ") refined by "
+              << best_set.size() << " scan matches";
+  event.description = description.str();
+  event.after = GroupPairPoses(a);
+  events_.push_back(event);
+  // Retrospectively: every robot of the joined group against its teammates (paper §V-B, "we look
+  // retrospectively for a new constraint").
+  if (options_.search_more_constraints) {
+    for (int q : Group(a)) {
+      std::optional<Pose2> last;
+      for (int i = 0; i < graph_->num_nodes(q); ++i) {
+        const NodeId node{q, i};
+        const Pose2 pose = graph_->NodePose(node);
+        if (last.has_value()) {
+          const Pose2 moved = Between(*last, pose);
+          if (moved.translation().norm() < options_.inter_search_travel_meters &&
+              std::abs(moved.theta()) < options_.inter_search_turn_radians) {
+            continue;
+          }
+        }
+        last = pose;
+        SearchInterRobot(stamp_seconds, node);
+      }
+      robots_[q].last_search_pose = last;
+    }
+  }
+  return true;
+}
+
+std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const NodeId& node, int submap_robot,
+                                                                        const Pose2& submap_robot_T_node,
+                                                                        double linear_window, double angular_window,
+                                                                        double min_score, bool* covered) {
+  const ScanPoints& points = graph_->NodePoints(node);
+  if (points.matching.empty()) return std::nullopt;
+  // Candidate submaps: finished, near (the box of their nodes grown by submap_margin_meters), and
+  // seeing most of what the node sees (the share of its points on known cells at the estimate).
+  std::vector<std::pair<double, int>> candidates;  // (-overlap, submap index): best first
+  for (int s = 0; s < graph_->num_submaps(submap_robot); ++s) {
+    const SubmapId submap{submap_robot, s};
+    const LaserMap* map = graph_->FinishedSubmapMap(submap);
+    if (map == nullptr) continue;
+    const Pose2 predicted = graph_->SubmapPose(submap).inverse() * submap_robot_T_node;
+    Eigen::Vector2d box_min, box_max;
+    graph_->SubmapBox(submap, &box_min, &box_max);
+    const Eigen::Vector2d p = predicted.translation();
+    const double margin = options_.submap_margin_meters;
+    if ((p.array() < box_min.array() - margin).any() || (p.array() > box_max.array() + margin).any()) continue;
+    const OccupancyGrid& grid = map->grid();
+    int known = 0;
+    for (const Eigen::Vector2f& q : points.matching) {
+      const CellIndex c = grid.geometry().WorldToCell(predicted * q.cast<double>());
+      if (grid.geometry().Contains(c) && grid.State(c) != CellState::kUnknown) ++known;
+    }
+    const double overlap = static_cast<double>(known) / static_cast<double>(points.matching.size());
+    if (overlap >= options_.min_submap_overlap) candidates.emplace_back(-overlap, s);
+  }
+  std::sort(candidates.begin(), candidates.end());
+  if (static_cast<int>(candidates.size()) > options_.max_submaps_per_match) candidates.resize(options_.max_submaps_per_match);
+  if (covered != nullptr && !candidates.empty()) *covered = true;
+  std::optional<ConstraintCandidate> best;
+  for (const auto& [negative_overlap, s] : candidates) {
+    const SubmapId submap{submap_robot, s};
+    const Pose2 predicted = graph_->SubmapPose(submap).inverse() * submap_robot_T_node;
+    const ScanMatchResult match = matcher_.MatchWithinWindow(*graph_->FinishedSubmapMap(submap), predicted,
+                                                             points.matching, linear_window, angular_window,
+                                                             points.matching_weights);
+    VLOG(2) << "match robot " << node.robot << " node " << node.index << " in robot " << submap_robot << " submap " << s
+            << " (overlap " << -negative_overlap << "): converged " << match.converged << " score " << match.score
+            << " correction " << Between(predicted, match.pose);
+    if (!match.converged || match.score < min_score) continue;
+    // The window's border: the peak may lie outside it.
+    const Pose2 correction = Between(predicted, match.pose);
+    if (correction.translation().cwiseAbs().maxCoeff() > linear_window || std::abs(correction.theta()) > angular_window) {
+      continue;
+    }
+    if (best.has_value() && match.score <= best->score) continue;
+    ConstraintCandidate candidate;
+    candidate.submap = submap;
+    candidate.node = node;
+    candidate.submap_T_node = match.pose;
+    candidate.score = match.score;
+    candidate.robust = true;
+    best = candidate;
+  }
+  return best;
+}
+
+void TeamEstimator::SearchInterRobot(double stamp_seconds, const NodeId& node) {
+  const auto start = std::chrono::steady_clock::now();
+  const int q = node.robot;
+  bool added = false;
+  for (int a : Group(q)) {
+    if (a == q) continue;
+    const Pose2 a_T_node = NodeInRobotFrame(node, a);
+    // Spread out: not next to an earlier constraint of this pair.
+    bool near_existing = false;
+    for (const InterConstraint& c : inter_constraints_) {
+      if (!((c.robot_a == a && c.robot_b == q) || (c.robot_a == q && c.robot_b == a))) continue;
+      if ((NodeInRobotFrame(c.node, a).translation() - a_T_node.translation()).norm() < options_.inter_min_spacing_meters) {
+        near_existing = true;
+        break;
+      }
+    }
+    VLOG(2) << "inter search robot " << q << " node " << node.index << " in robot " << a << " at " << a_T_node
+            << (near_existing ? " (near an existing constraint)" : "");
+    if (near_existing) continue;
+    ++stats_.inter_searches;
+    const std::optional<ConstraintCandidate> found = MatchNodeAgainstRobot(
+        node, a, a_T_node, options_.inter_window_meters, options_.inter_window_radians, options_.inter_min_score, nullptr);
+    if (!found.has_value()) continue;
+    const std::pair<int, int> pair{std::min(a, q), std::max(a, q)};
+    TeamConstraintRecord record;
+    record.stamp_seconds = stamp_seconds;
+    record.robot_a = pair.first;
+    record.robot_b = pair.second;
+    record.kind = TeamConstraintKind::kScanMatch;
+    const Pose2 a_T_q = graph_->SubmapPose(found->submap) * found->submap_T_node * graph_->NodePose(node).inverse();
+    record.a_T_b = a == pair.first ? a_T_q : a_T_q.inverse();
+    record.submap = found->submap;
+    record.node = found->node;
+    record.submap_T_node = found->submap_T_node;
+    record.score = found->score;
+    if (!graph_->AddConstraint(*found)) continue;
+    inter_constraints_.push_back({a, q, found->submap, found->node, false});
+    ++stats_.inter_constraints;
+    // The pair's second constraint: far from where its first link was made.
+    bool second = false;
+    if (has_second_constraint_.count(pair) == 0) {
+      const auto first = first_link_places_.find(pair);
+      double distance = INFINITY;
+      if (first != first_link_places_.end()) {
+        const Eigen::Vector2d here = NodeInRobotFrame(node, pair.first).translation();
+        for (const Eigen::Vector2d& p : first->second) distance = std::min(distance, (p - here).norm());
+      }
+      second = distance >= options_.second_constraint_min_distance_meters;
+    }
+    if (second) {
+      has_second_constraint_.insert(pair);
+      TeamMergeEvent event;
+      event.kind = TeamMergeEvent::Kind::kSecondConstraint;
+      event.stamp_seconds = stamp_seconds;
+      event.robot_a = pair.first;
+      event.robot_b = pair.second;
+      std::ostringstream description;
+      description << "scan match of " << robots_[q].name << " node " << node.index << " in " << robots_[a].name
+                  << " submap " << found->submap.index << " (score " << found->score << ")";
+      event.description = description.str();
+      event.before = GroupPairPoses(q);
+      Solve(options_.max_iterations_final);  // batch re-optimisation
+      event.after = GroupPairPoses(q);
+      events_.push_back(event);
+      record.reason = "second constraint";
+    } else {
+      record.reason = "further constraint";
+    }
+    record.accepted = true;
+    Record(record);
+    added = true;
+  }
+  if (added) Solve(options_.max_iterations_per_solve);
+  stats_.inter_search_seconds += Seconds(start);
+}
+
+int TeamEstimator::Root(int robot) const {
+  if (robot < 0 || robot >= num_robots()) return robot;
+  while (parent_[robot] != robot) robot = parent_[robot];
+  return robot;
+}
+
+std::vector<int> TeamEstimator::Group(int robot) const {
+  std::vector<int> group;
+  for (int r = 0; r < num_robots(); ++r) {
+    if (Root(r) == Root(robot)) group.push_back(r);
+  }
+  return group;
+}
+
+void TeamEstimator::Solve(int max_iterations) {
+  graph_->Solve(max_iterations).ok();  // an unusable solution keeps the poses (counted by the graph)
+  // Groups follow the inter-robot constraints the graph kept.
+  const std::vector<bool> kept = InterConstraintsKept();
+  std::iota(parent_.begin(), parent_.end(), 0);
+  for (size_t i = 0; i < inter_constraints_.size(); ++i) {
+    if (!kept[i]) continue;
+    const int ra = Root(inter_constraints_[i].robot_a), rb = Root(inter_constraints_[i].robot_b);
+    if (ra != rb) parent_[std::max(ra, rb)] = std::min(ra, rb);
+  }
+}
+
+std::vector<bool> TeamEstimator::InterConstraintsKept() const {
+  std::vector<std::pair<SubmapId, NodeId>> removed;
+  for (const LoopClosureReport& report : graph_->LoopClosures()) {
+    if (report.kind == EdgeKind::kInterRobot && report.removed) removed.emplace_back(report.submap, report.node);
+  }
+  std::vector<bool> kept;
+  for (const InterConstraint& c : inter_constraints_) {
+    kept.push_back(std::none_of(removed.begin(), removed.end(),
+                                [&](const auto& r) { return r.first == c.submap && r.second == c.node; }));
+  }
+  return kept;
+}
+
+Pose2 TeamEstimator::AnchorRelative(int a, int b) const { return Between(graph_->Anchor(a), graph_->Anchor(b)); }
+
+Pose2 TeamEstimator::NodeInRobotFrame(const NodeId& node, int frame_robot) const {
+  return AnchorRelative(frame_robot, node.robot) * graph_->NodePose(node);
+}
+
+std::vector<RobotPairPose> TeamEstimator::GroupPairPoses(int robot) const {
+  std::vector<RobotPairPose> poses;
+  const std::vector<int> group = Group(robot);
+  for (size_t i = 0; i < group.size(); ++i) {
+    for (size_t j = i + 1; j < group.size(); ++j) poses.push_back({group[i], group[j], AnchorRelative(group[i], group[j])});
+  }
+  return poses;
+}
+
+void TeamEstimator::Record(TeamConstraintRecord record) { records_.push_back(std::move(record)); }
+
+void TeamEstimator::Finish() {
+  if (finished_) return;
+  for (Robot& robot : robots_) robot.estimator->Finish();
+  Solve(options_.max_iterations_final);
+  finished_ = true;
+}
+
+bool TeamEstimator::InCommonFrame(int robot) const { return num_robots() > 0 && Root(robot) == Root(0); }
+
+Pose2 TeamEstimator::CommonTRobot(int robot) const {
+  return InCommonFrame(robot) ? AnchorRelative(0, robot) : Pose2::Identity();
+}
+
+bool TeamEstimator::RelativePose(int robot_i, int robot_j, Pose2* i_T_j) const {
+  if (Root(robot_i) != Root(robot_j)) return false;
+  *i_T_j = AnchorRelative(robot_i, robot_j);
+  return true;
+}
+
+std::vector<StampedPose2> TeamEstimator::CommonTrajectory(int robot) const {
+  std::vector<StampedPose2> trajectory = robots_.at(robot).estimator->Trajectory();
+  const Pose2 common_T_robot = CommonTRobot(robot);
+  for (StampedPose2& p : trajectory) p.pose = common_T_robot * p.pose;
+  return trajectory;
+}
+
+std::unique_ptr<OccupancyGrid> TeamEstimator::RenderRobotMapInCommonFrame(int robot) const {
+  std::unique_ptr<OccupancyGrid> own = robots_.at(robot).estimator->RenderMap();
+  const Pose2 common_T_robot = CommonTRobot(robot);
+  if (common_T_robot.ToVector() == Pose2::Identity().ToVector()) return own;
+  // One observation per cell into an empty grid keeps every cell's state (occupied, free).
+  auto resampled = std::make_unique<OccupancyGrid>(own->options());
+  MergeMapAsOneObservation(*own, common_T_robot, MapMergeOptions(), resampled.get());
+  return resampled;
+}
+
+std::unique_ptr<OccupancyGrid> TeamEstimator::RenderMergedMap(const MapMergeOptions& merge) const {
+  std::unique_ptr<OccupancyGrid> merged = robots_.at(0).estimator->RenderMap();
+  for (int r = 1; r < num_robots(); ++r) {
+    if (!InCommonFrame(r)) continue;
+    MergeMapAsOneObservation(*robots_[r].estimator->RenderMap(), CommonTRobot(r), merge, merged.get());
+  }
+  return merged;
+}
+
+std::vector<TeamTagPlace> TeamEstimator::TagPlaces() const {
+  std::vector<TeamTagPlace> all;
+  for (int r = 0; r < num_robots(); ++r) {
+    for (TagPlace& place : Places(r)) all.push_back({r, std::move(place)});
+  }
+  return all;
+}
+
+
+void TeamEstimator::PictureContents(std::vector<MapPictureTrajectory>* trajectories,
+                                    std::vector<MapPictureMarker>* markers) const {
+  for (int r = 0; r < num_robots(); ++r) {
+    if (!InCommonFrame(r)) continue;
+    MapPictureTrajectory trajectory;
+    trajectory.name = robots_[r].name;
+    for (const StampedPose2& p : CommonTrajectory(r)) trajectory.poses.push_back(p.pose);
+    trajectories->push_back(std::move(trajectory));
+  }
+  for (const TeamTagPlace& tag : TagPlaces()) {
+    if (!tag.place.confirmed || !InCommonFrame(tag.robot)) continue;
+    MapPictureMarker marker;
+    marker.kind = MapPictureMarker::Kind::kTag;
+    marker.world = (CommonTRobot(tag.robot) * tag.place.robot_T_tag).translation();
+    marker.label = "tag " + std::to_string(tag.place.tag_id) + " (" + robots_[tag.robot].name + ")";
+    markers->push_back(marker);
+  }
+  const std::vector<bool> kept = InterConstraintsKept();
+  for (size_t i = 0; i < inter_constraints_.size(); ++i) {
+    const InterConstraint& c = inter_constraints_[i];
+    if (!kept[i] || !InCommonFrame(c.robot_a) || !InCommonFrame(c.robot_b)) continue;
+    MapPictureMarker marker;
+    marker.kind = MapPictureMarker::Kind::kConstraint;
+    marker.world = (CommonTRobot(c.node.robot) * graph_->NodePose(c.node)).translation();
+    marker.line_to_world = (CommonTRobot(c.submap.robot) * graph_->SubmapPose(c.submap)).translation();
+    if (c.first_link) marker.label = "link";
+    markers->push_back(marker);
+  }
+}
+
+}  // namespace hetslam

@@ -1,0 +1,356 @@
+// A team of robots mapping together (paper §V-VI, DESIGN.md items 8-11): every robot runs its own
+// online estimator (frontends/online_estimator.h), all on ONE shared submap graph
+// (frontends/submap_graph.h), each in its own frame, starting with no knowledge of the others.
+// The team estimator looks at the robots' camera images for shared landmarks and joins their
+// frames through inter-robot constraints in that graph. Fed measurements one at a time, tagged
+// with their robot, as they arrive (any interleaving; each robot's own stream in its order).
+//
+// Per camera image (a CameraImage measurement):
+//  1. the AprilTag detector (merger/tag_detector.h, tag36h11, tags of known size only);
+//  2. each tag's planar pose in the body's heading frame (merger/landmark_pose.h: camera mount
+//     laser_T_camera, laser mount from the robot's latest LaserReading, roll and pitch from its
+//     latest ATTITUDE reading), tied to the robot's newest node: node_T_tag = the node's pose to
+//     the robot's pose at the image stamp (OnlineEstimator::PoseAt) composed with body_T_tag;
+//     so a sighting moves with its node when the graph is re-optimised;
+//  3. the robot's sightings grouped by place, each place named by a vote of the ids seen there
+//     (merger/tag_places.h): a wrong id is outvoted.
+//
+// Linking two robots a and b not yet in one frame (the first constraint), when both have a
+// confirmed place of the same tag id L:
+//  - eq. 4: a_T_b = a_T_L · (b_T_L)^-1 from the two places' means, with its covariance;
+//  - every other tag id both robots have a confirmed place for must agree with it within
+//    tag_agreement_*, else the link is rejected (a wrong id that won a vote);
+//  - refinement (paper: "a local scan-matching step"): nodes of each robot near the tag (its
+//    sighting nodes, best seen first) are matched against the other robot's finished submaps
+//    (ScanMatcher::MatchWithinWindow, Ceres refinement over factors/scan_cost.h) within a window
+//    of 3 sigma of the eq. 4 estimate (clamped to link_window_*); a match counts when it scores
+//    >= link_min_score; the link needs link_min_matches of them agreeing with each other within
+//    link_agreement_*. Without finished submaps there yet the link waits (retried);
+//  - accepted: the matches enter the graph as inter-robot constraints (anchored cost, Kim et al.
+//    2010, Huber loss), the linked robots' anchors start at the refined estimate
+//    (SubmapGraph::SetAnchorEstimate) and the team graph is solved; the graph's consistency check
+//    removes any constraint it disagrees with afterwards.
+// Every attempt is recorded (constraints()) with its outcome and reason.
+//
+// More constraints (paper §V-B, the "second constraint"): once robots share a frame, every node
+// of one (after inter_search_travel_meters of travel, and, retrospectively, the nodes recorded
+// before the link) is matched against the teammates' finished submaps it falls into, within a
+// small window around the team's current estimate (inter_window_*, no motion prior); a match
+// scoring >= inter_min_score at least inter_min_spacing_meters from the pair's earlier
+// inter-robot constraints is added and the graph re-solved. The first such constraint at least
+// second_constraint_min_distance_meters from the first link is the pair's second constraint; the
+// relative pose before and after its batch solve is recorded (events()).
+//
+// Frames: the team's common frame is that of the first robot added (the manifest's first). A
+// robot not (yet) linked to it keeps its own frame (InCommonFrame false). Transitive chaining
+// (a-b and b-c put c in a's frame) comes from the shared graph: anchors of one connected group.
+//
+// Fault injection (tests of the consistency checks): with wrong_tag_id_rate > 0 each detection
+// is relabelled with probability wrong_tag_id_rate to another of the known tag ids (uniformly),
+// from a generator seeded with fault_seed.
+//
+// Errors are returned (bad robot index, unreadable image, data the robot's estimator refuses);
+// the estimator stays usable. Deterministic for a given input order and options.
+#ifndef HETSLAM_MERGER_TEAM_ESTIMATOR_H_
+#define HETSLAM_MERGER_TEAM_ESTIMATOR_H_
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <random>
+#include <set>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "Eigen/Core"
+#include "Eigen/Geometry"
+#include "core/camera_model.h"
+#include "core/measurement.h"
+#include "core/occupancy_grid.h"
+#include "core/se2.h"
+#include "core/status.h"
+#include "core/trajectory_io.h"
+#include "frontends/online_estimator.h"
+#include "frontends/scan_matcher.h"
+#include "frontends/submap_graph.h"
+#include "merger/landmark_pose.h"
+#include "merger/map_merge.h"
+#include "merger/tag_detector.h"
+#include "merger/tag_places.h"
+#include "merger/map_picture.h"
+
+namespace hetslam {
+
+struct TeamEstimatorOptions {
+  SubmapGraphOptions graph;  // the shared team graph
+  // Detector settings for speed on 640 x 480 images: a slightly blurred, 1.5x decimated quad
+  // search (5 ms instead of 18 ms, most tags beyond 4 m lost), corners refined on the full image.
+  TagDetectorOptions detector = DefaultTeamDetectorOptions();
+  TagSightingOptions sighting;
+  TagPlaceOptions places;
+  // Known tags: id -> edge of the black square (metres). Detections of other ids are ignored.
+  std::map<int, double> tag_sizes_meters;
+  // Project sightings with the robot's logged ATTITUDE roll/pitch (level without readings).
+  bool use_attitude = true;
+  double attitude_max_age_seconds = 0.2;
+  // Image skipping (tag detection, mostly the PNG decode, is the team estimator's largest cost).
+  // While the robot's previous detected image showed no known tag: images less than
+  // min_image_interval_seconds after it are skipped, and so are images taken while the robot
+  // moved less than skip_image_within_meters and turned less than skip_image_within_radians since
+  // it (a standing robot sees the same picture). While a tag is in view every image is detected.
+  double min_image_interval_seconds = 0.0;
+  double skip_image_within_meters = 0.0;
+  double skip_image_within_radians = 0.0;
+
+  // The scan matcher of links and inter-robot searches (no motion prior: the window bounds it).
+  ScanMatcherOptions matcher = DefaultTeamMatcherOptions();
+  // First constraint (link).
+  double link_min_score = 0.55;
+  int link_min_matches = 2;
+  int link_max_nodes_per_robot = 4;  // sighting nodes tried per robot and attempt
+  double link_agreement_meters = 0.15;
+  double link_agreement_radians = 2.0 * M_PI / 180.0;
+  double link_window_min_meters = 0.3, link_window_max_meters = 1.5;
+  double link_window_min_radians = 3.0 * M_PI / 180.0, link_window_max_radians = 20.0 * M_PI / 180.0;
+  double tag_agreement_meters = 0.5;
+  double tag_agreement_radians = 10.0 * M_PI / 180.0;
+  double link_retry_seconds = 2.0;  // a failed or waiting link is tried again after this much time
+  // Further constraints.
+  bool search_more_constraints = true;
+  double inter_search_travel_meters = 0.5;
+  double inter_search_turn_radians = 20.0 * M_PI / 180.0;
+  double inter_window_meters = 0.3;
+  double inter_window_radians = 3.0 * M_PI / 180.0;
+  double inter_min_score = 0.5;
+  double inter_min_spacing_meters = 1.0;
+  double second_constraint_min_distance_meters = 3.0;
+  // A node is matched against the finished submaps whose node box, grown by submap_margin_meters,
+  // holds it and on whose known cells at least min_submap_overlap of its points fall: the
+  // max_submaps_per_match with the largest overlap.
+  double submap_margin_meters = 4.0;
+  double min_submap_overlap = 0.6;
+  int max_submaps_per_match = 3;
+  int max_iterations_per_solve = 20;
+  int max_iterations_final = 50;
+
+  // Fault injection (see the header).
+  double wrong_tag_id_rate = 0.0;
+  uint64_t fault_seed = 1;
+
+  static TagDetectorOptions DefaultTeamDetectorOptions();
+  static ScanMatcherOptions DefaultTeamMatcherOptions();
+  bool IsValid(std::string* error) const;
+};
+
+struct TeamRobotOptions {
+  std::string name;
+  OnlineEstimatorOptions estimator;  // estimator.robot is set to the robot's index
+  bool has_camera = false;           // else its images are ignored
+  CameraIntrinsics intrinsics;
+  Eigen::Isometry3d laser_T_camera = Eigen::Isometry3d::Identity();
+};
+
+enum class TeamConstraintKind {
+  kTagRelativePose,  // eq. 4 from a tag both robots have seen
+  kTagScanMatch,     // a scan match that refines a tag link (the first constraint)
+  kScanMatch,        // a scan match between robots already in one frame (second and later)
+};
+const char* TeamConstraintKindName(TeamConstraintKind kind);  // "tag_eq4", "tag_scan_match", "scan_match"
+
+// One inter-robot constraint proposed, accepted or rejected.
+struct TeamConstraintRecord {
+  double stamp_seconds = 0.0;  // when it was proposed (the stamp of the measurement being added)
+  int robot_a = 0, robot_b = 0;
+  TeamConstraintKind kind = TeamConstraintKind::kTagRelativePose;
+  int tag_id = -1;    // tag kinds
+  Pose2 a_T_b;        // the relative pose of the robots' frames it measures
+  // Scan matches: the node of one robot in the submap of the other, and the match's score.
+  SubmapId submap;
+  NodeId node;
+  Pose2 submap_T_node;
+  double score = 0.0;
+  bool accepted = false;
+  std::string reason;  // why rejected (or how accepted)
+};
+
+// The relative pose of two robots' frames, i_T_j.
+struct RobotPairPose {
+  int robot_i = 0, robot_j = 0;
+  Pose2 i_T_j;
+};
+
+struct TeamMergeEvent {
+  enum class Kind { kFirstLink, kSecondConstraint };
+  Kind kind = Kind::kFirstLink;
+  double stamp_seconds = 0.0;
+  int robot_a = 0, robot_b = 0;
+  std::string description;
+  // Every pair of robots in the joined group, before (second constraint only) and after the solve.
+  std::vector<RobotPairPose> before, after;
+};
+
+// A robot's tag place, for drawing and reports.
+struct TeamTagPlace {
+  int robot = 0;
+  TagPlace place;  // robot_T_tag in the robot's frame
+};
+
+struct TeamEstimatorStats {
+  int images = 0;
+  int images_detected = 0;   // images the detector ran on
+  int detections = 0;        // tags of known size detected
+  int detections_relabelled = 0;  // by the fault injection
+  int sightings = 0;         // detections turned into sightings
+  int sightings_refused = 0; // too far, too oblique, no pose yet
+  int link_attempts = 0;
+  int links = 0;
+  int inter_searches = 0;
+  int inter_constraints = 0;
+  double detect_seconds = 0.0;
+  double link_seconds = 0.0;
+  double inter_search_seconds = 0.0;
+};
+
+class TeamEstimator {
+ public:
+  // CHECK-fails on invalid options (validate user input with IsValid first).
+  explicit TeamEstimator(const TeamEstimatorOptions& options);
+  ~TeamEstimator();
+  TeamEstimator(const TeamEstimator&) = delete;
+  TeamEstimator& operator=(const TeamEstimator&) = delete;
+
+  // Adds a robot before the first measurement; *index = its id (0, 1, ... in order). Errors:
+  // invalid estimator options, a robot added after measurements, a bad camera model.
+  Status AddRobot(const TeamRobotOptions& robot, int* index);
+  // One measurement of robot `robot`. Errors as above; the measurement is then ignored.
+  Status Add(int robot, const Measurement& measurement);
+  // Final solves. Idempotent.
+  void Finish();
+
+  int num_robots() const { return static_cast<int>(robots_.size()); }
+  const std::string& robot_name(int robot) const;
+  const OnlineEstimator& estimator(int robot) const;
+  const SubmapGraph& graph() const { return *graph_; }
+
+  // Whether `robot` shares the frame of robot 0 (the common frame), and common_T_robot (identity
+  // for robot 0 and for robots outside the common frame, which keep their own).
+  bool InCommonFrame(int robot) const;
+  Pose2 CommonTRobot(int robot) const;
+  // i_T_j of two robots in one frame (also outside the common frame); false when not linked.
+  bool RelativePose(int robot_i, int robot_j, Pose2* i_T_j) const;
+  // The group of robots sharing `robot`'s frame (robot indices, sorted).
+  std::vector<int> Group(int robot) const;
+  // The robot's trajectory (OnlineEstimator::Trajectory) in the common frame (its own when not
+  // in it).
+  std::vector<StampedPose2> CommonTrajectory(int robot) const;
+  // The robot's map (OnlineEstimator::RenderMap) in the common frame (its own when not in it):
+  // resampled cell by cell, each cell keeping its state.
+  std::unique_ptr<OccupancyGrid> RenderRobotMapInCommonFrame(int robot) const;
+  // Robot 0's map with every other robot of the common frame merged in as one observation
+  // (merger/map_merge.h), in the common frame.
+  std::unique_ptr<OccupancyGrid> RenderMergedMap(const MapMergeOptions& merge) const;
+
+  // What a picture of the merged map shows (merger/map_picture.h), in the common frame: the
+  // trajectory of every robot in it, the tag places of its robots ("tag <id> (<robot>)") and the
+  // inter-robot constraints kept in the graph (a marker at the node, a line to the origin of the
+  // teammate's submap it was matched in; "link" for the first link's). Robots outside the common
+  // frame are not drawn.
+  void PictureContents(std::vector<MapPictureTrajectory>* trajectories, std::vector<MapPictureMarker>* markers) const;
+
+  const std::vector<TeamConstraintRecord>& constraints() const { return records_; }
+  const std::vector<TeamMergeEvent>& events() const { return events_; }
+  std::vector<TeamTagPlace> TagPlaces() const;
+  const TeamEstimatorStats& stats() const { return stats_; }
+  const TeamEstimatorOptions& options() const { return options_; }
+
+  // Tag sightings given directly (what the image path computes from a detection): the tag's
+  // planar pose in the body's heading frame at `stamp_seconds`. For tests and for embedders with
+  // their own landmark detector.
+  Status AddTagSighting(int robot, double stamp_seconds, int tag_id, const PlanarTagSighting& sighting);
+
+ private:
+  struct Sighting {
+    int tag_id = 0;
+    double stamp_seconds = 0.0;
+    NodeId node;
+    Pose2 node_T_tag;
+    Eigen::Matrix3d covariance;  // of node_T_tag, node frame
+    double range_meters = 0.0;
+  };
+  struct Robot {
+    std::string name;
+    std::unique_ptr<OnlineEstimator> estimator;
+    bool has_camera = false;
+    CameraIntrinsics intrinsics;
+    Eigen::Isometry3d laser_T_camera = Eigen::Isometry3d::Identity();
+    Eigen::Isometry3d body_T_laser = Eigen::Isometry3d::Identity();
+    std::deque<AttitudeReading> attitudes;
+    std::optional<double> last_detected_image_stamp;
+    std::optional<Pose2> last_detected_image_pose;
+    bool tag_in_view = false;  // the last detected image showed a known tag
+    std::vector<Sighting> sightings;
+    int nodes_seen = 0;          // nodes already considered by the inter-robot search
+    std::optional<Pose2> last_search_pose;  // robot frame
+  };
+  struct LinkState {  // per robot pair and tag id
+    double next_attempt_stamp = -INFINITY;
+    std::string last_outcome;  // an attempt is recorded only when its outcome differs
+  };
+  struct InterConstraint {
+    int robot_a = 0, robot_b = 0;  // a: the submap's robot, b: the node's robot
+    SubmapId submap;
+    NodeId node;
+    bool first_link = false;
+  };
+
+  Status AddImage(int robot, const CameraImage& image);
+  void AfterScan(int robot, double stamp_seconds);
+  std::vector<TagPlace> Places(int robot) const;
+  void TryLinks(double stamp_seconds);
+  // One attempt to link robots a and b through tag `tag_id`; true when linked.
+  bool TryLink(double stamp_seconds, int a, int b, int tag_id, const TagPlace& place_a, const TagPlace& place_b);
+  // Matches node `node` against finished submaps of `submap_robot`, predicted at
+  // submap_robot_T_node (the submap robot's frame), within the windows; the best match scoring
+  // >= min_score, if any. `*covered` (optional) is set when some finished submap was near enough
+  // to try.
+  std::optional<ConstraintCandidate> MatchNodeAgainstRobot(const NodeId& node, int submap_robot,
+                                                           const Pose2& submap_robot_T_node, double linear_window,
+                                                           double angular_window, double min_score, bool* covered);
+  void SearchInterRobot(double stamp_seconds, const NodeId& node);
+  int Root(int robot) const;
+  void Solve(int max_iterations);
+  // Whether each of inter_constraints_ is still in the graph (not removed by its consistency check).
+  std::vector<bool> InterConstraintsKept() const;
+  std::vector<RobotPairPose> GroupPairPoses(int robot) const;
+  // Robot b's frame in robot a's, from the graph's anchors.
+  Pose2 AnchorRelative(int a, int b) const;
+  Pose2 NodeInRobotFrame(const NodeId& node, int frame_robot) const;
+  void Record(TeamConstraintRecord record);
+
+  TeamEstimatorOptions options_;
+  std::unique_ptr<SubmapGraph> graph_;
+  std::vector<Robot> robots_;
+  std::vector<int> parent_;  // union-find over robots: linked groups
+  TagDetector detector_;
+  ScanMatcher matcher_;
+  std::vector<int> known_tag_ids_;
+  std::mt19937_64 fault_rng_;
+  std::map<std::tuple<int, int, int>, LinkState> link_states_;
+  std::vector<InterConstraint> inter_constraints_;
+  // Per pair (a < b): where its first link was (robot a's frame), and whether the second
+  // constraint was found.
+  std::map<std::pair<int, int>, std::vector<Eigen::Vector2d>> first_link_places_;
+  std::set<std::pair<int, int>> has_second_constraint_;
+  std::vector<TeamConstraintRecord> records_;
+  std::vector<TeamMergeEvent> events_;
+  bool started_ = false;
+  bool finished_ = false;
+  TeamEstimatorStats stats_;
+};
+
+}  // namespace hetslam
+
+#endif  // HETSLAM_MERGER_TEAM_ESTIMATOR_H_

@@ -1,0 +1,92 @@
+#include "merger/map_merge.h"
+
+#include <cmath>
+#include <vector>
+
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+// A wall along x = 2 (y in [-1, 1]) seen from the origin `scans` times: rays over free space,
+// end points on the wall.
+void ObserveWall(int scans, OccupancyGrid* grid) {
+  std::vector<Eigen::Vector2d> points;
+  for (double y = -1.0; y <= 1.0; y += 0.025) points.emplace_back(2.01, y);
+  for (int i = 0; i < scans; ++i) grid->InsertScan(Eigen::Vector2d::Zero(), points, nullptr);
+}
+
+float Probability(const OccupancyGrid& grid, const Eigen::Vector2d& p) {
+  return grid.Probability(grid.geometry().LinearIndex(grid.geometry().WorldToCell(p)));
+}
+
+CellState StateAt(const OccupancyGrid& grid, const Eigen::Vector2d& p) {
+  const CellIndex c = grid.geometry().WorldToCell(p);
+  return grid.geometry().Contains(c) ? grid.State(c) : CellState::kUnknown;
+}
+
+// The paper's merge rule (§V-B): a teammate's map is one observation. Our robot mapped a wall at
+// x = 2 with 20 scans; the teammate's map (slightly off, as a noisy merge would be) says the wall
+// is at x = 2.3 and the cells at x = 2 are free, and it also saw a wall at x = -3 that we never
+// saw. After the merge: the unknown wall appears, our wall stays occupied within a small bound,
+// and the teammate's free cells behind our wall fill our unknown space.
+TEST(MapMergeTest, TeammateFillsUnknownCellsAndBarelyMovesWellObservedWalls) {
+  OccupancyGrid own{OccupancyGridOptions()};
+  ObserveWall(20, &own);
+  const Eigen::Vector2d wall(2.01, 0.0), free_space(1.0, 0.0);
+  ASSERT_EQ(CellState::kOccupied, StateAt(own, wall));
+  ASSERT_EQ(CellState::kUnknown, StateAt(own, {-2.99, 0.0}));
+  const float wall_before = Probability(own, wall);
+  const float free_before = Probability(own, free_space);
+
+  // The teammate's map in its own frame, which sits at (0.3, 0) in ours: its wall at x = 2 is our
+  // x = 2.3, and its rays cross our x = 2; it also sees a wall at its x = -3.3 (our -3.0).
+  OccupancyGrid teammate{OccupancyGridOptions()};
+  std::vector<Eigen::Vector2d> points;
+  for (double y = -1.0; y <= 1.0; y += 0.025) points.emplace_back(2.01, y);
+  teammate.InsertScan(Eigen::Vector2d::Zero(), points, nullptr);
+  points.clear();
+  for (double y = -1.0; y <= 1.0; y += 0.025) points.emplace_back(-3.29, y);
+  teammate.InsertScan(Eigen::Vector2d::Zero(), points, nullptr);
+
+  const int merged = MergeMapAsOneObservation(teammate, Pose2(0.3, 0.0, 0.0), MapMergeOptions(), &own);
+  EXPECT_GT(merged, 100);
+  // Our well-observed wall: still occupied, its probability within 0.03 of before.
+  EXPECT_EQ(CellState::kOccupied, StateAt(own, wall));
+  EXPECT_LT(std::abs(Probability(own, wall) - wall_before), 0.03);
+  // Our free space stays free (the teammate agrees there).
+  EXPECT_EQ(CellState::kFree, StateAt(own, free_space));
+  EXPECT_LE(Probability(own, free_space), free_before + 1e-6);
+  // Unknown to us, known to the teammate: now its state.
+  EXPECT_EQ(CellState::kOccupied, StateAt(own, {-2.99, 0.0}));
+  EXPECT_EQ(CellState::kFree, StateAt(own, {-1.5, 0.0}));
+  EXPECT_EQ(CellState::kOccupied, StateAt(own, {2.31, 0.0}));  // behind our wall: we never saw there
+  // Cells neither saw stay unknown.
+  EXPECT_EQ(CellState::kUnknown, StateAt(own, {0.0, 3.0}));
+}
+
+TEST(MapMergeTest, RotatedTeammateLandsWhereItsFrameSays) {
+  OccupancyGrid teammate{OccupancyGridOptions()};
+  std::vector<Eigen::Vector2d> points;
+  for (double y = -1.0; y <= 1.0; y += 0.025) points.emplace_back(2.01, y);
+  teammate.InsertScan(Eigen::Vector2d::Zero(), points, nullptr);
+  OccupancyGrid merged{OccupancyGridOptions()};
+  // The teammate's frame at (5, 5), turned by 90°: its wall x = 2 is our y = 7, x in [4, 6].
+  MergeMapAsOneObservation(teammate, Pose2(5.0, 5.0, M_PI / 2), MapMergeOptions(), &merged);
+  EXPECT_EQ(CellState::kOccupied, StateAt(merged, {5.0, 7.01}));
+  EXPECT_EQ(CellState::kOccupied, StateAt(merged, {4.2, 7.01}));
+  EXPECT_EQ(CellState::kFree, StateAt(merged, {5.0, 6.0}));
+  EXPECT_EQ(CellState::kUnknown, StateAt(merged, {7.0, 5.0}));
+}
+
+TEST(MapMergeTest, EmptyTeammateChangesNothing) {
+  OccupancyGrid own{OccupancyGridOptions()};
+  ObserveWall(3, &own);
+  const std::vector<float> before = own.log_odds();
+  OccupancyGrid empty{OccupancyGridOptions()};
+  EXPECT_EQ(0, MergeMapAsOneObservation(empty, Pose2::Identity(), MapMergeOptions(), &own));
+  EXPECT_EQ(before, own.log_odds());
+}
+
+}  // namespace
+}  // namespace hetslam

@@ -1,0 +1,274 @@
+#include "merger/team_estimator.h"
+
+#include <algorithm>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "datasets/sim/simulator.h"
+#include "glog/logging.h"
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// An L-shaped 14 m x 9 m floor (no symmetry) with boxes, and three tags on its walls (their
+// normals point into the room): tag 1 on the west wall, tag 2 on the east wall, tag 3 on the
+// south wall.
+constexpr char kWorld[] = R"(
+wall 0 0 14 0
+wall 14 0 14 6
+wall 14 6 9 6
+wall 9 6 9 9
+wall 9 9 0 9
+wall 0 9 0 0
+box 3 8.2 1.2 0.6
+box 6.5 1.0 0.8 0.8 20
+box 11.5 4.8 0.6 1.0
+box 1.0 2.5 0.5 0.5 45
+box 7.5 5 0.4 0.4
+laser 360 361 10 0.01 0.002 5
+robot 0.5 45
+)";
+
+struct TagTruthPose {
+  int id;
+  Pose2 world_T_tag;  // planar landmark frame: x along the tag's normal
+};
+const TagTruthPose kTags[] = {{1, Pose2(0.0, 4.5, 0.0)}, {2, Pose2(14.0, 3.0, M_PI)}, {3, Pose2(5.0, 0.0, M_PI / 2)}};
+
+struct SimulatedRobot {
+  sim::SimulationResult simulation;
+  Pose2 world_T_start;
+};
+
+SimulatedRobot Simulate(const std::string& route, uint64_t seed) {
+  sim::Scenario scenario;
+  const Status parsed = sim::ParseScenario(std::string(kWorld) + route, "team_test", &scenario);
+  CHECK(parsed.ok()) << parsed.message();
+  std::mt19937_64 rng(seed);
+  SimulatedRobot robot;
+  const Status simulated = sim::Simulate(scenario, sim::SimulatorOptions(), &rng, &robot.simulation);
+  CHECK(simulated.ok()) << simulated.message();
+  robot.world_T_start = robot.simulation.truth.front().pose;
+  return robot;
+}
+
+// Which tags a robot sees at each scan and with which id (to inject wrong ids).
+using IdMap = std::map<int, int>;  // true id -> reported id (-1: never seen)
+
+TeamEstimatorOptions TestTeamOptions() {
+  TeamEstimatorOptions options;
+  options.tag_sizes_meters = {{1, 0.2}, {2, 0.2}, {3, 0.2}};
+  return options;
+}
+
+OnlineEstimatorOptions TestRobotOptions() {
+  OnlineEstimatorOptions options;
+  options.local.scans_per_submap = 20;
+  return options;
+}
+
+// Feeds the robots' scans interleaved by stamp; after each scan, the tags within 3.5 m whose
+// normal faces the robot (within 60°) are reported as sightings with their true planar pose,
+// under the id `ids` maps them to.
+void RunTeam(const std::vector<SimulatedRobot>& robots, const std::vector<IdMap>& ids, TeamEstimator* team) {
+  for (size_t r = 0; r < robots.size(); ++r) {
+    TeamRobotOptions options;
+    options.name = "robot" + std::to_string(r);
+    options.estimator = TestRobotOptions();
+    int index = -1;
+    ASSERT_TRUE(team->AddRobot(options, &index).ok());
+    ASSERT_EQ(static_cast<int>(r), index);
+  }
+  std::vector<size_t> next(robots.size(), 0);
+  while (true) {
+    int pick = -1;
+    for (size_t r = 0; r < robots.size(); ++r) {
+      const auto& lasers = robots[r].simulation.log.lasers;
+      if (next[r] >= lasers.size()) continue;
+      if (pick < 0 || lasers[next[r]].scan.stamp_seconds <
+                          robots[pick].simulation.log.lasers[next[pick]].scan.stamp_seconds) {
+        pick = static_cast<int>(r);
+      }
+    }
+    if (pick < 0) break;
+    const size_t k = next[pick]++;
+    const LaserReading& reading = robots[pick].simulation.log.lasers[k];
+    ASSERT_TRUE(team->Add(pick, reading).ok());
+    const Pose2& world_T_body = robots[pick].simulation.truth[k].pose;
+    for (const TagTruthPose& tag : kTags) {
+      const auto id = ids[pick].find(tag.id);
+      if (id == ids[pick].end() || id->second < 0) continue;
+      PlanarTagSighting sighting;
+      sighting.body_T_tag = Between(world_T_body, tag.world_T_tag);
+      const Eigen::Vector2d to_robot = world_T_body.translation() - tag.world_T_tag.translation();
+      const double range = to_robot.norm();
+      const Eigen::Vector2d normal(std::cos(tag.world_T_tag.theta()), std::sin(tag.world_T_tag.theta()));
+      if (range > 3.5 || normal.dot(to_robot) < std::cos(60 * kDeg) * range) continue;
+      sighting.range_meters = range;
+      sighting.covariance = Eigen::Vector3d(0.02 * 0.02, 0.02 * 0.02, 0.01 * 0.01).asDiagonal();
+      ASSERT_TRUE(team->AddTagSighting(pick, reading.scan.stamp_seconds, id->second, sighting).ok());
+    }
+  }
+  team->Finish();
+}
+
+void ExpectRelativePoseNear(const TeamEstimator& team, const std::vector<SimulatedRobot>& robots, int i, int j,
+                            double meters, double radians) {
+  Pose2 i_T_j;
+  ASSERT_TRUE(team.RelativePose(i, j, &i_T_j)) << i << "-" << j << " not linked";
+  const Pose2 error = Between(Between(robots[i].world_T_start, robots[j].world_T_start), i_T_j);
+  EXPECT_LT(error.translation().norm(), meters) << i << "-" << j << ": " << i_T_j;
+  EXPECT_LT(std::abs(error.theta()), radians) << i << "-" << j << ": " << i_T_j;
+}
+
+// Robot 0 starts in the west, robot 1 in the east facing the other way; both pass tag 1.
+const char kRouteA[] = "start 2 2 90\nwaypoint 2 6\nwaypoint 5 7.5\nwaypoint 5 4\nwaypoint 2 4.5\nwaypoint 3 2\n";
+const char kRouteB[] = "start 12 2 180\nwaypoint 8 3\nwaypoint 3 3.5\nwaypoint 2.2 5\nwaypoint 4 7.5\nwaypoint 8 4\n";
+// Robot 2 stays in the east: it shares tag 2 with robot 1 only.
+const char kRouteC[] = "start 12.5 5 -90\nwaypoint 12.5 1.5\nwaypoint 10 2\nwaypoint 11 4.5\n";
+// Robot 1 variant that also passes tag 2 (for the chain through robot 1).
+const char kRouteBEast[] = "start 12 2 180\nwaypoint 8 3\nwaypoint 3 3.5\nwaypoint 2.2 5\nwaypoint 4 7.5\n"
+                           "waypoint 8 4\nwaypoint 12 3\nwaypoint 12.5 4.5\n";
+
+TEST(TeamEstimatorTest, LinksThroughASharedTagAndRecoversTheRelativePose) {
+  const std::vector<SimulatedRobot> robots = {Simulate(kRouteA, 1), Simulate(kRouteB, 2)};
+  TeamEstimator team(TestTeamOptions());
+  RunTeam(robots, {{{1, 1}, {3, 3}}, {{1, 1}, {3, 3}}}, &team);
+  ASSERT_TRUE(team.InCommonFrame(1));
+  ExpectRelativePoseNear(team, robots, 0, 1, 0.10, 1.0 * kDeg);
+  ASSERT_FALSE(team.events().empty());
+  EXPECT_EQ(TeamMergeEvent::Kind::kFirstLink, team.events().front().kind);
+  // The link's scan matches were recorded as accepted inter-robot constraints.
+  const auto& records = team.constraints();
+  EXPECT_TRUE(std::any_of(records.begin(), records.end(), [](const TeamConstraintRecord& r) {
+    return r.kind == TeamConstraintKind::kTagScanMatch && r.accepted;
+  }));
+  // The common-frame trajectory of robot 1 follows its truth in robot 0's start frame.
+  const std::vector<StampedPose2> trajectory = team.CommonTrajectory(1);
+  ASSERT_EQ(robots[1].simulation.truth.size(), trajectory.size());
+  const Pose2 common_T_world = robots[0].world_T_start.inverse();
+  const Pose2 last_truth = common_T_world * robots[1].simulation.truth.back().pose;
+  EXPECT_LT((trajectory.back().pose.translation() - last_truth.translation()).norm(), 0.2);
+}
+
+// Robot 1 never sees tag 1; its sightings of tag 2 all come labelled 1 (a consistently wrong
+// id, which no vote can catch). Eq. 4 then puts robot 1 metres off, and its scans do not fit
+// robot 0's map there: never linked, and the rejection is recorded with its reason.
+TEST(TeamEstimatorTest, AWrongTagIdNeverMergesTheRobots) {
+  const std::vector<SimulatedRobot> robots = {Simulate(kRouteA, 1), Simulate(kRouteBEast, 2)};
+  TeamEstimator team(TestTeamOptions());
+  RunTeam(robots, {{{1, 1}}, {{2, 1}}}, &team);
+  EXPECT_FALSE(team.InCommonFrame(1));
+  Pose2 unused;
+  EXPECT_FALSE(team.RelativePose(0, 1, &unused));
+  const auto& records = team.constraints();
+  ASSERT_FALSE(records.empty());
+  for (const TeamConstraintRecord& r : records) {
+    EXPECT_FALSE(r.accepted) << r.reason;
+  }
+  EXPECT_TRUE(std::any_of(records.begin(), records.end(), [](const TeamConstraintRecord& r) {
+    return r.kind == TeamConstraintKind::kTagRelativePose && r.reason.find("rejected") == 0;
+  }));
+}
+
+// A second tag both robots placed contradicts the first: the link is refused outright.
+TEST(TeamEstimatorTest, TwoTagsThatDisagreeAreRejected) {
+  const std::vector<SimulatedRobot> robots = {Simulate(kRouteA, 1), Simulate(kRouteBEast, 2)};
+  TeamEstimator team(TestTeamOptions());
+  // Robot 0 sees tags 1 and 3; robot 1 sees tag 3 right and tag 2 labelled 1.
+  RunTeam(robots, {{{1, 1}, {3, 3}}, {{2, 1}, {3, 3}}}, &team);
+  EXPECT_FALSE(team.InCommonFrame(1));
+  const auto& records = team.constraints();
+  EXPECT_TRUE(std::any_of(records.begin(), records.end(), [](const TeamConstraintRecord& r) {
+    return r.kind == TeamConstraintKind::kTagRelativePose && r.reason.find("rejected: tag") == 0;
+  }));
+}
+
+// Robots 0 and 2 never share a tag; robot 1 shares tag 1 with robot 0 and tag 2 with robot 2.
+// The shared graph puts robot 2 in robot 0's frame through robot 1.
+TEST(TeamEstimatorTest, ChainsTransitivelyThroughTheMiddleRobot) {
+  const std::vector<SimulatedRobot> robots = {Simulate(kRouteA, 1), Simulate(kRouteBEast, 2),
+                                              Simulate(kRouteC, 3)};
+  TeamEstimator team(TestTeamOptions());
+  RunTeam(robots, {{{1, 1}}, {{1, 1}, {2, 2}}, {{2, 2}}}, &team);
+  ASSERT_TRUE(team.InCommonFrame(1));
+  ASSERT_TRUE(team.InCommonFrame(2));
+  EXPECT_EQ((std::vector<int>{0, 1, 2}), team.Group(2));
+  ExpectRelativePoseNear(team, robots, 0, 1, 0.10, 1.0 * kDeg);
+  ExpectRelativePoseNear(team, robots, 1, 2, 0.10, 1.0 * kDeg);
+  ExpectRelativePoseNear(team, robots, 0, 2, 0.15, 1.0 * kDeg);
+  // No tag record links robots 0 and 2 directly.
+  for (const TeamConstraintRecord& r : team.constraints()) {
+    if (r.kind != TeamConstraintKind::kScanMatch) {
+      EXPECT_FALSE(r.robot_a == 0 && r.robot_b == 2);
+    }
+  }
+}
+
+TEST(TeamEstimatorTest, ErrorsAreReturned) {
+  TeamEstimator team(TestTeamOptions());
+  TeamRobotOptions robot;
+  robot.name = "bad";
+  robot.estimator.local.scans_per_submap = 1;  // invalid with loop closure
+  int index = -1;
+  EXPECT_FALSE(team.AddRobot(robot, &index).ok());
+  robot.estimator = TestRobotOptions();
+  ASSERT_TRUE(team.AddRobot(robot, &index).ok());
+  EXPECT_FALSE(team.Add(5, LaserReading()).ok());
+  CameraImage image;
+  image.path = "/nonexistent/image.png";
+  EXPECT_TRUE(team.Add(0, image).ok());  // no camera: images are ignored
+  EXPECT_FALSE(team.AddRobot(robot, &index).ok());  // after the first measurement
+  TeamEstimatorOptions options = TestTeamOptions();
+  std::string error;
+  options.wrong_tag_id_rate = 1.5;
+  EXPECT_FALSE(options.IsValid(&error));
+}
+
+// ---- The anchored team graph itself (frontends/submap_graph.h with anchors) ----
+
+// A robot's nodes on a straight line in its own frame, one submap at its origin.
+void AddStraightRobot(int robot, int nodes, SubmapGraph* graph) {
+  for (int i = 0; i < nodes; ++i) {
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.local_pose = Pose2(0.5 * i, 0.0, 0.0);
+    if (i == 0) result.new_submaps.push_back({0, Pose2::Identity()});
+    result.insertions.push_back({0, result.local_pose});
+    graph->AddNode(robot, std::move(result));
+  }
+}
+
+// Robot 1's frame sits at (3, 4, 30°) in robot 0's: two inter-robot constraints that say so,
+// robot 1's anchor started 0.5 m and 5° off (SetAnchorEstimate), solve: the anchor is the answer.
+TEST(TeamGraphTest, AnchorSolveRecoversAKnownRelativePose) {
+  SubmapGraph graph{SubmapGraphOptions()};
+  AddStraightRobot(0, 5, &graph);
+  AddStraightRobot(1, 5, &graph);
+  EXPECT_EQ(0, graph.world_robot());
+  const Pose2 r0_T_r1(3.0, 4.0, 30 * kDeg);
+  EXPECT_FALSE(graph.SetAnchorEstimate(0, r0_T_r1));  // the world's anchor stays at identity
+  EXPECT_FALSE(graph.SetAnchorEstimate(7, r0_T_r1));  // unknown robot
+  ASSERT_TRUE(graph.SetAnchorEstimate(1, r0_T_r1 * Pose2(0.4, -0.3, 5 * kDeg)));
+  for (int node : {1, 4}) {
+    ConstraintCandidate c;
+    c.submap = {0, 0};
+    c.node = {1, node};
+    c.submap_T_node = r0_T_r1 * graph.NodePose(c.node);  // robot 0's submap sits at its origin
+    ASSERT_TRUE(graph.AddConstraint(c));
+  }
+  ASSERT_TRUE(graph.Solve(50).ok());
+  const Pose2 error = Between(r0_T_r1, Between(graph.Anchor(0), graph.Anchor(1)));
+  EXPECT_LT(error.translation().norm(), 1e-6);
+  EXPECT_LT(std::abs(error.theta()), 1e-6);
+  EXPECT_EQ(Pose2::Identity().ToVector(), graph.Anchor(0).ToVector());
+  EXPECT_EQ(2, graph.stats().inter_robot_constraints);
+}
+
+}  // namespace
+}  // namespace hetslam
