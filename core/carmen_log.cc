@@ -537,16 +537,7 @@ Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
   if (file == nullptr) {
     return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
   }
-  for (const std::string& comment : comment_lines) {
-    std::istringstream lines(comment);
-    std::string one;
-    bool any = false;
-    while (std::getline(lines, one)) {
-      std::fprintf(file, "# %s\n", one.c_str());
-      any = true;
-    }
-    if (!any) std::fprintf(file, "#\n");
-  }
+  WriteCommentLines(file, comment_lines);
   // PARAM lines carry CARMEN's ipc_timestamp ipc_hostname logger_timestamp tail.
   if (geometry.has_angles) {
     std::fprintf(file, "PARAM %s %.17g 0.000000 hetslam 0.000000\n", kParamFov,

@@ -1,5 +1,7 @@
 #include "core/file_io.h"
 
+#include <sstream>
+
 #include <cerrno>
 #include <cstring>
 
@@ -26,6 +28,19 @@ Status WriteFileBytes(const std::string& path, const void* data, std::size_t siz
   }
   if (size > 0) std::fwrite(data, 1, size, file);
   return CloseWrittenFile(file, path);
+}
+
+void WriteCommentLines(std::FILE* file, const std::vector<std::string>& comment_lines) {
+  for (const std::string& comment : comment_lines) {
+    std::istringstream lines(comment);
+    std::string one;
+    bool any = false;
+    while (std::getline(lines, one)) {
+      std::fprintf(file, "# %s\n", one.c_str());
+      any = true;
+    }
+    if (!any) std::fprintf(file, "#\n");
+  }
 }
 
 }  // namespace hetslam

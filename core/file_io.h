@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "core/status.h"
 
@@ -19,6 +20,10 @@ Status CloseWrittenFile(std::FILE* file, const std::string& path);
 
 // Creates or truncates `path` and writes the `size` bytes at `data` to it (binary).
 Status WriteFileBytes(const std::string& path, const void* data, std::size_t size);
+
+// Writes each comment as '#' lines ("# text"; a comment with line breaks gives one '#' line per
+// line, an empty one a lone "#"): the header comments of our text formats.
+void WriteCommentLines(std::FILE* file, const std::vector<std::string>& comment_lines);
 
 }  // namespace hetslam
 

@@ -117,18 +117,6 @@ bool IsPlainWord(const std::string& s) {
   return true;
 }
 
-void WriteComments(FILE* file, const std::vector<std::string>& comment_lines) {
-  for (const std::string& comment : comment_lines) {
-    std::istringstream lines(comment);
-    std::string one;
-    bool any = false;
-    while (std::getline(lines, one)) {
-      std::fprintf(file, "# %s\n", one.c_str());
-      any = true;
-    }
-    if (!any) std::fprintf(file, "#\n");
-  }
-}
 
 }  // namespace robot_log_text
 }  // namespace hetslam

@@ -57,9 +57,6 @@ Status CheckEndOfFile(const std::ifstream& in, const std::string& path, int line
 // Non-empty, no white space, not starting with '#': reads back as the same single field.
 bool IsPlainWord(const std::string& s);
 
-// Each entry of `comment_lines` as '#' lines (one per line of the entry; "#" for an empty one).
-void WriteComments(std::FILE* file, const std::vector<std::string>& comment_lines);
-
 }  // namespace robot_log_text
 }  // namespace hetslam
 

@@ -24,7 +24,6 @@ using robot_log_text::IsPlainWord;
 using robot_log_text::IsWritablePose;
 using robot_log_text::kMaxBeams;
 using robot_log_text::kVersion;
-using robot_log_text::WriteComments;
 
 // A scan is written with a first angle and an increment; angles that differ from that fan by
 // more than this are not "evenly spaced" (rounding of first + i * increment stays far below).
@@ -288,7 +287,7 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
     return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
   }
   std::fprintf(file, "HSLOG %d\n", kVersion);
-  WriteComments(file, comment_lines);
+  WriteCommentLines(file, comment_lines);
   for (const auto& [name, value] : log.params) {
     std::fprintf(file, "PARAM %s %s\n", name.c_str(), value.c_str());
   }

@@ -157,7 +157,7 @@ Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
     return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
   }
   std::fprintf(file, "HSTEAM %d\n", robot_log_text::kVersion);
-  robot_log_text::WriteComments(file, comment_lines);
+  WriteCommentLines(file, comment_lines);
   for (const TeamRobot& robot : manifest.robots) {
     std::fprintf(file, "robot %s %s %s\n", robot.name.c_str(), robot.kind.c_str(),
                  robot.directory.c_str());

@@ -299,14 +299,14 @@ int Run() {
   std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log << " (" << LogFormatName(log.format)
             << ", " << log.measurements.size() << " measurements; "
             << (FLAGS_use_odometry ? "odometry prediction" : "no odometry") << ")\n";
-  OnlineEstimator estimator(options);
+  auto estimator = std::make_unique<OnlineEstimator>(options);
   const auto start = std::chrono::steady_clock::now();
   int scans = 0, errors = 0;
   double first_stamp = 0.0, last_stamp = 0.0;
   for (const Measurement& measurement : log.measurements) {
     const bool scan = std::holds_alternative<LaserReading>(measurement);
     if (scan && scans == num_scans) break;
-    const Status status = estimator.Add(measurement);
+    const Status status = estimator->Add(measurement);
     if (!status.ok() && ++errors <= 5) std::cerr << "warning: " << FLAGS_log << ": " << status.message() << "\n";
     if (!scan) continue;
     if (scans == 0) first_stamp = StampOf(measurement);
@@ -315,16 +315,16 @@ int Run() {
     if (FLAGS_progress_every > 0 && scans % FLAGS_progress_every == 0) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       std::fprintf(stderr, "  %d/%d scans, %.1f s, %.0f scans/s, %d submaps, %d loop closures\n", scans, num_scans,
-                   elapsed, scans / elapsed, estimator.graph().stats().submaps,
-                   estimator.graph().stats().loop_closures_accepted);
+                   elapsed, scans / elapsed, estimator->graph().stats().submaps,
+                   estimator->graph().stats().loop_closures_accepted);
     }
   }
   if (errors > 5) std::cerr << "warning: " << errors << " measurements refused in all (first 5 shown)\n";
-  estimator.Finish();
-  const std::vector<StampedPose2> trajectory = estimator.Trajectory();
-  const std::unique_ptr<OccupancyGrid> grid = estimator.RenderMap();
+  estimator->Finish();
+  const std::vector<StampedPose2> trajectory = estimator->Trajectory();
+  const std::unique_ptr<OccupancyGrid> grid = estimator->RenderMap();
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const std::string summary = Summary(estimator);
+  const std::string summary = Summary(*estimator);
   if (trajectory.empty()) {
     std::cerr << summary;
     return Fail("no scan of '" + FLAGS_log + "' had enough valid beams to map (at least " +
@@ -337,38 +337,43 @@ int Run() {
   std::vector<Pose2> path;
   for (const StampedPose2& p : trajectory) path.push_back(p.pose);
   // Level scans (CARMEN logs) have no floor obstacles or walls: the planner map is the map.
-  const OnlineEstimatorStats& stats = estimator.stats();
+  const OnlineEstimatorStats stats = estimator->stats();
   std::unique_ptr<OccupancyGrid> obstacles;
-  if (stats.floor_obstacle_points > 0) obstacles = estimator.RenderMap(SubmapGraph::Layer::kFloorObstacles);
-  std::vector<Status> written = {
-      WriteMapPgmYaml(*grid, base),
-      WriteMapPicture(base + ".png", *grid, obstacles.get(), {{"estimate", path}}, {}, MapPictureOptions()),
-      WriteTrajectory(trajectory_path, trajectory)};
+  if (stats.floor_obstacle_points > 0) {
+    obstacles = estimator->RenderMap(SubmapGraph::Layer::kFloorObstacles);
+    // Every candidate may have lain next to mapped structure (and been left out).
+    if (obstacles->observed_max().x < obstacles->observed_min().x) obstacles.reset();
+  }
+  std::vector<Status> written = {WriteMapPgmYaml(*grid, base), WriteTrajectory(trajectory_path, trajectory)};
   if (obstacles != nullptr) {
     written.push_back(WriteMapPgmYaml(*obstacles, (out / "floor_obstacles").string()));
-    obstacles.reset();
     written.push_back(
-        WriteMapPgmYaml(*estimator.RenderMap(SubmapGraph::Layer::kPlanner), (out / "planner").string()));
+        WriteMapPgmYaml(*estimator->RenderMap(SubmapGraph::Layer::kPlanner), (out / "planner").string()));
   } else {
     written.push_back(WriteMapPgmYaml(*grid, (out / "planner").string()));
   }
   if (stats.projected_scans > 0) {
-    const std::unique_ptr<OccupancyGrid> walls = estimator.RenderMap(SubmapGraph::Layer::kWalls);
+    const std::unique_ptr<OccupancyGrid> walls = estimator->RenderMap(SubmapGraph::Layer::kWalls);
     if (walls->observed_max().x >= walls->observed_min().x) {
       written.push_back(WriteMapPgmYaml(*walls, (out / "walls").string()));
     }
   }
   if (options.loop_closure) {
-    written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator.graph().LoopClosures()));
-    written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator.LocalTrajectory()));
+    written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator->graph().LoopClosures()));
+    written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator->LocalTrajectory()));
   }
-  if (!FLAGS_g2o_out.empty()) written.push_back(WriteG2oPoseGraph2d(FLAGS_g2o_out, estimator.graph().ExportGraph(options.robot)));
+  if (!FLAGS_g2o_out.empty()) {
+    written.push_back(WriteG2oPoseGraph2d(FLAGS_g2o_out, estimator->graph().ExportGraph(options.robot)));
+  }
+  std::vector<double> scores = estimator->match_scores();
+  estimator.reset();  // the picture is drawn without the graph in memory
+  written.push_back(
+      WriteMapPicture(base + ".png", *grid, obstacles.get(), {{"estimate", path}}, {}, MapPictureOptions()));
   for (const Status& status : written) {
     if (!status.ok()) return Fail(status.message()), 1;
   }
 
   std::printf("%s", summary.c_str());
-  std::vector<double> scores = estimator.match_scores();
   if (!scores.empty()) {
     std::sort(scores.begin(), scores.end());
     std::printf("match score (mean likelihood at the matched pose): p10 %.3f, median %.3f, p90 %.3f\n",

@@ -45,6 +45,8 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
   if (!(densify_max_gap_meters >= 0)) msg << "densify_max_gap_meters must be >= 0; ";
   if (!(wall_weight > 0)) msg << "wall_weight must be > 0; ";
+  if (!(floor_attitude_tolerance_radians >= 0 && floor_attitude_tolerance_radians < 0.5))
+    msg << "floor_attitude_tolerance_radians must be in [0, 0.5); ";
   if (!(floor_obstacle_max_height_meters >= 0 && floor_obstacle_min_drop_meters >= 0))
     msg << "floor obstacle height and drop must be >= 0; ";
   if (!(suspend_floor_fraction > 0 && suspend_floor_fraction <= 1)) msg << "suspend_floor_fraction must be in (0, 1]; ";
@@ -116,12 +118,19 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
       (RotationFromRollPitchYaw(body.roll_radians, body.pitch_radians, 0.0) * scan.robot_T_sensor.translation()).z() +
       body.base_height_meters);
   const float obstacle_max_height = static_cast<float>(options.floor_obstacle_max_height_meters);
+  const float floor_slope = static_cast<float>(std::tan(options.floor_attitude_tolerance_radians));
+  const Eigen::Vector2f sensor_xy = (RotationFromRollPitchYaw(body.roll_radians, body.pitch_radians, 0.0) *
+                                     scan.robot_T_sensor.translation()).head<2>().cast<float>();
   const float obstacle_min_drop = static_cast<float>(options.floor_obstacle_min_drop_meters);
   int previous_beam = -2;
   points.projected = attitude.has_value();
   for (const ProjectedPoint& p : ProjectScan(scan, body)) {
     ++points.valid_points;
-    if (attitude.has_value() && p.z_meters < floor_height) {
+    // The floor's tolerance grows with the distance from the sensor: an attitude error of
+    // floor_attitude_tolerance_radians lifts a far floor hit by distance * tan(error).
+    const float floor_tolerance =
+        floor_height + floor_slope * (p.p_robot - sensor_xy).norm();
+    if (attitude.has_value() && p.z_meters < floor_tolerance) {
       ++points.floor_points;
       continue;
     }

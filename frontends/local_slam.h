@@ -65,6 +65,9 @@ struct LocalSlamOptions {
   // above the floor are floor hits: neither matched nor mapped (walls are vertical, so a wall
   // hit at any other height projects onto the wall).
   double floor_max_height_meters = 0.08;
+  // ... plus distance from the sensor × tan(this): a far floor hit lifted by attitude error
+  // (our MARG filter: ~1° RMS) is still floor.
+  double floor_attitude_tolerance_radians = 1.5 * M_PI / 180.0;
   // Floor obstacles (paper §III-E), with an attitude: points at most this high above the floor
   // and at least floor_obstacle_min_drop_meters below the sensor (a beam tilted down; the drop
   // exceeds what a degree of attitude error makes at the laser's range, so a level laser never

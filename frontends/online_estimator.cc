@@ -162,7 +162,19 @@ void OnlineEstimator::Prune(double newest_stamp_seconds) {
 Status OnlineEstimator::AddMarg(const MargSample& sample) {
   ++stats_.marg_samples;
   MargAttitude attitude;
-  const Status status = marg_filter_.Add(sample, &attitude);
+  if (!marg_attitudes_.empty() && !(sample.stamp_seconds > marg_attitudes_.back().stamp_seconds)) {
+    ++stats_.marg_errors;
+    return Status::Error(Where(sample.line_number) + "MARG sample at " + StampText(sample.stamp_seconds) +
+                         " is not after the previous one (refused)");
+  }
+  Status status = marg_filter_.Add(sample, &attitude);
+  if (!status.ok() && sample.gyro_radps.allFinite() && sample.accel_mps2.allFinite()) {
+    // A gap in the stream (a sensor that stopped and came back): the filter starts afresh
+    // from this sample rather than refusing every later one.
+    marg_filter_.Reset();
+    ++stats_.marg_restarts;
+    status = marg_filter_.Add(sample, &attitude);
+  }
   if (!status.ok()) {
     ++stats_.marg_errors;
     return Status::Error(Where(sample.line_number) + status.message());

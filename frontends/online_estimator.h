@@ -107,6 +107,7 @@ struct OnlineEstimatorStats {
   int ekf_predicted_scans = 0;      // scans predicted by the EKF
   int marg_samples = 0;
   int marg_errors = 0;              // samples the MARG filter refused
+  int marg_restarts = 0;            // MARG filter restarted after a gap in the samples
   int ekf_errors = 0;               // EKF updates refused
   int loop_solves_failed = 0;
 };

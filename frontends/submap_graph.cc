@@ -14,6 +14,8 @@ namespace {
 // bundle adjustment, so eliminating the many nodes leaves a small sparse system).
 constexpr int kNodeGroup = 0;
 constexpr int kSubmapGroup = 1;
+// Floor-obstacle points this close (cells) to mapped structure are left out of the obstacle layers.
+constexpr int kStructureClearanceCells = 2;
 
 }  // namespace
 
@@ -287,8 +289,8 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   const GridGeometry& g = structure->geometry();
   auto near_structure = [&](const Eigen::Vector2d& world) {
     const CellIndex c = g.WorldToCell(world);
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -kStructureClearanceCells; dy <= kStructureClearanceCells; ++dy) {
+      for (int dx = -kStructureClearanceCells; dx <= kStructureClearanceCells; ++dx) {
         const CellIndex n{c.x + dx, c.y + dy};
         if (g.Contains(n) && structure->IsOccupied(g.LinearIndex(n))) return true;
       }

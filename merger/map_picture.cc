@@ -8,10 +8,10 @@
 #include <sstream>
 
 #include "core/file_io.h"
+#include "core/map_io.h"
 #include "core/laser_scan.h"
 #include "glog/logging.h"
 #include "opencv2/core.hpp"
-#include "opencv2/imgcodecs.hpp"
 #include "opencv2/imgproc.hpp"
 
 namespace hetslam {
@@ -523,15 +523,12 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
 
   geometry.width_pixels = width;
   geometry.height_pixels = height;
-  std::vector<uchar> png;
-  try {
-    if (!cv::imencode(".png", picture, png)) {
-      return Status::Error(Error(path, "the PNG encoder failed"));
-    }
-  } catch (const cv::Exception& e) {
-    return Status::Error(Error(path, std::string("the PNG encoder failed: ") + e.what()));
-  }
-  HETSLAM_RETURN_IF_ERROR(WriteFileBytes(path, png.data(), png.size()));
+  // Written by core's dependency-free PNG encoder (uncompressed): OpenCV's image codecs would
+  // load ~130 shared libraries (GDAL, codecs) and ~45 MiB into every program that draws a map.
+  cv::Mat rgb;
+  cv::cvtColor(picture, rgb, cv::COLOR_BGR2RGB);
+  std::vector<uint8_t> pixels(rgb.data, rgb.data + rgb.total() * rgb.elemSize());
+  HETSLAM_RETURN_IF_ERROR(WritePng(path, rgb.cols, rgb.rows, 3, pixels));
   if (layout != nullptr) *layout = geometry;
   return Status::Ok();
 }

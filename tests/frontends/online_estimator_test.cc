@@ -381,6 +381,20 @@ TEST(OnlineEstimatorStreamingTest, BadMeasurementsAreErrorsNotAborts) {
   ASSERT_GT(rate.size(), 50u);
   EXPECT_NEAR(0.01, rate[1].stamp_seconds - rate[0].stamp_seconds, 1e-9);
   EXPECT_LT((rate.back().pose.translation() - estimator.Trajectory().back().pose.translation()).norm(), 0.02);
+  // A MARG stream that stops for 2 s and comes back: the filter restarts, later samples are used.
+  double last_marg = 0.0;
+  for (const Measurement& m : log.measurements) {
+    if (const auto* s = std::get_if<MargSample>(&m)) last_marg = std::max(last_marg, s->stamp_seconds);
+  }
+  MargSample resumed;
+  resumed.stamp_seconds = last_marg + 2.0;
+  resumed.accel_mps2 = Eigen::Vector3d(0, 0, 9.81);
+  resumed.magnetometer = Eigen::Vector3d(20, 0, -40);
+  EXPECT_TRUE(estimator.Add(resumed).ok());
+  EXPECT_EQ(1, estimator.stats().marg_restarts);
+  resumed.stamp_seconds += 0.01;
+  EXPECT_TRUE(estimator.Add(resumed).ok());
+  EXPECT_FALSE(estimator.Add(resumed).ok());  // the same stamp again: refused
   estimator.Finish();
   EXPECT_FALSE(estimator.Add(log.measurements.back()).ok());  // after Finish
 }
