@@ -40,7 +40,7 @@ DEFINE_bool(use_images, true, "Detect AprilTags in the camera images (the only w
 DEFINE_double(wrong_tag_id_rate, 0.0, "Fault injection: relabel this fraction of tag detections with another tag id "
               "of the manifest (seeded by --fault_seed), to test that wrong ids never merge robots. In [0, 1].");
 DEFINE_uint64(fault_seed, 1, "Seed of the --wrong_tag_id_rate fault injection.");
-DEFINE_double(min_image_interval, 0.3, "While a robot's previous detected image showed no tag, skip its images taken "
+DEFINE_double(min_image_interval, 0.5, "While a robot's previous detected image showed no tag, skip its images taken "
               "less than this many seconds after it (0 = detect every image). While a tag is in view every image "
               "is detected. Tag detection, mostly decoding the PNG, is the largest cost of a team run.");
 DEFINE_double(skip_static_images_within, 0.02, "While no tag is in view, also skip a robot's image while it has moved "
