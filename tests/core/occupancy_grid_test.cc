@@ -54,5 +54,26 @@ TEST(OccupancyGridTest, CellsHitAtSeveralHeightsAreWalls) {
   EXPECT_EQ(1, grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell({2.0, 0.0}))) & 1);
 }
 
+// One observation from outside the laser model (map merging): the cell turns observed with the
+// given log-odds, clamped, and the grid grows to hold it.
+TEST(OccupancyGridTest, AddCellObservationObservesOneCellAndGrows) {
+  OccupancyGridOptions options;
+  OccupancyGrid grid(options);
+  const Eigen::Vector2d far(12.34, -5.6);
+  grid.AddCellObservation(far, static_cast<float>(options.hit_log_odds));
+  const CellIndex c = grid.geometry().WorldToCell(far);
+  ASSERT_TRUE(grid.geometry().Contains(c));
+  EXPECT_EQ(CellState::kOccupied, grid.State(c));
+  EXPECT_FLOAT_EQ(static_cast<float>(options.hit_log_odds), grid.LogOdds(grid.geometry().LinearIndex(c)));
+  EXPECT_EQ(c.x, grid.observed_min().x);
+  EXPECT_EQ(c.y, grid.observed_max().y);
+  for (int i = 0; i < 20; ++i) grid.AddCellObservation(far, -1.0f);
+  EXPECT_EQ(CellState::kFree, grid.State(grid.geometry().WorldToCell(far)));
+  EXPECT_FLOAT_EQ(static_cast<float>(options.min_log_odds),
+                  grid.LogOdds(grid.geometry().LinearIndex(grid.geometry().WorldToCell(far))));
+  // Its neighbours stay unknown.
+  EXPECT_EQ(CellState::kUnknown, grid.State(grid.geometry().WorldToCell(far + Eigen::Vector2d(0.1, 0.0))));
+}
+
 }  // namespace
 }  // namespace hetslam
