@@ -516,12 +516,10 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
   for (int q : Group(moving_robot)) {
     graph_->SetAnchorEstimate(q, world_T_moving_new * Between(world_T_moving_old, graph_->Anchor(q)));
   }
-  std::vector<Eigen::Vector2d> link_places;
   for (int i : best_set) {
     if (!graph_->AddConstraint(matches[i].candidate)) continue;
     const ConstraintCandidate& c = matches[i].candidate;
     inter_constraints_.push_back({c.submap.robot, c.node.robot, c.submap, c.node, true});
-    link_places.push_back(NodeInRobotFrame(c.node, a).translation());
     match_records[i].accepted = true;
     match_records[i].reason = "first constraint";
     ++stats_.inter_constraints;
@@ -538,7 +536,8 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
   finish(linked, reason.str(), match_records);
   if (!linked) return false;
   ++stats_.links;
-  first_link_places_[{a, b}] = link_places;
+  // The first constraint is where the shared tag is (robot a's frame); the second must be far from it.
+  first_link_places_[{a, b}] = {place_a.robot_T_tag.translation()};
   TeamMergeEvent event;
   event.kind = TeamMergeEvent::Kind::kFirstLink;
   event.stamp_seconds = stamp_seconds;

@@ -38,8 +38,8 @@
 // small window around the team's current estimate (inter_window_*, no motion prior); a match
 // scoring >= inter_min_score at least inter_min_spacing_meters from the pair's earlier
 // inter-robot constraints is added and the graph re-solved. The first such constraint at least
-// second_constraint_min_distance_meters from the first link is the pair's second constraint; the
-// relative pose before and after its batch solve is recorded (events()).
+// second_constraint_min_distance_meters from the first link's tag is the pair's second
+// constraint; the relative pose before and after its batch solve is recorded (events()).
 //
 // Frames: the team's common frame is that of the first robot added (the manifest's first). A
 // robot not (yet) linked to it keeps its own frame (InCommonFrame false). Transitive chaining
@@ -353,8 +353,8 @@ class TeamEstimator {
   std::mt19937_64 fault_rng_;
   std::map<std::tuple<int, int, int>, LinkState> link_states_;
   std::vector<InterConstraint> inter_constraints_;
-  // Per pair (a < b): where its first link was (robot a's frame), and whether the second
-  // constraint was found.
+  // Per pair (a < b): where its first link was (the shared tag, robot a's frame), and whether
+  // the second constraint was found.
   std::map<std::pair<int, int>, std::vector<Eigen::Vector2d>> first_link_places_;
   std::set<std::pair<int, int>> has_second_constraint_;
   std::vector<TeamConstraintRecord> records_;
