@@ -224,6 +224,9 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     }
     result.match = matcher_.Match(target.map, predicted_submap, points.matching, points.matching_weights,
                                   prediction.external || NarrowSearchTrusted(options_, state.recent));
+    // The wall weights were looked up where this prediction puts the points in this submap:
+    // they mean nothing to a later match (loop closure) against another submap.
+    points.matching_weights.clear();
     if (result.match.converged) {
       result.local_pose = target.local_T_submap *
                           (prediction.external ? DegeneracyAwarePose(options_, predicted_submap, result.match,

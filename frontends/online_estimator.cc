@@ -167,14 +167,16 @@ Status OnlineEstimator::AddMarg(const MargSample& sample) {
     return Status::Error(Where(sample.line_number) + "MARG sample at " + StampText(sample.stamp_seconds) +
                          " is not after the previous one (refused)");
   }
-  Status status = marg_filter_.Add(sample, &attitude);
-  if (!status.ok() && sample.gyro_radps.allFinite() && sample.accel_mps2.allFinite()) {
+  const bool finite = std::isfinite(sample.stamp_seconds) && sample.gyro_radps.allFinite() &&
+                      sample.accel_mps2.allFinite() && (!sample.has_magnetometer || sample.magnetometer.allFinite());
+  if (finite && !marg_attitudes_.empty() &&
+      sample.stamp_seconds - marg_attitudes_.back().stamp_seconds > options_.marg.max_sample_gap_seconds) {
     // A gap in the stream (a sensor that stopped and came back): the filter starts afresh
     // from this sample rather than refusing every later one.
     marg_filter_.Reset();
     ++stats_.marg_restarts;
-    status = marg_filter_.Add(sample, &attitude);
   }
+  const Status status = marg_filter_.Add(sample, &attitude);
   if (!status.ok()) {
     ++stats_.marg_errors;
     return Status::Error(Where(sample.line_number) + status.message());
@@ -268,8 +270,9 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
     prediction.external = true;
     ++stats_.ekf_predicted_scans;
   }
-  stats_.floor_obstacle_points += static_cast<long long>(points.floor_obstacles.size());
+  const long long floor_obstacle_points = static_cast<long long>(points.floor_obstacles.size());
   LocalResult result = local_.AddScan(stamp, std::move(points), prediction);
+  if (result.inserted || result.suspended) stats_.floor_obstacle_points += floor_obstacle_points;
   if (result.suspended) {
     // The EKF carries the pose; floor obstacles seen meanwhile stay in the planner map, tied to
     // the last node so that the graph's corrections move them too.

@@ -85,7 +85,10 @@ struct OnlineEstimatorOptions {
   bool use_commands = true;    // commands drive the EKF prediction
   bool use_odometry = false;   // predict scans from odometry (the scan's own pose, else the latest reading)
   double odometry_max_age_seconds = 0.05;
-  // Uncertainty (1 sigma) of a scan-match pose as an EKF measurement.
+  // Uncertainty (1 sigma) of a scan-match pose as an EKF measurement. Tight on purpose: the
+  // nodes are the matched poses, and the EKF's prediction for the next scan should start from
+  // them (measured: 1 cm / 0.005 rad let the EKF lag the matches and made the humanoid and UAV
+  // scenarios worse on several seeds).
   double scan_match_translation_sigma_meters = 0.001;
   double scan_match_rotation_sigma_radians = 0.0005;
 
