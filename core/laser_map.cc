@@ -1,6 +1,10 @@
 #include "core/laser_map.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "Eigen/Geometry"
 
 namespace hetslam {
 
@@ -8,6 +12,57 @@ OccupancyGridOptions WithFieldMargin(OccupancyGridOptions grid, const Likelihood
   grid.border_margin_meters =
       std::max(grid.border_margin_meters, field.max_distance_meters + 2 * grid.resolution_meters);
   return grid;
+}
+
+std::vector<ScanLine> EstimateScanLines(const LikelihoodFieldOptions& options,
+                                        const std::vector<Eigen::Vector2f>& points) {
+  const int n = static_cast<int>(points.size());
+  std::vector<ScanLine> lines(n);
+  if (options.line_max_gap_meters <= 0.0 || n < 3) return lines;
+  const float max_gap = static_cast<float>(options.line_max_gap_meters);
+  const float radius = static_cast<float>(options.line_fit_radius_meters);
+  const float max_mean_square = static_cast<float>(options.line_max_rms_meters * options.line_max_rms_meters);
+  auto gap = [&](int a, int b) { return (points[a] - points[b]).norm(); };
+  for (int i = 0; i < n; ++i) {
+    const float gap_before = i > 0 ? gap(i - 1, i) : std::numeric_limits<float>::infinity();
+    const float gap_after = i + 1 < n ? gap(i, i + 1) : std::numeric_limits<float>::infinity();
+    int first = i, last = i;
+    // Immediate neighbours always, then outwards while within the radius, or while fewer than
+    // three points are in (the last point of a run, at the end of a sparse wall, still gets
+    // its line from the two before it).
+    auto take_more = [&](int candidate, int count) {
+      return count < 3 || (points[candidate] - points[i]).norm() <= radius;
+    };
+    while (first > 0 && gap(first - 1, first) <= max_gap &&
+           (first == i || take_more(first - 1, last - first + 1))) {
+      --first;
+    }
+    while (last + 1 < n && gap(last, last + 1) <= max_gap &&
+           (last == i || take_more(last + 1, last - first + 1))) {
+      ++last;
+    }
+    const int count = last - first + 1;
+    if (count < 3) continue;
+    Eigen::Vector2f mean = Eigen::Vector2f::Zero();
+    for (int j = first; j <= last; ++j) mean += points[j];
+    mean /= static_cast<float>(count);
+    Eigen::Matrix2f scatter = Eigen::Matrix2f::Zero();
+    for (int j = first; j <= last; ++j) scatter += (points[j] - mean) * (points[j] - mean).transpose();
+    scatter /= static_cast<float>(count);
+    // Eigen values of the symmetric 2x2 scatter in closed form.
+    const float half_trace = 0.5f * scatter.trace();
+    const float root = std::sqrt(0.25f * (scatter(0, 0) - scatter(1, 1)) * (scatter(0, 0) - scatter(1, 1)) +
+                                 scatter(0, 1) * scatter(0, 1));
+    const float smaller = half_trace - root;
+    if (!(smaller <= max_mean_square)) continue;
+    const float theta = 0.5f * std::atan2(2.f * scatter(0, 1), scatter(0, 0) - scatter(1, 1));
+    float half_length = 0.f;
+    if (gap_before <= max_gap) half_length = std::max(half_length, 0.5f * gap_before);
+    if (gap_after <= max_gap) half_length = std::max(half_length, 0.5f * gap_after);
+    lines[i].direction = Eigen::Vector2f(std::cos(theta), std::sin(theta));
+    lines[i].half_length = half_length;
+  }
+  return lines;
 }
 
 LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
@@ -25,8 +80,15 @@ void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
     labels_.clear();
     for (PointLabel label : *labels) labels_.push_back(static_cast<uint8_t>(label));
   }
+  const std::vector<ScanLine>* lines = nullptr;
+  if (field_.options().line_max_gap_meters > 0.0) {
+    lines_ = EstimateScanLines(field_.options(), points_robot);
+    const Eigen::Rotation2Df rotation(static_cast<float>(world_T_robot.theta()));
+    for (ScanLine& line : lines_) line.direction = rotation * line.direction;
+    lines = &lines_;
+  }
   grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_, labels != nullptr ? &labels_ : nullptr,
-                   heights);
+                   heights, lines);
   field_.ApplyChanges(grid_, changed_cells_);
   ++num_scans_inserted_;
 }

@@ -8,18 +8,30 @@
 
 namespace hetslam {
 namespace {
-const Eigen::Vector2f kNone(std::numeric_limits<float>::quiet_NaN(),
-                            std::numeric_limits<float>::quiet_NaN());
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
 // Marks a squared distance as stale (no real d^2 is negative); see ApplyChanges.
 constexpr float kStale = -1.f;
 }  // namespace
+
+const LikelihoodField::Segment LikelihoodField::kUnpublished{Eigen::Vector2f(kNaN, kNaN), Eigen::Vector2f::UnitX(), 0.f};
+
+LikelihoodField::Segment LikelihoodField::SegmentOf(const OccupancyGrid& grid, int i) const {
+  const ScanLine line = grid.has_lines() ? grid.Line(i) : ScanLine();
+  return {(grid.HitPoint(i) - geometry_.CellMinCorner(geometry_.FromLinearIndex(i))).cast<float>(), line.direction,
+          line.half_length};
+}
 
 bool LikelihoodFieldOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
   if (!(sigma_meters > 0.0)) msg << "sigma_meters must be > 0 (got " << sigma_meters << "); ";
   if (!(max_distance_meters > 0.0)) msg << "max_distance_meters must be > 0 (got " << max_distance_meters << "); ";
   if (!(republish_distance_meters >= 0.0)) msg << "republish_distance_meters must be >= 0; ";
+  if (!(republish_angle_radians >= 0.0)) msg << "republish_angle_radians must be >= 0; ";
+  if (!(line_max_gap_meters >= 0.0 && line_max_gap_meters <= 2.0 * max_distance_meters))
+    msg << "line_max_gap_meters must be in [0, 2 max_distance_meters] (got " << line_max_gap_meters << "); ";
+  if (!(line_fit_radius_meters >= 0.0)) msg << "line_fit_radius_meters must be >= 0; ";
+  if (!(line_max_rms_meters > 0.0)) msg << "line_max_rms_meters must be > 0; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -31,7 +43,7 @@ LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options) : option
 
 void LikelihoodField::Freeze() {
   frozen_ = true;
-  std::vector<Eigen::Vector2f>().swap(published_);
+  std::vector<Segment>().swap(published_);
   std::vector<float>().swap(squared_distances_);
 }
 
@@ -41,7 +53,7 @@ void LikelihoodField::Resize(const GridGeometry& g) {
   radius_cells_ = static_cast<int>(std::ceil(options_.max_distance_meters / r - 1e-9));
   std::vector<float> values(g.num_cells(), 0.f);
   std::vector<float> squared_distances(g.num_cells(), kInfinity);
-  std::vector<Eigen::Vector2f> published(g.num_cells(), kNone);
+  std::vector<Segment> published(g.num_cells(), kUnpublished);
   if (geometry_.num_cells() > 0) {
     CHECK_EQ(g.resolution_meters(), geometry_.resolution_meters()) << "resolution changed";
     const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
@@ -87,6 +99,8 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     Resize(grid.geometry());
   }
   const float republish_sq = static_cast<float>(options_.republish_distance_meters * options_.republish_distance_meters);
+  const float republish_length = static_cast<float>(options_.republish_distance_meters);
+  const float republish_cos = static_cast<float>(std::cos(options_.republish_angle_radians));
   // Cells that may have lost their nearest point are recomputed once, after every change of
   // this batch is published: neighbouring hit points along a wall often republish together,
   // and would otherwise recompute the same cells several times. Until then they are marked
@@ -95,17 +109,23 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
   stale_cells_.clear();
   for (int i : changed_cells) {
     const CellIndex o = geometry_.FromLinearIndex(i);
-    const Eigen::Vector2f old_p = published_[i];
+    const Segment old_s = published_[i];
     const bool had = HasPublished(i);
     const bool has = grid.IsOccupied(i);
-    Eigen::Vector2f new_p = kNone;
+    Segment new_s = kUnpublished;
     if (has) {
-      new_p = (grid.HitPoint(i) - geometry_.CellMinCorner(o)).cast<float>();
-      if (had && (new_p - old_p).squaredNorm() <= republish_sq) continue;  // not worth republishing
+      new_s = SegmentOf(grid, i);
+      // Not worth republishing (directions are axes: either sign is the same line; a point's
+      // direction does not matter).
+      if (had && (new_s.point - old_s.point).squaredNorm() <= republish_sq &&
+          std::abs(new_s.half_length - old_s.half_length) <= republish_length &&
+          (new_s.half_length == 0.f || std::abs(new_s.direction.dot(old_s.direction)) >= republish_cos)) {
+        continue;
+      }
     } else if (!had) {
       continue;
     }
-    published_[i] = new_p;
+    published_[i] = new_s;
     const int x0 = std::max(0, o.x - radius_cells_), x1 = std::min(geometry_.width() - 1, o.x + radius_cells_);
     const int y0 = std::max(0, o.y - radius_cells_), y1 = std::min(geometry_.height() - 1, o.y + radius_cells_);
     for (int y = y0; y <= y1; ++y) {
@@ -114,12 +134,12 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
         const int j = y * geometry_.width() + x;
         float& squared_distance = squared_distances_[j];
         if (squared_distance == kStale) continue;
-        const float new_squared_distance = has ? SquaredDistance(c, o, new_p) : kInfinity;
+        const float new_squared_distance = has ? SquaredDistance(c, o, new_s) : kInfinity;
         if (new_squared_distance < squared_distance) {
           squared_distance = new_squared_distance;
           values_[j] = ValueFromSquaredDistance(squared_distance);
         } else if (had && new_squared_distance > squared_distance &&
-                   SquaredDistance(c, o, old_p) <= squared_distance) {
+                   SquaredDistance(c, o, old_s) <= squared_distance) {
           // c's nearest point may have been o's old point, which is gone: recompute it
           // (below). A new d^2 equal to the old minimum leaves the minimum as it is.
           squared_distance = kStale;
@@ -147,11 +167,7 @@ void LikelihoodField::RebuildAll() {
 
 void LikelihoodField::RebuildFrom(const OccupancyGrid& grid) {
   Resize(grid.geometry());
-  for (int i = 0; i < geometry_.num_cells(); ++i) {
-    published_[i] = grid.IsOccupied(i)
-                        ? Eigen::Vector2f((grid.HitPoint(i) - geometry_.CellMinCorner(geometry_.FromLinearIndex(i))).cast<float>())
-                        : kNone;
-  }
+  for (int i = 0; i < geometry_.num_cells(); ++i) published_[i] = grid.IsOccupied(i) ? SegmentOf(grid, i) : kUnpublished;
   RebuildAll();
 }
 

@@ -2,22 +2,33 @@
 //
 // Each cell c stores
 //   L(c) = max over occupied cells o with |o.x - c.x| <= R and |o.y - c.y| <= R of
-//          exp(-d(c, o) / sigma),   d(c, o) = |centre(c) - h(o)|,
-// where h(o) is o's accumulated sub-cell hit point as last PUBLISHED to the field, R the
-// window radius in cells and sigma in metres; L(c) = 0 with no occupied cell in the window.
-// A hit point is republished only when it moved more than `republish_distance_meters`
-// from its published value, which bounds the work per scan; the table is always exactly the
-// formula above for the published points (tests compare it with a brute-force rebuild).
+//          exp(-d(c, o) / sigma),
+// where d(c, o) is the distance from centre(c) to the surface piece o stands for, as last
+// PUBLISHED to the field: the segment through o's accumulated sub-cell hit point h(o) along
+// its line direction u(o), of half length l(o) (OccupancyGrid::Line; l = 0: the point h(o)):
+//   d^2 = ((c - h) . n)^2 + max(0, |(c - h) . u| - l)^2,   n ⟂ u.
+// R is the window radius in cells and sigma in metres; L(c) = 0 with no occupied cell in the
+// window. The segments make a wall seen at a grazing angle, whose hits are dotted up to a
+// few decimetres apart, score as the continuous surface it is: with points only, the field
+// dips between the dots, more where the wall was seen sparsely (ahead of the robot, at long
+// range) than where it was seen densely (where the robot has been), and a scan matched
+// against it is pulled back along a corridor (tests/frontends/corridor_bias_test.cc).
+// A cell is republished only when its hit point moved more than `republish_distance_meters`,
+// its half length changed by more than that or its direction by more than
+// `republish_angle_radians`, which bounds the work per scan; the table is always exactly the
+// formula above for the published segments (tests compare it with a brute-force rebuild).
 //
 // Updates are incremental: a cell turning occupied raises its window by a max; a cell
-// turning free, or moving its published hit point, lowers values that it may have owned, and
+// turning free, or moving its published segment, lowers values that it may have owned, and
 // only those are recomputed from their own windows. While the field is not frozen it also
-// keeps each cell's squared distance d^2 to its nearest published point (the max of
+// keeps each cell's squared distance d^2 to its nearest published segment (the max of
 // exp(-d / sigma) is taken at the min of d, exp and sqrt being monotone), so updates compare
 // squared distances and evaluate exp only for the cells whose value changes.
 #ifndef HETSLAM_CORE_LIKELIHOOD_FIELD_H_
 #define HETSLAM_CORE_LIKELIHOOD_FIELD_H_
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -31,6 +42,15 @@ struct LikelihoodFieldOptions {
   double sigma_meters = 0.10;            // p_hit ~ exp(-d / sigma)
   double max_distance_meters = 0.30;     // window radius R = ceil(max_distance / resolution)
   double republish_distance_meters = 0.005;
+  double republish_angle_radians = 0.035;  // 2°
+  // How a LaserMap finds the surface each end point lies on (core/laser_map.h
+  // EstimateScanLines): neighbouring beams' end points at most `line_max_gap_meters` apart
+  // (0: no lines, the field measures distances to hit points only), fitted within
+  // `line_fit_radius_meters` of the point, form a line when their RMS distance to the fitted
+  // line is at most `line_max_rms_meters`.
+  double line_max_gap_meters = 0.5;
+  double line_fit_radius_meters = 0.25;
+  double line_max_rms_meters = 0.02;
 
   bool IsValid(std::string* error) const;
 };
@@ -69,20 +89,34 @@ class LikelihoodField {
   const std::vector<float>& values() const { return values_; }
 
  private:
-  // d^2 (m^2) from occupied cell o's published point p_o to the centre of cell c. In the
-  // header so that it inlines into the window loops (an out-of-line call per cell was
-  // a sixth of the instructions on FR079).
-  float SquaredDistance(const CellIndex& c, const CellIndex& o, const Eigen::Vector2f& p_o) const {
+  // A published surface piece: hit point relative to the cell's minimum corner (metres; NaN
+  // when the cell does not contribute), unit direction, half length (0: a point).
+  struct Segment {
+    Eigen::Vector2f point;
+    Eigen::Vector2f direction;
+    float half_length;
+  };
+  // d^2 (m^2) from occupied cell o's published segment s to the centre of cell c (NaN when s
+  // is unpublished). In the header so that it inlines into the window loops (an out-of-line
+  // call per cell was a sixth of the instructions on FR079).
+  float SquaredDistance(const CellIndex& c, const CellIndex& o, const Segment& s) const {
     const float r = static_cast<float>(geometry_.resolution_meters());
-    const float dx = (static_cast<float>(c.x - o.x) + 0.5f) * r - p_o.x();
-    const float dy = (static_cast<float>(c.y - o.y) + 0.5f) * r - p_o.y();
-    return dx * dx + dy * dy;
+    const float dx = (static_cast<float>(c.x - o.x) + 0.5f) * r - s.point.x();
+    const float dy = (static_cast<float>(c.y - o.y) + 0.5f) * r - s.point.y();
+    const float along = dx * s.direction.x() + dy * s.direction.y();
+    const float across = dy * s.direction.x() - dx * s.direction.y();
+    // No branch for points: with half_length 0 this is across^2 + along^2 = dx^2 + dy^2.
+    const float beyond = std::max(0.f, std::abs(along) - s.half_length);
+    return across * across + beyond * beyond;
   }
   // exp(-d / sigma) for a squared distance d^2 (0 for d^2 = +inf: nothing in the window).
   float ValueFromSquaredDistance(float squared_distance) const;
   // Min d^2 over the published points in c's window (+inf when there is none).
   float RecomputeSquaredDistance(const CellIndex& c) const;
-  bool HasPublished(int i) const { return published_[i].x() == published_[i].x(); }
+  bool HasPublished(int i) const { return published_[i].point.x() == published_[i].point.x(); }
+  static const Segment kUnpublished;
+  // The segment occupied cell i of `grid` stands for, relative to the cell's minimum corner.
+  Segment SegmentOf(const OccupancyGrid& grid, int i) const;
 
   LikelihoodFieldOptions options_;
   GridGeometry geometry_;
@@ -93,9 +127,9 @@ class LikelihoodField {
   // ApplyChanges, kStale marks a cell queued in stale_cells_ for one recompute at the end.
   std::vector<float> squared_distances_;
   std::vector<int> stale_cells_;  // scratch of ApplyChanges
-  // Published hit point per cell relative to the cell's own minimum corner (metres), NaN
-  // when the cell does not contribute. Relative storage makes values independent of growth.
-  std::vector<Eigen::Vector2f> published_;
+  // Published segment per cell, its point relative to the cell's own minimum corner (NaN when
+  // the cell does not contribute). Relative storage makes values independent of growth.
+  std::vector<Segment> published_;
 };
 
 }  // namespace hetslam

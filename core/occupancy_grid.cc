@@ -76,6 +76,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   std::vector<uint8_t> observed(n, 0);
   std::vector<Eigen::Vector2f> hit_sum(n, Eigen::Vector2f::Zero());
   std::vector<uint32_t> hit_count(n, 0);
+  std::vector<Eigen::Vector3f> line_sum(line_sum_.empty() ? 0 : n, Eigen::Vector3f::Zero());
   std::vector<uint32_t> last_update(n, 0);
   std::vector<uint8_t> labels(labels_.empty() ? 0 : n, 0);
   std::vector<uint8_t> height_min(height_min_.empty() ? 0 : n, 255), height_max(height_max_.empty() ? 0 : n, 0);
@@ -90,6 +91,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
       observed[to] = observed_[from];
       hit_sum[to] = hit_sum_[from];
       hit_count[to] = hit_count_[from];
+      if (!line_sum.empty()) line_sum[to] = line_sum_[from];
       last_update[to] = last_update_[from];
       if (!labels.empty()) labels[to] = labels_[from];
       if (!height_min.empty()) {
@@ -107,6 +109,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   observed_.swap(observed);
   hit_sum_.swap(hit_sum);
   hit_count_.swap(hit_count);
+  line_sum_.swap(line_sum);
   last_update_.swap(last_update);
   labels_.swap(labels);
   height_min_.swap(height_min);
@@ -133,6 +136,7 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
     // The cell turned free (paper §III-B): its hit point is forgotten.
     hit_sum_[i].setZero();
     hit_count_[i] = 0;
+    if (!line_sum_.empty()) line_sum_[i].setZero();
   }
   if ((was_occupied != now_occupied || (delta > 0 && now_occupied)) && changed_cells != nullptr) {
     changed_cells->push_back(i);
@@ -142,7 +146,7 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
 void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
                                const std::vector<Eigen::Vector2d>& points_world,
                                std::vector<int>* changed_cells, const std::vector<uint8_t>* labels,
-                               const std::vector<float>* heights) {
+                               const std::vector<float>* heights, const std::vector<ScanLine>* lines) {
   CHECK(labels == nullptr || labels->size() == points_world.size())
       << "InsertScan: " << labels->size() << " labels for " << points_world.size() << " points";
   Eigen::Vector2d lo = sensor_world, hi = sensor_world;
@@ -153,6 +157,8 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
   }
   EnsureContains(lo, hi);
   CHECK(heights == nullptr || heights->size() == points_world.size()) << "InsertScan: heights do not match points";
+  CHECK(lines == nullptr || lines->size() == points_world.size()) << "InsertScan: lines do not match points";
+  if (lines != nullptr && line_sum_.empty()) line_sum_.assign(geometry_.num_cells(), Eigen::Vector3f::Zero());
   if ((labels != nullptr || heights != nullptr) && labels_.empty()) labels_.assign(geometry_.num_cells(), 0);
   if (heights != nullptr && height_min_.empty()) {
     height_min_.assign(geometry_.num_cells(), 255);
@@ -183,6 +189,12 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     if (IsOccupied(i)) {
       hit_sum_[i] += (p - geometry_.CellMinCorner(c)).cast<float>();
       ++hit_count_[i];
+      if (lines != nullptr && (*lines)[k].half_length > 0.f) {
+        const ScanLine& line = (*lines)[k];
+        const float c2 = line.direction.x() * line.direction.x() - line.direction.y() * line.direction.y();
+        const float s2 = 2.f * line.direction.x() * line.direction.y();
+        line_sum_[i] += line.half_length * Eigen::Vector3f(c2, s2, 1.f);
+      }
     }
   }
 
@@ -227,6 +239,7 @@ void OccupancyGrid::Freeze() {
   frozen_ = true;
   std::vector<Eigen::Vector2f>().swap(hit_sum_);
   std::vector<uint32_t>().swap(hit_count_);
+  std::vector<Eigen::Vector3f>().swap(line_sum_);
   std::vector<uint32_t>().swap(last_update_);
 }
 
@@ -235,6 +248,18 @@ Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
   const CellIndex c = geometry_.FromLinearIndex(i);
   if (hit_count_[i] == 0) return geometry_.CellCenter(c);
   return geometry_.CellMinCorner(c) + (hit_sum_[i] / static_cast<float>(hit_count_[i])).cast<double>();
+}
+
+ScanLine OccupancyGrid::Line(int i) const {
+  CHECK(!frozen_) << "Line on a frozen grid";
+  ScanLine line;
+  if (line_sum_.empty() || hit_count_[i] == 0) return line;
+  const Eigen::Vector3f& sum = line_sum_[i];
+  if (!(sum.z() > 0.f) || sum.head<2>().norm() < kMinLineCoherence * sum.z()) return line;
+  const float theta = 0.5f * std::atan2(sum.y(), sum.x());  // in (-π/2, π/2]: direction.x >= 0
+  line.direction = Eigen::Vector2f(std::cos(theta), std::sin(theta));
+  line.half_length = sum.z() / static_cast<float>(hit_count_[i]);
+  return line;
 }
 
 float OccupancyGrid::Probability(int i) const {

@@ -40,6 +40,15 @@ struct OccupancyGridOptions {
   bool IsValid(std::string* error) const;
 };
 
+// The surface an end point lies on, from its neighbouring beams (core/laser_map.h
+// EstimateScanLines): a unit direction in the world frame and the half length of the surface
+// piece the point stands for (half the gap to its neighbours). half_length 0: no line (an
+// isolated point, a corner, clutter); the direction is then irrelevant.
+struct ScanLine {
+  Eigen::Vector2f direction = Eigen::Vector2f::UnitX();
+  float half_length = 0.f;
+};
+
 enum class CellState : uint8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
 
 class OccupancyGrid {
@@ -65,10 +74,12 @@ class OccupancyGrid {
   // the height span of each end cell; a cell hit at heights spanning at least
   // wall_min_height_span_meters is a wall (paper §III-E: walls are the invariants of the 2.5D
   // assumption, hit wherever the tilt puts the beam) and gets the wall bit (1 << kWallLabelBit).
+  // `lines` (optional, one per point: the surface the point lies on, see ScanLine) feeds
+  // each end cell's line layer (Line below), accumulated with the hit point.
   void InsertScan(const Eigen::Vector2d& sensor_world,
                   const std::vector<Eigen::Vector2d>& points_world,
                   std::vector<int>* changed_cells, const std::vector<uint8_t>* labels = nullptr,
-                  const std::vector<float>* heights = nullptr);
+                  const std::vector<float>* heights = nullptr, const std::vector<ScanLine>* lines = nullptr);
   static constexpr int kWallLabelBit = 3;  // PointLabel::kWall
 
   // One observation of the cell containing `p_world` from outside the laser model (map merging,
@@ -95,6 +106,15 @@ class OccupancyGrid {
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
   int HitCount(int linear_index) const { return frozen_ ? 0 : hit_count_[linear_index]; }
+  // The surface through an occupied cell's hit point: its hits' lines averaged (directions as
+  // axes, doubled angles, weighted by half length), with half_length 0 when the cell has no
+  // line evidence or its lines disagree (their mean axis is shorter than kMinLineCoherence of
+  // their mean length: a corner, clutter). half_length is the mean over all the cell's hits,
+  // those without a line counting 0: a cell seen as a point as often as on a line stands for
+  // a shorter piece.
+  ScanLine Line(int linear_index) const;
+  bool has_lines() const { return !line_sum_.empty(); }
+  static constexpr float kMinLineCoherence = 0.8f;
 
   // Bounding box (cells) of all observed cells; empty (max < min) before any insertion.
   CellIndex observed_min() const { return observed_min_; }
@@ -125,6 +145,10 @@ class OccupancyGrid {
   // float precision and survives growth unchanged.
   std::vector<Eigen::Vector2f> hit_sum_;
   std::vector<uint32_t> hit_count_;
+  // Per cell, summed over the hits counted in hit_count_: half_length · (cos 2θ, sin 2θ, 1) of
+  // each hit's line (θ its direction), nothing for a hit without one.
+  // Empty until the first insertion with lines.
+  std::vector<Eigen::Vector3f> line_sum_;
   // Scan counter stamps so that a cell is updated at most once per scan.
   std::vector<uint32_t> last_update_;
   std::vector<uint8_t> labels_;  // label layer; empty until the first labelled insertion

@@ -116,6 +116,17 @@ DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a motion so
               "EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
               "of the larger (a corridor, a tilted head seeing side walls only), keep the prediction along the weak "
               "direction; 0 = off. Scans predicted by the front end's own extrapolation always take the whole match.");
+DEFINE_double(degenerate_drop_ratio, 0.25, "... or when, shifted 0.1-0.3 m along that direction, the scan's score drops "
+              "by less than this fraction of its drop across it (a featureless corridor: the score is flat along it); "
+              "0 = off.");
+DEFINE_double(line_max_gap, 0.5, "Map surfaces, not dotted hits: neighbouring beams' end points at most this far apart "
+              "(metres) that lie on a line make each hit stand for its piece of that line in the likelihood field (a "
+              "wall seen at a grazing angle scores as a wall, not as dots); 0 = hit points only.");
+DEFINE_double(frontier_margin, 0.3, "Leave out of a match the points whose surface, within this distance (metres) of "
+              "where the prediction puts them, runs into ground the map never observed (the map's frontier, which "
+              "pulls matches back along corridors); 0 = off.");
+DEFINE_double(covariance_sigmas, 3.0, "With the EKF's prediction: search windows of the narrow windows plus this many "
+              "standard deviations of its covariance (at most the full windows), no wider fallback.");
 DEFINE_double(densify_max_gap, 0.0, "Join the end points of neighbouring beams closer than this (metres) by points at "
               "the grid resolution before matching and mapping (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
@@ -159,6 +170,10 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->grid.wall_min_height_span_meters = FLAGS_wall_min_height_span;
   options->densify_max_gap_meters = FLAGS_densify_max_gap;
   options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;
+  options->degenerate_max_drop_ratio = FLAGS_degenerate_drop_ratio;
+  options->field.line_max_gap_meters = FLAGS_line_max_gap;
+  options->frontier_margin_meters = FLAGS_frontier_margin;
+  options->covariance_sigmas = FLAGS_covariance_sigmas;
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;

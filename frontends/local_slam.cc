@@ -43,6 +43,8 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
     msg << "angular_velocity_fraction must be in [0, 1.5] (got " << angular_velocity_fraction << "); ";
   if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
+  if (!(covariance_sigmas > 0 && covariance_sigmas <= 10)) msg << "covariance_sigmas must be in (0, 10]; ";
+  if (!(frontier_margin_meters >= 0 && frontier_margin_meters <= 10)) msg << "frontier_margin_meters must be in [0, 10]; ";
   if (!(densify_max_gap_meters >= 0)) msg << "densify_max_gap_meters must be >= 0; ";
   if (!(wall_weight > 0)) msg << "wall_weight must be > 0; ";
   if (!(floor_attitude_tolerance_radians >= 0 && floor_attitude_tolerance_radians < 0.5))
@@ -52,6 +54,8 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
   if (!(suspend_floor_fraction > 0 && suspend_floor_fraction <= 1)) msg << "suspend_floor_fraction must be in (0, 1]; ";
   if (!(degenerate_eigenvalue_ratio >= 0 && degenerate_eigenvalue_ratio < 1))
     msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
+  if (!(degenerate_max_drop_ratio >= 0 && degenerate_max_drop_ratio < 1))
+    msg << "degenerate_max_drop_ratio must be in [0, 1); ";
   if (!(matching_voxel_meters >= 0)) msg << "matching_voxel_meters must be >= 0; ";
   if (min_points < 1) msg << "min_points must be >= 1; ";
   if (scans_per_submap != 0 && scans_per_submap < 2) msg << "scans_per_submap must be 0 or >= 2; ";
@@ -88,17 +92,59 @@ bool NarrowSearchTrusted(const LocalSlamOptions& options, const std::vector<Stam
          std::abs(delta.theta()) <= 0.5 * m.narrow_angular_search_window_radians;
 }
 
+bool RunsIntoUnobservedGround(const LaserMap& map, const Pose2& world_T_robot, const Eigen::Vector2f& p_robot,
+                              const ScanLine& line, double margin_meters) {
+  if (!(line.half_length > 0.f)) return false;
+  const GridGeometry& geometry = map.grid().geometry();
+  const float near_surface = std::exp(-1.f);  // within sigma of a mapped surface
+  for (const float side : {-1.f, 1.f}) {
+    const Eigen::Vector2f q = p_robot + side * static_cast<float>(margin_meters) * line.direction;
+    const CellIndex c = geometry.WorldToCell(world_T_robot * q.cast<double>());
+    if (!geometry.Contains(c)) return true;
+    if (map.grid().State(c) == CellState::kUnknown && map.field().Value(c) < near_surface) return true;
+  }
+  return false;
+}
+
+int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
+                           ScanPoints* points) {
+  if (options.frontier_margin_meters <= 0 || map.num_scans_inserted() == 0) return 0;
+  const std::vector<ScanLine> lines = EstimateScanLines(map.field().options(), points->all);
+  std::vector<Eigen::Vector2f> kept;
+  kept.reserve(points->all.size());
+  for (size_t k = 0; k < points->all.size(); ++k) {
+    if (!RunsIntoUnobservedGround(map, predicted, points->all[k], lines[k], options.frontier_margin_meters)) {
+      kept.push_back(points->all[k]);
+    }
+  }
+  const int left_out = static_cast<int>(points->all.size() - kept.size());
+  if (left_out == 0 || static_cast<int>(kept.size()) < options.min_points) return 0;
+  std::vector<Eigen::Vector2f> matching =
+      options.matching_voxel_meters > 0 ? VoxelFilter(kept, static_cast<float>(options.matching_voxel_meters)) : kept;
+  // Most of a scan beyond the frontier (a robot turning into unexplored space): the few points
+  // left (fewer than half the matching points) could not place it; the whole scan is matched.
+  if (2 * matching.size() < points->matching.size()) return 0;
+  points->matching = std::move(matching);
+  return left_out;
+}
+
 Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
                           bool* degenerate) {
   if (degenerate != nullptr) *degenerate = false;
   const Eigen::Matrix3d& info = match.information;
-  if (options.degenerate_eigenvalue_ratio <= 0 || !(info(2, 2) > 0)) return match.pose;
+  const bool use_ratio = options.degenerate_eigenvalue_ratio > 0;
+  const bool use_drop = options.degenerate_max_drop_ratio > 0 && match.weak_direction.squaredNorm() > 0;
+  if ((!use_ratio && !use_drop) || !(info(2, 2) > 0)) return match.pose;
   // Translational information with the yaw marginalised out (Schur complement).
   const Eigen::Matrix2d translational =
       info.topLeftCorner<2, 2>() - info.topRightCorner<2, 1>() * info.bottomLeftCorner<1, 2>() / info(2, 2);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(translational);
   const Eigen::Vector2d values = eigen.eigenvalues();  // ascending
-  if (!(values(1) > 0) || values(0) >= options.degenerate_eigenvalue_ratio * values(1)) return match.pose;
+  if (!(values(1) > 0)) return match.pose;
+  const bool weak_by_ratio = use_ratio && values(0) < options.degenerate_eigenvalue_ratio * values(1);
+  const bool flat = use_drop && match.weak_direction_score_drop <
+                                    options.degenerate_max_drop_ratio * match.strong_direction_score_drop;
+  if (!weak_by_ratio && !flat) return match.pose;
   const Eigen::Vector2d strong = eigen.eigenvectors().col(1);
   const Eigen::Vector2d correction = match.pose.translation() - predicted.translation();
   if (degenerate != nullptr) *degenerate = true;
@@ -205,6 +251,11 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     const ActiveSubmap& target = state.active.front();
     const Pose2 predicted_submap = target.local_T_submap.inverse() * prediction.pose;
     result.matched = true;
+    // Only with a motion source (see frontier_margin_meters): without one, the frontier points
+    // are the only evidence of the motion along a wall.
+    if (prediction.external) {
+      result.frontier_points = LeaveOutFrontierPoints(options_, target.map, predicted_submap, &points);
+    }
     if (options_.wall_weight != 1.0 && target.map.grid().has_labels()) {
       // Paper §III-E: points that land on wall cells (hit at several heights: invariant under
       // the 2.5D assumption) weigh more; where the prediction puts them.
@@ -222,8 +273,23 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
       }
       if (!any_wall) points.matching_weights.clear();
     }
-    result.match = matcher_.Match(target.map, predicted_submap, points.matching, points.matching_weights,
-                                  prediction.external || NarrowSearchTrusted(options_, state.recent));
+    if (prediction.covariance.has_value()) {
+      const ScanMatcherOptions& m = options_.matcher;
+      const Eigen::Matrix3d& covariance = *prediction.covariance;
+      const double translation_sigma =
+          std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(covariance.topLeftCorner<2, 2>())
+                                      .eigenvalues()(1)));
+      const double yaw_sigma = std::sqrt(std::max(0.0, covariance(2, 2)));
+      const double linear = std::min(m.linear_search_window_meters,
+                                     m.narrow_linear_search_window_meters + options_.covariance_sigmas * translation_sigma);
+      const double angular = std::min(m.angular_search_window_radians,
+                                      m.narrow_angular_search_window_radians + options_.covariance_sigmas * yaw_sigma);
+      result.match = matcher_.MatchWithinWindow(target.map, predicted_submap, points.matching, linear, angular,
+                                                points.matching_weights);
+    } else {
+      result.match = matcher_.Match(target.map, predicted_submap, points.matching, points.matching_weights,
+                                    prediction.external || NarrowSearchTrusted(options_, state.recent));
+    }
     // The wall weights were looked up where this prediction puts the points in this submap:
     // they mean nothing to a later match (loop closure) against another submap.
     points.matching_weights.clear();

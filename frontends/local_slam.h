@@ -92,13 +92,33 @@ struct LocalSlamOptions {
   // the prediction along the weak direction and takes the match's correction only along the
   // strong one (solution remapping; there the score is flat and the matched position is
   // noise). Applied only to external predictions (odometry, the EKF: see Prediction): the
-  // front end's own extrapolation carries no information of its own. 0 = always take the
-  // whole match.
+  // front end's own extrapolation carries no information of its own. 0 = off.
   double degenerate_eigenvalue_ratio = 0.3;
+  // ... or when the score along that direction is flat: shifted 0.1 to 0.3 m along it, the
+  // scan loses less than this fraction of what it loses shifted as far across it
+  // (ScanMatchResult::weak_direction_score_drop, strong_direction_score_drop). The
+  // information matrix of a featureless corridor's match is mostly the noise of the wall
+  // hits: its eigenvalue ratio ranges from 0.05 to 0.6 from scan to scan (wheeled_corridor),
+  // and so does the score's drop along the corridor (up to 0.04, against 0.3 to 0.5 across).
+  // 0 = off.
+  double degenerate_max_drop_ratio = 0.25;
   // End points of neighbouring beams closer than this are joined by points at the grid
   // resolution (0 = off): a wall seen at a grazing angle then is a line in the map, not a
   // dotted one whose gaps bias matching towards where the wall was mapped densely.
   double densify_max_gap_meters = 0.0;
+  // The map's frontier (the ambiguity issue): a wall seen at a grazing angle is mapped up to
+  // where the last scan reached, so a scan's far points on it score less when the scan moves
+  // on (they leave the mapped wall) and the same when it moves back: the match is pulled back
+  // along corridors. Matching points whose surface (core/laser_map.h EstimateScanLines), within
+  // this distance of where the prediction puts them, runs into unobserved ground (an unknown
+  // cell farther than the field's sigma from any mapped surface) carry no information the map
+  // can score fairly: they are left out of the match (they are still mapped). Only for
+  // external predictions (see Prediction), which carry the motion along the wall: without one,
+  // those points are the only evidence of it (Intel: 0.0207 m → 0.0251 m on the relations with
+  // the rule applied to every scan). 0 = off.
+  double frontier_margin_meters = 0.3;
+  // See Prediction::covariance.
+  double covariance_sigmas = 3.0;
 
   // ScanMatcherOptions with a narrow first try of ±0.4 m, ±10° accepted from a score of 0.4:
   // scan-to-scan motion is far below the full windows on most logs.
@@ -140,10 +160,25 @@ Pose2 PredictNextPose(const LocalSlamOptions& options, const std::vector<Stamped
 // windows (then the constant-velocity prediction is close). False when the narrow try is off.
 bool NarrowSearchTrusted(const LocalSlamOptions& options, const std::vector<StampedPose2>& trajectory);
 
+// Whether the surface `line` of a point `p_robot` placed by `world_T_robot` (both in the map's
+// frame) runs, within `margin_meters` of it, into ground the map never observed and farther
+// than the field's sigma from any mapped surface (see frontier_margin_meters). False for a
+// point without a line.
+bool RunsIntoUnobservedGround(const LaserMap& map, const Pose2& world_T_robot, const Eigen::Vector2f& p_robot,
+                              const ScanLine& line, double margin_meters);
+
+// Leaves out of points->matching (rebuilt from points->all) the points whose surface
+// RunsIntoUnobservedGround of `map` where `predicted` (map frame) puts them; returns how many
+// of points->all were left out. Nothing is left out (0) when the option is off, the map is
+// empty, or fewer than options.min_points points or half the matching points would remain.
+int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
+                           ScanPoints* points);
+
 // The matched pose with the correction from `predicted` removed along a degenerate direction
-// (see degenerate_eigenvalue_ratio); `match.pose` itself when the match constrains both
-// directions, the ratio is 0 or the match carries no information matrix. Both poses in the
-// frame the match was made in. `*degenerate` (optional) tells whether a direction was held.
+// (see degenerate_eigenvalue_ratio and degenerate_max_drop_ratio); `match.pose` itself when the
+// match constrains both directions, both criteria are off or the match carries no information
+// matrix. Both poses in the frame the match was made in. `*degenerate` (optional) tells
+// whether a direction was held.
 Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
                           bool* degenerate = nullptr);
 
@@ -172,6 +207,7 @@ struct LocalResult {
   Pose2 local_pose;            // local frame, after matching
   bool matched = false;        // a match was tried (not on the first scan)
   bool degenerate = false;     // the weak direction kept the prediction
+  int frontier_points = 0;     // points left out of the match (frontier_margin_meters)
   ScanMatchResult match;
   ScanPoints points;
   // Submaps this scan started (their local pose) and went into (with its pose in each).
@@ -198,10 +234,16 @@ struct LocalResult {
 // degenerate match keeps it along the weak direction (see degenerate_eigenvalue_ratio);
 // otherwise it is the front end's own extrapolation. `motion`: the odometry pose at the scan
 // when the prediction is kOdometry (kept for the next prediction).
+// `covariance`: of (x, y, yaw) in the local frame, when the source knows it (the EKF): the
+// search windows are then sized by it (covariance_sigmas standard deviations beyond the
+// matcher's narrow windows, at most the full windows) and there is no wider fallback: a motion
+// source with a gyro does not turn 90° between two scans, and a corridor's corner matched
+// against a half-built map can score best there.
 struct Prediction {
   Pose2 pose;
   bool external = false;
   std::optional<Pose2> motion;
+  std::optional<Eigen::Matrix3d> covariance;
 };
 
 class LocalSlam {

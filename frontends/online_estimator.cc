@@ -268,6 +268,7 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   if (!prediction.external && first_motion_stamp_.has_value() && *first_motion_stamp_ <= stamp) {
     prediction.pose = at_scan.pose();
     prediction.external = true;
+    prediction.covariance = at_scan.pose_covariance();
     ++stats_.ekf_predicted_scans;
   }
   const long long floor_obstacle_points = static_cast<long long>(points.floor_obstacles.size());

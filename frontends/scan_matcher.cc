@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 
+#include "Eigen/Eigenvalues"
 #include "ceres/ceres.h"
 #include "factors/scan_cost.h"
 #include "glog/logging.h"
@@ -258,6 +259,7 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   if (!(angular_search_window_radians >= 0 && angular_search_window_radians <= M_PI))
     msg << "angular_search_window_radians must be in [0, pi] (got " << angular_search_window_radians << "); ";
   if (!(angular_step_radians >= 0)) msg << "angular_step_radians must be >= 0; ";
+  if (!(profile_step_meters > 0 && profile_step_meters <= 1)) msg << "profile_step_meters must be in (0, 1]; ";
   if (!(min_angular_step_radians > 0 && min_angular_step_radians <= max_angular_step_radians))
     msg << "need 0 < min_angular_step_radians <= max_angular_step_radians; ";
   if (branch_and_bound_depth < 0 || branch_and_bound_depth > 10)
@@ -448,6 +450,26 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
       jtj += j * j.transpose();
     }
     result.information = jtj;
+    if (jtj(2, 2) > 0) {
+      const Eigen::Matrix2d translational =
+          jtj.topLeftCorner<2, 2>() - jtj.topRightCorner<2, 1>() * jtj.bottomLeftCorner<1, 2>() / jtj(2, 2);
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(translational);
+      result.weak_direction = eigen.eigenvectors().col(0).normalized();
+      const double at_match = BilinearScore(map.field(), result.pose, points_robot, weights);
+      auto drop_along = [&](const Eigen::Vector2d& direction) {
+        double best_shifted = -std::numeric_limits<double>::infinity();
+        for (int k = 1; k <= 3; ++k) {
+          for (const double side : {-1.0, 1.0}) {
+            const Pose2 shifted(result.pose.translation() + side * k * options_.profile_step_meters * direction,
+                                result.pose.theta());
+            best_shifted = std::max(best_shifted, BilinearScore(map.field(), shifted, points_robot, weights));
+          }
+        }
+        return at_match - best_shifted;
+      };
+      result.weak_direction_score_drop = drop_along(result.weak_direction);
+      result.strong_direction_score_drop = drop_along(eigen.eigenvectors().col(1).normalized());
+    }
   }
   result.score = BilinearScore(map.field(), result.pose, points_robot, weights);
   return result;

@@ -56,6 +56,7 @@ struct ScanMatcherOptions {
   double narrow_angular_search_window_radians = 0.0;
   double narrow_accept_score = 0.5;
   bool refine_with_ceres = true;
+  double profile_step_meters = 0.1;  // see ScanMatchResult::weak_direction_score_drop
   int max_ceres_iterations = 20;
 
   bool IsValid(std::string* error) const;
@@ -70,6 +71,15 @@ struct ScanMatchResult {
   double final_cost = 0;         // Ceres final cost
   int candidates_scored = 0;     // branch-and-bound work
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // J^T J of the scan cost at `pose`
+  // The translational direction `information` constrains least (unit, map frame; zero without
+  // a refinement) and how much the score (bilinear, as `score`) falls when the pose moves
+  // along it and across it: `score` minus the best score at shifts of ±1 to ±3 profile steps
+  // (ScanMatcherOptions::profile_step_meters). A weak drop near 0, or small next to the strong
+  // one: the map cannot place the scan along that direction (a featureless corridor, where
+  // the weak drop is the noise of the wall hits), whatever the information says.
+  Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();
+  double weak_direction_score_drop = 0.0;
+  double strong_direction_score_drop = 0.0;
   std::string message;           // why it did not converge
 };
 
