@@ -119,6 +119,8 @@ DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a motion so
 DEFINE_double(degenerate_drop_ratio, 0.25, "... or when, shifted 0.1-0.3 m along that direction, the scan's score drops "
               "by less than this fraction of its drop across it (a featureless corridor: the score is flat along it); "
               "0 = off.");
+DEFINE_double(degenerate_sigma, 0.1, "Standard deviation (metres) of a degenerate match along its weak direction in the "
+              "EKF update: there the EKF's prediction (commands, odometry) carries the pose and its covariance grows.");
 DEFINE_double(line_max_gap, 0.5, "Map surfaces, not dotted hits: neighbouring beams' end points at most this far apart "
               "(metres) that lie on a line make each hit stand for its piece of that line in the likelihood field (a "
               "wall seen at a grazing angle scores as a wall, not as dots); 0 = hit points only.");
@@ -186,6 +188,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
              "'); use --use_odometry for odometry";
     return false;
   }
+  estimator->degenerate_sigma_meters = FLAGS_degenerate_sigma;
   estimator->use_odometry = FLAGS_use_odometry;
   estimator->use_commands = FLAGS_use_commands && !FLAGS_use_odometry;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &estimator->attitude_source) ||

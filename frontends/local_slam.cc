@@ -129,25 +129,29 @@ int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map,
 }
 
 Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
-                          bool* degenerate) {
+                          bool* degenerate, Eigen::Vector2d* weak_direction) {
   if (degenerate != nullptr) *degenerate = false;
   const Eigen::Matrix3d& info = match.information;
   const bool use_ratio = options.degenerate_eigenvalue_ratio > 0;
   const bool use_drop = options.degenerate_max_drop_ratio > 0 && match.weak_direction.squaredNorm() > 0;
-  if ((!use_ratio && !use_drop) || !(info(2, 2) > 0)) return match.pose;
-  // Translational information with the yaw marginalised out (Schur complement).
-  const Eigen::Matrix2d translational =
-      info.topLeftCorner<2, 2>() - info.topRightCorner<2, 1>() * info.bottomLeftCorner<1, 2>() / info(2, 2);
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(translational);
-  const Eigen::Vector2d values = eigen.eigenvalues();  // ascending
-  if (!(values(1) > 0)) return match.pose;
-  const bool weak_by_ratio = use_ratio && values(0) < options.degenerate_eigenvalue_ratio * values(1);
-  const bool flat = use_drop && match.weak_direction_score_drop <
-                                    options.degenerate_max_drop_ratio * match.strong_direction_score_drop;
-  if (!weak_by_ratio && !flat) return match.pose;
-  const Eigen::Vector2d strong = eigen.eigenvectors().col(1);
+  Eigen::Vector2d weak = Eigen::Vector2d::Zero();
+  if (use_drop && match.weak_direction_score_drop < options.degenerate_max_drop_ratio * match.strong_direction_score_drop) {
+    weak = match.weak_direction;  // the score is flat along it
+  } else if (use_ratio && info(2, 2) > 0) {
+    // Translational information with the yaw marginalised out (Schur complement).
+    const Eigen::Matrix2d translational =
+        info.topLeftCorner<2, 2>() - info.topRightCorner<2, 1>() * info.bottomLeftCorner<1, 2>() / info(2, 2);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(translational);
+    const Eigen::Vector2d values = eigen.eigenvalues();  // ascending
+    if (values(1) > 0 && values(0) < options.degenerate_eigenvalue_ratio * values(1)) {
+      weak = eigen.eigenvectors().col(0).normalized();
+    }
+  }
+  if (weak.squaredNorm() == 0) return match.pose;
+  const Eigen::Vector2d strong(-weak.y(), weak.x());
   const Eigen::Vector2d correction = match.pose.translation() - predicted.translation();
   if (degenerate != nullptr) *degenerate = true;
+  if (weak_direction != nullptr) *weak_direction = weak;
   return Pose2(predicted.translation() + strong.dot(correction) * strong, match.pose.theta());
 }
 
@@ -253,7 +257,7 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     result.matched = true;
     // Only with a motion source (see frontier_margin_meters): without one, the frontier points
     // are the only evidence of the motion along a wall.
-    if (prediction.external) {
+    if (prediction.external && prediction.measures_translation) {
       result.frontier_points = LeaveOutFrontierPoints(options_, target.map, predicted_submap, &points);
     }
     if (options_.wall_weight != 1.0 && target.map.grid().has_labels()) {
@@ -294,10 +298,12 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     // they mean nothing to a later match (loop closure) against another submap.
     points.matching_weights.clear();
     if (result.match.converged) {
+      Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();
       result.local_pose = target.local_T_submap *
-                          (prediction.external ? DegeneracyAwarePose(options_, predicted_submap, result.match,
-                                                                     &result.degenerate)
+                          (prediction.external && prediction.measures_translation ? DegeneracyAwarePose(options_, predicted_submap, result.match,
+                                                                     &result.degenerate, &weak_direction)
                                                : result.match.pose);
+      result.weak_direction = target.local_T_submap.rotation() * weak_direction;
     }
   }
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;

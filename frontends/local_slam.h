@@ -179,8 +179,9 @@ int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map,
 // match constrains both directions, both criteria are off or the match carries no information
 // matrix. Both poses in the frame the match was made in. `*degenerate` (optional) tells
 // whether a direction was held.
+// `*weak_direction` (optional) receives the held direction (unit, the match's frame) when one was held.
 Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
-                          bool* degenerate = nullptr);
+                          bool* degenerate = nullptr, Eigen::Vector2d* weak_direction = nullptr);
 
 // An active submap: its map (owned: copying the state copies it) and where it sits.
 struct ActiveSubmap {
@@ -207,6 +208,7 @@ struct LocalResult {
   Pose2 local_pose;            // local frame, after matching
   bool matched = false;        // a match was tried (not on the first scan)
   bool degenerate = false;     // the weak direction kept the prediction
+  Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();  // local frame, unit, when degenerate
   int frontier_points = 0;     // points left out of the match (frontier_margin_meters)
   ScanMatchResult match;
   ScanPoints points;
@@ -239,9 +241,13 @@ struct LocalResult {
 // matcher's narrow windows, at most the full windows) and there is no wider fallback: a motion
 // source with a gyro does not turn 90° between two scans, and a corridor's corner matched
 // against a half-built map can score best there.
+// `measures_translation`: the source measures how far the robot went (odometry, the EKF with
+// live commands); the EKF on MARG rates alone knows the heading but only extrapolates the
+// position, so then no weak direction is held to it and no frontier point is left out.
 struct Prediction {
   Pose2 pose;
   bool external = false;
+  bool measures_translation = true;
   std::optional<Pose2> motion;
   std::optional<Eigen::Matrix3d> covariance;
 };

@@ -60,6 +60,7 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
   if (!(attitude_max_age_seconds >= 0 && altitude_max_age_seconds >= 0 && odometry_max_age_seconds >= 0))
     msg << "attitude, altitude and odometry ages must be >= 0; ";
+  if (!(degenerate_sigma_meters > 0 && degenerate_sigma_meters <= 1e3)) msg << "degenerate_sigma_meters must be in (0, 1000]; ";
   if (!(scan_match_translation_sigma_meters > 0 && scan_match_rotation_sigma_radians > 0))
     msg << "scan-match sigmas must be > 0; ";
   if (error != nullptr) *error = msg.str();
@@ -109,6 +110,7 @@ Status OnlineEstimator::Add(const Measurement& measurement) {
   } else if (const auto* command = std::get_if<VelocityCommand>(&measurement)) {
     if (options_.use_commands) {
       if (!first_motion_stamp_.has_value() || stamp < *first_motion_stamp_) first_motion_stamp_ = stamp;
+      if (!last_command_stamp_.has_value() || stamp > *last_command_stamp_) last_command_stamp_ = stamp;
       status = ekf_.AddCommand(*command);
       if (!status.ok()) ++stats_.ekf_errors;
     }
@@ -269,6 +271,8 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
     prediction.pose = at_scan.pose();
     prediction.external = true;
     prediction.covariance = at_scan.pose_covariance();
+    prediction.measures_translation =
+        last_command_stamp_.has_value() && *last_command_stamp_ >= stamp - options_.ekf.command_timeout_seconds;
     ++stats_.ekf_predicted_scans;
   }
   const long long floor_obstacle_points = static_cast<long long>(points.floor_obstacles.size());
@@ -306,6 +310,11 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   update.world_T_robot = local_pose;
   const double st = options_.scan_match_translation_sigma_meters, sr = options_.scan_match_rotation_sigma_radians;
   update.covariance = Eigen::Vector3d(st * st, st * st, sr * sr).asDiagonal();
+  if (result.degenerate) {
+    const Eigen::Vector2d& v = result.weak_direction;
+    const double free = options_.degenerate_sigma_meters;
+    update.covariance.topLeftCorner<2, 2>() += (free * free - st * st) * v * v.transpose();
+  }
   if (!ekf_.AddScanMatchPose(update).ok()) ++stats_.ekf_errors;
 
   const NodeId node = graph_->AddNode(options_.robot, std::move(result));

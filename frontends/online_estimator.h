@@ -91,6 +91,15 @@ struct OnlineEstimatorOptions {
   // scenarios worse on several seeds).
   double scan_match_translation_sigma_meters = 0.001;
   double scan_match_rotation_sigma_radians = 0.0005;
+  // Along the weak direction of a degenerate match (LocalResult::weak_direction: a corridor)
+  // the score is flat and the matched position wanders (±0.1–0.3 m on wheeled_corridor): the
+  // EKF update takes this standard deviation there, so the EKF's prediction (commands,
+  // odometry) carries the pose along it, its covariance grows as the motion model says, and
+  // with it the next search window (LocalSlamOptions::covariance_sigmas). Measured on
+  // wheeled_corridor seeds 1, 2 (ATE): 0.001 m (the strong directions' value) 0.38, 0.37 m;
+  // 0.1 m 0.11, 0.14 m; 10 m 0.48, 0.35 m (a weak direction a few degrees off the corridor
+  // then turns every across-track correction into a long along-track one).
+  double degenerate_sigma_meters = 0.1;
 
   bool IsValid(std::string* error) const;
 };
@@ -182,6 +191,7 @@ class OnlineEstimator {
   std::optional<VelocityCommand> pending_command_;  // latest command before the EKF started
   // Stamp of the earliest command or MARG sample: the EKF predicts the scans stamped after it.
   std::optional<double> first_motion_stamp_;
+  std::optional<double> last_command_stamp_;  // newest command added (use_commands)
   std::optional<double> last_scan_stamp_;
   int loop_closures_since_solve_ = 0;
   int nodes_since_solve_ = 0;

@@ -450,25 +450,26 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
       jtj += j * j.transpose();
     }
     result.information = jtj;
-    if (jtj(2, 2) > 0) {
-      const Eigen::Matrix2d translational =
-          jtj.topLeftCorner<2, 2>() - jtj.topRightCorner<2, 1>() * jtj.bottomLeftCorner<1, 2>() / jtj(2, 2);
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(translational);
-      result.weak_direction = eigen.eigenvectors().col(0).normalized();
-      const double at_match = BilinearScore(map.field(), result.pose, points_robot, weights);
-      auto drop_along = [&](const Eigen::Vector2d& direction) {
-        double best_shifted = -std::numeric_limits<double>::infinity();
-        for (int k = 1; k <= 3; ++k) {
-          for (const double side : {-1.0, 1.0}) {
-            const Pose2 shifted(result.pose.translation() + side * k * options_.profile_step_meters * direction,
-                                result.pose.theta());
-            best_shifted = std::max(best_shifted, BilinearScore(map.field(), shifted, points_robot, weights));
-          }
+    // The score's profile in eight directions (every 22.5°): the flattest is the weak one.
+    const double at_match = BilinearScore(map.field(), result.pose, points_robot, weights);
+    result.weak_direction_score_drop = std::numeric_limits<double>::infinity();
+    result.strong_direction_score_drop = -std::numeric_limits<double>::infinity();
+    for (int d = 0; d < 8; ++d) {
+      const Eigen::Vector2d direction(std::cos(d * M_PI / 8), std::sin(d * M_PI / 8));
+      double best_shifted = -std::numeric_limits<double>::infinity();
+      for (int k = 1; k <= 3; ++k) {
+        for (const double side : {-1.0, 1.0}) {
+          const Pose2 shifted(result.pose.translation() + side * k * options_.profile_step_meters * direction,
+                              result.pose.theta());
+          best_shifted = std::max(best_shifted, BilinearScore(map.field(), shifted, points_robot, weights));
         }
-        return at_match - best_shifted;
-      };
-      result.weak_direction_score_drop = drop_along(result.weak_direction);
-      result.strong_direction_score_drop = drop_along(eigen.eigenvectors().col(1).normalized());
+      }
+      const double drop = at_match - best_shifted;
+      if (drop < result.weak_direction_score_drop) {
+        result.weak_direction_score_drop = drop;
+        result.weak_direction = direction;
+      }
+      result.strong_direction_score_drop = std::max(result.strong_direction_score_drop, drop);
     }
   }
   result.score = BilinearScore(map.field(), result.pose, points_robot, weights);

@@ -71,12 +71,14 @@ struct ScanMatchResult {
   double final_cost = 0;         // Ceres final cost
   int candidates_scored = 0;     // branch-and-bound work
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // J^T J of the scan cost at `pose`
-  // The translational direction `information` constrains least (unit, map frame; zero without
-  // a refinement) and how much the score (bilinear, as `score`) falls when the pose moves
-  // along it and across it: `score` minus the best score at shifts of ±1 to ±3 profile steps
-  // (ScanMatcherOptions::profile_step_meters). A weak drop near 0, or small next to the strong
-  // one: the map cannot place the scan along that direction (a featureless corridor, where
-  // the weak drop is the noise of the wall hits), whatever the information says.
+  // The score's profile around `pose` (with a refinement; zero without): the drop of a
+  // direction is `score` (bilinear) minus the best score at shifts of ±1 to ±3 profile steps
+  // (ScanMatcherOptions::profile_step_meters) along it; of eight directions 22.5° apart, the
+  // one with the smallest drop (unit, map frame), that drop and the largest. A weak drop near
+  // 0, or small next to the strong one: the map cannot place the scan along that direction (a
+  // featureless corridor, where the weak drop is the noise of the wall hits). The profile, not
+  // `information`: in a corridor the latter is mostly that noise, and its least-informed
+  // direction is sometimes the one across the walls.
   Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();
   double weak_direction_score_drop = 0.0;
   double strong_direction_score_drop = 0.0;
