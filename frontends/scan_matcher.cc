@@ -1,6 +1,7 @@
 #include "frontends/scan_matcher.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -450,12 +451,13 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
       jtj += j * j.transpose();
     }
     result.information = jtj;
-    // The score's profile in eight directions (every 22.5°): the flattest is the weak one.
+    // The score's profile in kDirections directions over a half turn: the flattest is the weak
+    // one, its angle refined by a parabola through its neighbours' drops.
+    constexpr int kDirections = 16;
     const double at_match = BilinearScore(map.field(), result.pose, points_robot, weights);
-    result.weak_direction_score_drop = std::numeric_limits<double>::infinity();
-    result.strong_direction_score_drop = -std::numeric_limits<double>::infinity();
-    for (int d = 0; d < 8; ++d) {
-      const Eigen::Vector2d direction(std::cos(d * M_PI / 8), std::sin(d * M_PI / 8));
+    std::array<double, kDirections> drops;
+    for (int d = 0; d < kDirections; ++d) {
+      const Eigen::Vector2d direction(std::cos(d * M_PI / kDirections), std::sin(d * M_PI / kDirections));
       double best_shifted = -std::numeric_limits<double>::infinity();
       for (int k = 1; k <= 3; ++k) {
         for (const double side : {-1.0, 1.0}) {
@@ -464,13 +466,17 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
           best_shifted = std::max(best_shifted, BilinearScore(map.field(), shifted, points_robot, weights));
         }
       }
-      const double drop = at_match - best_shifted;
-      if (drop < result.weak_direction_score_drop) {
-        result.weak_direction_score_drop = drop;
-        result.weak_direction = direction;
-      }
-      result.strong_direction_score_drop = std::max(result.strong_direction_score_drop, drop);
+      drops[d] = at_match - best_shifted;
     }
+    const int weakest = static_cast<int>(std::min_element(drops.begin(), drops.end()) - drops.begin());
+    const double before = drops[(weakest + kDirections - 1) % kDirections];
+    const double after = drops[(weakest + 1) % kDirections];
+    const double curvature = before - 2 * drops[weakest] + after;
+    const double offset = curvature > 0 ? std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5) : 0.0;
+    const double angle = (weakest + offset) * M_PI / kDirections;
+    result.weak_direction = Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    result.weak_direction_score_drop = drops[weakest];
+    result.strong_direction_score_drop = *std::max_element(drops.begin(), drops.end());
   }
   result.score = BilinearScore(map.field(), result.pose, points_robot, weights);
   return result;

@@ -73,8 +73,9 @@ struct ScanMatchResult {
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // J^T J of the scan cost at `pose`
   // The score's profile around `pose` (with a refinement; zero without): the drop of a
   // direction is `score` (bilinear) minus the best score at shifts of ±1 to ±3 profile steps
-  // (ScanMatcherOptions::profile_step_meters) along it; of eight directions 22.5° apart, the
-  // one with the smallest drop (unit, map frame), that drop and the largest. A weak drop near
+  // (ScanMatcherOptions::profile_step_meters) along it; of sixteen directions 11.25° apart, the
+  // one with the smallest drop (unit, map frame; its angle refined by a parabola through its
+  // neighbours' drops), that drop and the largest. A weak drop near
   // 0, or small next to the strong one: the map cannot place the scan along that direction (a
   // featureless corridor, where the weak drop is the noise of the wall hits). The profile, not
   // `information`: in a corridor the latter is mostly that noise, and its least-informed
