@@ -129,6 +129,9 @@ DEFINE_double(frontier_margin, 0.3, "Leave out of a match the points whose surfa
               "pulls matches back along corridors); 0 = off.");
 DEFINE_double(covariance_sigmas, 3.0, "With the EKF's prediction: search windows of the narrow windows plus this many "
               "standard deviations of its covariance (at most the full windows), no wider fallback.");
+DEFINE_double(odometry_noise_fraction, 0.1, "With --use_odometry: the prediction's standard deviations are this fraction of "
+              "the odometry increment, and the search windows follow them (no wide fallback); 0 = narrow, full and "
+              "fallback windows as without odometry.");
 DEFINE_double(densify_max_gap, 0.0, "Join the end points of neighbouring beams closer than this (metres) by points at "
               "the grid resolution before matching and mapping (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
@@ -176,6 +179,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->field.line_max_gap_meters = FLAGS_line_max_gap;
   options->frontier_margin_meters = FLAGS_frontier_margin;
   options->covariance_sigmas = FLAGS_covariance_sigmas;
+  options->odometry_noise_fraction = FLAGS_odometry_noise_fraction;
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;

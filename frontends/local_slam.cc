@@ -43,6 +43,7 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
     msg << "angular_velocity_fraction must be in [0, 1.5] (got " << angular_velocity_fraction << "); ";
   if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
+  if (!(odometry_noise_fraction >= 0 && odometry_noise_fraction <= 1)) msg << "odometry_noise_fraction must be in [0, 1]; ";
   if (!(covariance_sigmas > 0 && covariance_sigmas <= 10)) msg << "covariance_sigmas must be in (0, 10]; ";
   if (!(frontier_margin_meters >= 0 && frontier_margin_meters <= 10)) msg << "frontier_margin_meters must be in [0, 10]; ";
   if (!(densify_max_gap_meters >= 0)) msg << "densify_max_gap_meters must be >= 0; ";
@@ -231,6 +232,15 @@ Prediction LocalSlam::Predict(const std::optional<Pose2>& odometry) const {
   if (options_.prediction == MotionPrediction::kOdometry && odometry.has_value()) {
     prediction.external = true;
     prediction.motion = odometry;
+    if (state_.last_odometry.has_value() && options_.odometry_noise_fraction > 0) {
+      // The increment's own size bounds its error (a wheel odometry's few per cent, ten here):
+      // the search windows follow it (Prediction::covariance).
+      const Pose2 increment = Between(*state_.last_odometry, *odometry);
+      const double f = options_.odometry_noise_fraction;
+      const double translation = f * increment.translation().norm();
+      const double yaw = f * std::abs(increment.theta()) + 0.5 * f * increment.translation().norm();
+      prediction.covariance = Eigen::Vector3d(translation * translation, translation * translation, yaw * yaw).asDiagonal();
+    }
   }
   return prediction;
 }

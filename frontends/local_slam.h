@@ -119,6 +119,11 @@ struct LocalSlamOptions {
   double frontier_margin_meters = 0.3;
   // See Prediction::covariance.
   double covariance_sigmas = 3.0;
+  // kOdometry: the prediction's standard deviations are this fraction of the odometry
+  // increment (translation; yaw: of the turn plus half of it per metre driven), so its search
+  // windows are the narrow ones plus covariance_sigmas of that, with no wide fallback. 0: no
+  // covariance (narrow, full and fallback windows as for the front end's own prediction).
+  double odometry_noise_fraction = 0.1;
 
   // ScanMatcherOptions with a narrow first try of ±0.4 m, ±10° accepted from a score of 0.4:
   // scan-to-scan motion is far below the full windows on most logs.
