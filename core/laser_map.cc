@@ -14,14 +14,14 @@ OccupancyGridOptions WithFieldMargin(OccupancyGridOptions grid, const Likelihood
   return grid;
 }
 
-std::vector<ScanLine> EstimateScanLines(const LikelihoodFieldOptions& options,
+std::vector<ScanLine> EstimateScanLines(const ScanLineOptions& options,
                                         const std::vector<Eigen::Vector2f>& points) {
   const int n = static_cast<int>(points.size());
   std::vector<ScanLine> lines(n);
-  if (options.line_max_gap_meters <= 0.0 || n < 3) return lines;
-  const float max_gap = static_cast<float>(options.line_max_gap_meters);
-  const float radius = static_cast<float>(options.line_fit_radius_meters);
-  const float max_mean_square = static_cast<float>(options.line_max_rms_meters * options.line_max_rms_meters);
+  if (options.max_gap_meters <= 0.0 || n < 3) return lines;
+  const float max_gap = static_cast<float>(options.max_gap_meters);
+  const float radius = static_cast<float>(options.fit_radius_meters);
+  const float max_mean_square = static_cast<float>(options.max_rms_meters * options.max_rms_meters);
   auto gap = [&](int a, int b) { return (points[a] - points[b]).norm(); };
   for (int i = 0; i < n; ++i) {
     const float gap_before = i > 0 ? gap(i - 1, i) : std::numeric_limits<float>::infinity();
@@ -81,8 +81,8 @@ void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
     for (PointLabel label : *labels) labels_.push_back(static_cast<uint8_t>(label));
   }
   const std::vector<ScanLine>* lines = nullptr;
-  if (field_.options().line_max_gap_meters > 0.0) {
-    lines_ = EstimateScanLines(field_.options(), points_robot);
+  if (field_.options().lines.max_gap_meters > 0.0) {
+    lines_ = EstimateScanLines(field_.options().lines, points_robot);
     const Eigen::Rotation2Df rotation(static_cast<float>(world_T_robot.theta()));
     for (ScanLine& line : lines_) line.direction = rotation * line.direction;
     lines = &lines_;

@@ -19,14 +19,14 @@ OccupancyGridOptions WithFieldMargin(OccupancyGridOptions grid, const Likelihood
 
 // The surface each point of a scan lies on (robot frame directions), from its neighbours in
 // beam order (`points_robot` as the scan gives them): the run of consecutive points, each at
-// most options.line_max_gap_meters from the previous, within options.line_fit_radius_meters
+// most options.max_gap_meters from the previous, within options.fit_radius_meters
 // of point i (and always its immediate neighbours within the gap, and farther ones until there
 // are three) is fitted with a line
 // (principal axis); with at least three points and an RMS distance to the line of at most
-// options.line_max_rms_meters, point i gets that direction and half the larger gap to its
+// options.max_rms_meters, point i gets that direction and half the larger gap to its
 // immediate neighbours as its half length (the piece of surface between the beams it stands
-// for). Otherwise, and for every point when line_max_gap_meters is 0, half_length 0.
-std::vector<ScanLine> EstimateScanLines(const LikelihoodFieldOptions& options,
+// for). Otherwise, and for every point when max_gap_meters is 0, half_length 0.
+std::vector<ScanLine> EstimateScanLines(const ScanLineOptions& options,
                                         const std::vector<Eigen::Vector2f>& points_robot);
 
 class LaserMap {

@@ -28,10 +28,10 @@ bool LikelihoodFieldOptions::IsValid(std::string* error) const {
   if (!(max_distance_meters > 0.0)) msg << "max_distance_meters must be > 0 (got " << max_distance_meters << "); ";
   if (!(republish_distance_meters >= 0.0)) msg << "republish_distance_meters must be >= 0; ";
   if (!(republish_angle_radians >= 0.0)) msg << "republish_angle_radians must be >= 0; ";
-  if (!(line_max_gap_meters >= 0.0 && line_max_gap_meters <= 2.0 * max_distance_meters))
-    msg << "line_max_gap_meters must be in [0, 2 max_distance_meters] (got " << line_max_gap_meters << "); ";
-  if (!(line_fit_radius_meters >= 0.0)) msg << "line_fit_radius_meters must be >= 0; ";
-  if (!(line_max_rms_meters > 0.0)) msg << "line_max_rms_meters must be > 0; ";
+  std::string sub;
+  if (!lines.IsValid(&sub)) msg << "lines: " << sub;
+  if (!(lines.max_gap_meters <= 2.0 * max_distance_meters))
+    msg << "lines.max_gap_meters must be at most 2 max_distance_meters (got " << lines.max_gap_meters << "); ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }

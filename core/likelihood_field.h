@@ -43,14 +43,15 @@ struct LikelihoodFieldOptions {
   double max_distance_meters = 0.30;     // window radius R = ceil(max_distance / resolution)
   double republish_distance_meters = 0.005;
   double republish_angle_radians = 0.035;  // 2°
-  // How a LaserMap finds the surface each end point lies on (core/laser_map.h
-  // EstimateScanLines): neighbouring beams' end points at most `line_max_gap_meters` apart
-  // (0: no lines, the field measures distances to hit points only), fitted within
-  // `line_fit_radius_meters` of the point, form a line when their RMS distance to the fitted
-  // line is at most `line_max_rms_meters`.
-  double line_max_gap_meters = 0.5;
-  double line_fit_radius_meters = 0.25;
-  double line_max_rms_meters = 0.02;
+  // The surfaces a LaserMap gives its hits (core/laser_map.h EstimateScanLines). Off by
+  // default (max_gap_meters 0: distances to hit points only): measured, the surfaces improve
+  // Intel's relations (0.0229 → 0.0207 m) and leave the simulated corridors as they are, but
+  // bend MIT CSAIL's map (ATE against GMapping 0.175 → 10.9 m, 105 instead of 196 closures).
+  ScanLineOptions lines = [] {
+    ScanLineOptions off;
+    off.max_gap_meters = 0.0;
+    return off;
+  }();
 
   bool IsValid(std::string* error) const;
 };

@@ -23,6 +23,15 @@ bool OccupancyGridOptions::IsValid(std::string* error) const {
   return msg.str().empty();
 }
 
+bool ScanLineOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (!(max_gap_meters >= 0.0 && max_gap_meters <= 5.0)) msg << "max_gap_meters must be in [0, 5] (got " << max_gap_meters << "); ";
+  if (!(fit_radius_meters >= 0.0 && fit_radius_meters <= 5.0)) msg << "fit_radius_meters must be in [0, 5]; ";
+  if (!(max_rms_meters > 0.0 && max_rms_meters <= 1.0)) msg << "max_rms_meters must be in (0, 1]; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
 OccupancyGrid::OccupancyGrid(const OccupancyGridOptions& options) : options_(options) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid OccupancyGridOptions: " << error;

@@ -49,6 +49,18 @@ struct ScanLine {
   float half_length = 0.f;
 };
 
+// How EstimateScanLines (core/laser_map.h) finds the surface each end point lies on:
+// neighbouring beams' end points at most `max_gap_meters` apart (0: no lines), fitted within
+// `fit_radius_meters` of the point, form a line when their RMS distance to the fitted line is
+// at most `max_rms_meters`.
+struct ScanLineOptions {
+  double max_gap_meters = 0.5;
+  double fit_radius_meters = 0.25;
+  double max_rms_meters = 0.02;
+
+  bool IsValid(std::string* error) const;
+};
+
 enum class CellState : uint8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
 
 class OccupancyGrid {

@@ -121,9 +121,10 @@ DEFINE_double(degenerate_drop_ratio, 0.25, "... or when, shifted 0.1-0.3 m along
               "0 = off.");
 DEFINE_double(degenerate_sigma, 0.1, "Standard deviation (metres) of a degenerate match along its weak direction in the "
               "EKF update: there the EKF's prediction (commands, odometry) carries the pose and its covariance grows.");
-DEFINE_double(line_max_gap, 0.5, "Map surfaces, not dotted hits: neighbouring beams' end points at most this far apart "
+DEFINE_double(line_max_gap, 0.0, "Map surfaces, not dotted hits: neighbouring beams' end points at most this far apart "
               "(metres) that lie on a line make each hit stand for its piece of that line in the likelihood field (a "
-              "wall seen at a grazing angle scores as a wall, not as dots); 0 = hit points only.");
+              "wall seen at a grazing angle scores as a wall, not as dots); 0 = hit points only (default: 0.5 improves "
+              "Intel but bends MIT CSAIL's map).");
 DEFINE_double(frontier_margin, 0.3, "Leave out of a match the points whose surface, within this distance (metres) of "
               "where the prediction puts them, runs into ground the map never observed (the map's frontier, which "
               "pulls matches back along corridors); 0 = off.");
@@ -176,7 +177,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->densify_max_gap_meters = FLAGS_densify_max_gap;
   options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;
   options->degenerate_max_drop_ratio = FLAGS_degenerate_drop_ratio;
-  options->field.line_max_gap_meters = FLAGS_line_max_gap;
+  options->field.lines.max_gap_meters = FLAGS_line_max_gap;
   options->frontier_margin_meters = FLAGS_frontier_margin;
   options->covariance_sigmas = FLAGS_covariance_sigmas;
   options->odometry_noise_fraction = FLAGS_odometry_noise_fraction;

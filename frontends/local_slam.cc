@@ -45,6 +45,7 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
   if (!(odometry_noise_fraction >= 0 && odometry_noise_fraction <= 1)) msg << "odometry_noise_fraction must be in [0, 1]; ";
   if (!(covariance_sigmas > 0 && covariance_sigmas <= 10)) msg << "covariance_sigmas must be in (0, 10]; ";
+  if (!frontier_lines.IsValid(&sub)) msg << "frontier_lines: " << sub;
   if (!(frontier_margin_meters >= 0 && frontier_margin_meters <= 10)) msg << "frontier_margin_meters must be in [0, 10]; ";
   if (!(densify_max_gap_meters >= 0)) msg << "densify_max_gap_meters must be >= 0; ";
   if (!(wall_weight > 0)) msg << "wall_weight must be > 0; ";
@@ -110,7 +111,7 @@ bool RunsIntoUnobservedGround(const LaserMap& map, const Pose2& world_T_robot, c
 int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
                            ScanPoints* points) {
   if (options.frontier_margin_meters <= 0 || map.num_scans_inserted() == 0) return 0;
-  const std::vector<ScanLine> lines = EstimateScanLines(map.field().options(), points->all);
+  const std::vector<ScanLine> lines = EstimateScanLines(options.frontier_lines, points->all);
   std::vector<Eigen::Vector2f> kept;
   kept.reserve(points->all.size());
   for (size_t k = 0; k < points->all.size(); ++k) {

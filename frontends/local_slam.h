@@ -109,7 +109,8 @@ struct LocalSlamOptions {
   // The map's frontier (the ambiguity issue): a wall seen at a grazing angle is mapped up to
   // where the last scan reached, so a scan's far points on it score less when the scan moves
   // on (they leave the mapped wall) and the same when it moves back: the match is pulled back
-  // along corridors. Matching points whose surface (core/laser_map.h EstimateScanLines), within
+  // along corridors. Matching points whose surface (core/laser_map.h EstimateScanLines with
+  // frontier_lines), within
   // this distance of where the prediction puts them, runs into unobserved ground (an unknown
   // cell farther than the field's sigma from any mapped surface) carry no information the map
   // can score fairly: they are left out of the match (they are still mapped). Only for
@@ -117,6 +118,7 @@ struct LocalSlamOptions {
   // those points are the only evidence of it (Intel: 0.0207 m → 0.0251 m on the relations with
   // the rule applied to every scan). 0 = off.
   double frontier_margin_meters = 0.3;
+  ScanLineOptions frontier_lines;
   // See Prediction::covariance.
   double covariance_sigmas = 3.0;
   // kOdometry: the prediction's standard deviations are this fraction of the odometry

@@ -16,7 +16,7 @@ std::vector<Eigen::Vector2f> Wall(float spacing) {
 }
 
 TEST(EstimateScanLinesTest, AWallGetsItsDirectionAndHalfTheGap) {
-  const LikelihoodFieldOptions options;  // line_max_gap 0.5 m
+  const ScanLineOptions options;  // max_gap 0.5 m
   const std::vector<Eigen::Vector2f> wall = Wall(0.2f);
   const std::vector<ScanLine> lines = EstimateScanLines(options, wall);
   ASSERT_EQ(wall.size(), lines.size());
@@ -28,7 +28,7 @@ TEST(EstimateScanLinesTest, AWallGetsItsDirectionAndHalfTheGap) {
 }
 
 TEST(EstimateScanLinesTest, NoLineAtCornersAcrossGapsOrWhenOff) {
-  LikelihoodFieldOptions options;
+  ScanLineOptions options;
   // An L: along y at x = 2, then along x at y = 1 (the corner at (2, 1)).
   std::vector<Eigen::Vector2f> corner;
   for (int i = 0; i <= 10; ++i) corner.emplace_back(2.f, -1.f + 0.2f * i);
@@ -42,11 +42,11 @@ TEST(EstimateScanLinesTest, NoLineAtCornersAcrossGapsOrWhenOff) {
   lines = EstimateScanLines(options, Wall(0.6f));
   for (const ScanLine& line : lines) EXPECT_EQ(0.f, line.half_length);
   // Off.
-  options.line_max_gap_meters = 0.0;
+  options.max_gap_meters = 0.0;
   lines = EstimateScanLines(options, Wall(0.2f));
   for (const ScanLine& line : lines) EXPECT_EQ(0.f, line.half_length);
   // Noise beyond line_max_rms: zig-zag 6 cm off the line every other point.
-  options.line_max_gap_meters = 0.5;
+  options.max_gap_meters = 0.5;
   std::vector<Eigen::Vector2f> zigzag = Wall(0.2f);
   for (size_t i = 0; i < zigzag.size(); i += 2) zigzag[i].x() += 0.06f;
   lines = EstimateScanLines(options, zigzag);
@@ -90,7 +90,7 @@ TEST(OccupancyGridLineTest, AveragesAxesAndRejectsDisagreement) {
 TEST(LaserMapTest, DottedWallScoresAsAContinuousWall) {
   for (const double gap : {0.5, 0.0}) {
     LikelihoodFieldOptions field;
-    field.line_max_gap_meters = gap;
+    field.lines.max_gap_meters = gap;
     LaserMap map(OccupancyGridOptions(), field);
     std::vector<Eigen::Vector2f> wall;
     for (int i = -5; i <= 5; ++i) wall.emplace_back(2.0125f, 0.2f * i + 0.0125f);

@@ -46,12 +46,16 @@ TEST(LikelihoodFieldTest, OneWallByHand) {
 
 // Seeded random insertions (including cells that turn free again) keep the incremental table
 // identical to a brute-force rebuild from the same published hit points.
-TEST(LikelihoodFieldTest, IncrementalMatchesBruteForceOnRandomUpdates) {
+// With surfaces (lines through neighbouring hits) as well: the structure's 40 points form a line.
+class LikelihoodFieldUpdateTest : public ::testing::TestWithParam<double> {};
+
+TEST_P(LikelihoodFieldUpdateTest, IncrementalMatchesBruteForceOnRandomUpdates) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> coord(-3.f, 3.f);
   std::uniform_real_distribution<double> pose_xy(-1.0, 1.0), pose_th(-M_PI, M_PI);
   LikelihoodFieldOptions field_options;
   field_options.republish_distance_meters = 0.01;
+  field_options.lines.max_gap_meters = GetParam();
   OccupancyGridOptions grid_options;
   grid_options.growth_step_meters = 0.5;  // grow often, to exercise Resize
   LaserMap map(grid_options, field_options);
@@ -82,7 +86,12 @@ TEST(LikelihoodFieldTest, IncrementalMatchesBruteForceOnRandomUpdates) {
   }
   // Cells must have turned free after being occupied, or the decrease path went untested.
   EXPECT_GT(turned_free, 50);
+  if (GetParam() > 0) {
+    EXPECT_TRUE(map.grid().has_lines());
+  }
 }
+
+INSTANTIATE_TEST_SUITE_P(PointsAndSurfaces, LikelihoodFieldUpdateTest, ::testing::Values(0.0, 0.5));
 
 // Freezing a finished map keeps what matching reads: cell states and likelihood values.
 TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
