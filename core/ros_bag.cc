@@ -10,7 +10,6 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
-#include <set>
 #include <utility>
 
 #include <geometry_msgs/PoseStamped.h>
@@ -358,6 +357,18 @@ class BagReader {
     return path_ + ": message " + std::to_string(number) + " (" + m.getTopic() + ")";
   }
 
+  // Each kind keeps the bag's order (ReadMeasurementLog does not re-sort a kind); a header stamp
+  // before its predecessor's is reported once per topic.
+  void CheckOrder(const rosbag::MessageInstance& m, int number, double stamp_seconds) {
+    auto [it, inserted] = last_stamps_.emplace(m.getTopic(), stamp_seconds);
+    if (inserted) return;
+    if (stamp_seconds < it->second && backwards_reported_.emplace(m.getTopic(), true).second) {
+      Warn(Where(number, m) + ": header stamp " + std::to_string(stamp_seconds) + " is before the previous one's (" +
+           std::to_string(it->second) + "); kept in bag order");
+    }
+    it->second = stamp_seconds;
+  }
+
   void Warn(const std::string& text) {
     if (static_cast<int>(contents_->warnings.size()) < options_.max_warnings_kept) contents_->warnings.push_back(text);
   }
@@ -429,6 +440,7 @@ class BagReader {
       contents_->params["laser_mount"] =
           options_.robot_T_laser.has_value() ? "options" : (from_tf_static ? "tf_static" : "identity");
     }
+    CheckOrder(m, number, scan.stamp_seconds);
     contents_->lasers.push_back(std::move(reading));
     return Status::Ok();
   }
@@ -463,6 +475,7 @@ class BagReader {
         contents_->attitudes.push_back(attitude);
       }
     }
+    CheckOrder(m, number, sample.stamp_seconds);
     contents_->marg.push_back(sample);
     return Status::Ok();
   }
@@ -480,6 +493,7 @@ class BagReader {
     reading.stamp_seconds = SecondsOf(msg->header.stamp, m);
     const double yaw = RollPitchYawFromRotation(q.normalized().toRotationMatrix()).z();
     reading.pose = Pose2(msg->pose.pose.position.x, msg->pose.pose.position.y, yaw);
+    CheckOrder(m, number, reading.stamp_seconds);
     contents_->odometry.push_back(reading);
     return Status::Ok();
   }
@@ -508,6 +522,7 @@ class BagReader {
           std::isfinite(command.yaw_rate_radps))) {
       return Bad(number, m, "command velocity is not finite");
     }
+    CheckOrder(m, number, command.stamp_seconds);
     contents_->commands.push_back(command);
     return Status::Ok();
   }
@@ -529,6 +544,7 @@ class BagReader {
     out.write(reinterpret_cast<const char*>(grey.data()), static_cast<std::streamsize>(grey.size()));
     out.close();
     if (!out) return Status::Error("cannot write image '" + image.path + "'");
+    CheckOrder(m, number, image.stamp_seconds);
     contents_->images.push_back(std::move(image));
     return Status::Ok();
   }
@@ -540,6 +556,8 @@ class BagReader {
   bool has_tf_static_ = false;
   StaticTransforms transforms_;
   std::map<std::string, std::pair<Eigen::Isometry3d, bool>> mounts_;  // frame -> (base_T_frame, from tf)
+  std::map<std::string, double> last_stamps_;       // topic -> last header stamp
+  std::map<std::string, bool> backwards_reported_;  // topics whose stamps went backwards
 };
 
 // ros::Time holds unsigned 32-bit seconds.

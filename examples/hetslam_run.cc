@@ -179,7 +179,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   bag->imu_topic = FLAGS_imu_topic;
   bag->odom_topic = FLAGS_odom_topic;
   bag->cmd_topic = FLAGS_cmd_topic;
-  bag->image_topic = FLAGS_image_dir.empty() ? "none" : FLAGS_image_topic;
+  bag->image_topic = FLAGS_image_topic;
   bag->image_directory = FLAGS_image_dir;
   bag->base_frame = FLAGS_base_frame;
   if (!FLAGS_laser_mount.empty()) {

@@ -9,6 +9,7 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <nav_msgs/Path.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/Image.h>
 
 #include "core/measurement_log.h"
 #include "gmock/gmock.h"
@@ -233,6 +234,36 @@ TEST(RosBagTest, CorruptBagIsAnErrorNamingTheFile) {
     ASSERT_FALSE(status.ok());
     EXPECT_THAT(status.message(), HasSubstr(path));
   }
+}
+
+// Images are written as grey PGM files into image_directory and become camera images; without
+// an image_directory they are not read.
+TEST(RosBagTest, ImagesBecomeGreyPgmFiles) {
+  const std::string path = TempPath("images.bag");
+  WriteSyntheticBag(path, SyntheticBagOptions());
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Append);
+    sensor_msgs::Image image;
+    image.header.stamp = ros::Time(kT0 + 0.05);
+    image.encoding = "rgb8";
+    image.width = 2;
+    image.height = 1;
+    image.step = 6;
+    image.data = {255, 0, 0, 0, 0, 255};  // red, blue
+    bag.write("/camera/image_raw", image.header.stamp, image);
+  }
+  RosBagContents bag;
+  ASSERT_TRUE(ReadRosBag(path, RosBagReadOptions(), &bag).ok());
+  EXPECT_TRUE(bag.images.empty());
+  RosBagReadOptions options;
+  options.image_directory = TempPath("images");
+  const Status status = ReadRosBag(path, options, &bag);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ("/camera/image_raw", bag.params.at("image_topic"));
+  ASSERT_EQ(1u, bag.images.size());
+  EXPECT_DOUBLE_EQ(ros::Time(kT0 + 0.05).toSec(), bag.images[0].stamp_seconds);
+  // 0.299 R + 0.587 G + 0.114 B, rounded.
+  EXPECT_EQ(std::string("P5\n2 1\n255\n") + char(76) + char(29), Bytes(bag.images[0].path));
 }
 
 // The trajectory bag plays with the library: one PoseStamped per pose, then a Path of them.
