@@ -117,7 +117,9 @@ TEST(MeasurementLogTest, DetectsRosBagsAndRefusesRos2Bags) {
   const Status status = ReadMeasurementLog(bag, MeasurementLogOptions(), &log);
   ASSERT_FALSE(status.ok());  // a header and nothing else: truncated, or no ROS support in this build
   EXPECT_THAT(status.message(), HasSubstr("magic.bag"));
-  if (!RosBagSupported()) EXPECT_THAT(status.message(), HasSubstr("without ROS bag support"));
+  if (!RosBagSupported()) {
+    EXPECT_THAT(status.message(), HasSubstr("without ROS bag support"));
+  }
 
   const std::string db3 = WriteText("ros2.db3", std::string("SQLite format 3\0", 16) + "rest");
   Status ros2 = DetectLogFormat(db3, &format);
