@@ -73,8 +73,8 @@ struct RosBagContents {
   std::vector<OdometryReading> odometry;
   std::vector<VelocityCommand> commands;
   std::vector<CameraImage> images;
-  // What was read: "scan_topic", "imu_topic", ... (the topic or "none"), "laser_frame",
-  // "laser_mount" ("options", "tf_static" or "identity"), "compression".
+  // What was read: "scan_topic", "imu_topic", "odom_topic", "cmd_topic", "image_topic" (the
+  // topic or "none"), "laser_frame" and "laser_mount" ("options", "tf_static" or "identity").
   std::map<std::string, std::string> params;
   std::vector<std::string> warnings;  // first few, "file: message N (topic): text"
   int malformed_messages_skipped = 0;  // lenient mode only

@@ -16,9 +16,9 @@
 #include <sstream>
 #include <string>
 
+#include "core/euler.h"
 #include "core/g2o_io.h"
 #include "core/map_io.h"
-#include "core/euler.h"
 #include "core/measurement_log.h"
 #include "core/ros_bag.h"
 #include "core/trajectory_io.h"
