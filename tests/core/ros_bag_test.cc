@@ -47,7 +47,7 @@ class RosBagReadTest : public ::testing::TestWithParam<uint32_t> {};
 
 // Every kind reads back with the values written: scans beam for beam (float32 ranges, the
 // laser mount from /tf_static), IMU samples rotated out of their tilted mount into base_link
-// (the tilted body's gravity and turn rate), the IMU orientation as the body attitude,
+// (the tilted body's gravity and turn rate, both along the world's z), the IMU orientation as the body attitude,
 // odometry and commands; the stream is ordered by stamp. Plain, bz2 and lz4 bags alike.
 TEST_P(RosBagReadTest, SyntheticBagReadsBackExactly) {
   SyntheticBagOptions bag_options;
@@ -78,7 +78,9 @@ TEST_P(RosBagReadTest, SyntheticBagReadsBackExactly) {
     EXPECT_DOUBLE_EQ(ros::Time(kT0 + k * kScanPeriod).toSec(), scan.stamp_seconds);
     ASSERT_EQ(kBeams, static_cast<int>(scan.ranges_meters.size()));
     for (int i = 0; i < kBeams; ++i) {
-      ASSERT_EQ(static_cast<double>(ExpectedRange(k, i)), scan.ranges_meters[i]) << "scan " << k << " beam " << i;
+      ASSERT_EQ(static_cast<double>(ExpectedRange(k, i, bag_options.body_roll_radians, bag_options.body_pitch_radians)),
+                scan.ranges_meters[i])
+          << "scan " << k << " beam " << i;
       ASSERT_NEAR(kAngleMin + i * kAngleIncrement, scan.angles_radians[i], 1e-6);
     }
     EXPECT_FLOAT_EQ(0.05f, scan.range_min_meters);
@@ -94,7 +96,8 @@ TEST_P(RosBagReadTest, SyntheticBagReadsBackExactly) {
   const Eigen::Vector3d expected_accel = world_R_body.transpose() * Eigen::Vector3d(0, 0, kGravity);
   for (const MargSample& sample : marg) {
     EXPECT_TRUE(sample.accel_mps2.isApprox(expected_accel, 1e-12)) << sample.accel_mps2.transpose();
-    EXPECT_TRUE(sample.gyro_radps.isApprox(Eigen::Vector3d(0, 0, kYawRateRadps), 1e-12)) << sample.gyro_radps.transpose();
+    EXPECT_TRUE(sample.gyro_radps.isApprox(expected_accel * (kYawRateRadps / kGravity), 1e-12))
+        << sample.gyro_radps.transpose();
     EXPECT_FALSE(sample.has_magnetometer);
   }
   const auto attitudes = OfKind<AttitudeReading>(log);

@@ -4,12 +4,14 @@
 // World: walls at x = ±3 m, y = ±2 m. Scan k (10 Hz, k = 0..num_scans-1, stamp kT0 + 0.1 k)
 // is taken at the true body pose world_T_body(k) = (0.03 k, 0, 0.01 k) (0.3 m/s forward,
 // 0.1 rad/s turn). The laser is mounted at base_link_T_laser = (0.1, 0, 0.3), level, and its
-// 181 beams span -135°..135° up to 10 m (ranges ray-cast to the walls, float32).
+// 181 beams span -135°..135° up to 10 m (ranges ray-cast in 3D to the walls and the floor z = 0,
+// float32).
 // The IMU is mounted tilted: base_link_T_imu_link = roll 20°, pitch -10°, yaw 90°, so the raw
 // samples are nowhere near level while the body is; the body itself may be tilted statically
-// by `body_roll_radians`, `body_pitch_radians`. IMU at 100 Hz: angular velocity (0, 0, 0.1)
-// and specific force R_wb^T (0, 0, 9.81) in the body frame, both expressed in the IMU frame;
-// orientation world_q_imu = R_wb(roll, pitch, yaw(t)) base_R_imu.
+// by `body_roll_radians`, `body_pitch_radians` (the scans then see the room tilted). IMU at
+// 100 Hz: angular velocity R_wb^T (0, 0, 0.1) and specific force R_wb^T (0, 0, 9.81) in the
+// body frame, both expressed in the IMU frame; orientation world_q_imu = R_wb base_R_imu, with
+// R_wb = R(roll, pitch, yaw(t)).
 // Odometry (/odom, 10 Hz at the scan stamps) holds the true pose; /cmd_vel holds a Twist
 // (0.3, 0, 0.1) recorded at every scan stamp. /tf_static holds both mounts.
 #ifndef HETSLAM_TESTS_CORE_ROS_BAG_TEST_UTIL_H_
@@ -70,12 +72,13 @@ inline Eigen::Matrix3d ImuMountRotation() {
   return RotationFromRollPitchYaw(20.0 * M_PI / 180.0, -10.0 * M_PI / 180.0, 90.0 * M_PI / 180.0);
 }
 
-// Distance from (x, y) along `angle` to the walls x = ±3, y = ±2.
-inline double RayToRoom(double x, double y, double angle) {
-  const double dx = std::cos(angle), dy = std::sin(angle);
+// Distance from `origin` along the unit vector `direction` to the room: walls x = ±3, y = ±2,
+// floor z = 0.
+inline double RayToRoom(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
   double best = std::numeric_limits<double>::infinity();
-  if (std::abs(dx) > 1e-12) best = std::min(best, ((dx > 0 ? 3.0 : -3.0) - x) / dx);
-  if (std::abs(dy) > 1e-12) best = std::min(best, ((dy > 0 ? 2.0 : -2.0) - y) / dy);
+  if (std::abs(direction.x()) > 1e-12) best = std::min(best, ((direction.x() > 0 ? 3.0 : -3.0) - origin.x()) / direction.x());
+  if (std::abs(direction.y()) > 1e-12) best = std::min(best, ((direction.y() > 0 ? 2.0 : -2.0) - origin.y()) / direction.y());
+  if (direction.z() < -1e-12) best = std::min(best, -origin.z() / direction.z());
   return best;
 }
 
@@ -102,11 +105,18 @@ inline void SetQuaternion(const Eigen::Quaterniond& q, geometry_msgs::Quaternion
   out->w = q.w();
 }
 
-// The expected range of beam `i` of scan `k` (float32, as recorded).
-inline float ExpectedRange(int k, int i) {
+// The expected range of beam `i` of scan `k` (float32, as recorded): cast in 3D from the laser
+// on the (possibly tilted) body, so a tilted body's beams reach the walls farther away and the
+// floor behind.
+inline float ExpectedRange(int k, int i, double body_roll_radians = 0.0, double body_pitch_radians = 0.0) {
   const Pose2 body = TrueBodyPose(k * kScanPeriod);
-  const Pose2 laser = body * Pose2(0.1, 0.0, 0.0);
-  return static_cast<float>(RayToRoom(laser.x(), laser.y(), laser.theta() + kAngleMin + i * kAngleIncrement));
+  Eigen::Isometry3d world_T_body = Eigen::Isometry3d::Identity();
+  world_T_body.linear() = RotationFromRollPitchYaw(body_roll_radians, body_pitch_radians, body.theta());
+  world_T_body.translation() = Eigen::Vector3d(body.x(), body.y(), 0.0);
+  const Eigen::Isometry3d world_T_laser = world_T_body * LaserMount();
+  const double angle = kAngleMin + i * kAngleIncrement;
+  return static_cast<float>(
+      RayToRoom(world_T_laser.translation(), world_T_laser.linear() * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0)));
 }
 
 inline void WriteSyntheticBag(const std::string& path, const SyntheticBagOptions& options) {
@@ -130,7 +140,7 @@ inline void WriteSyntheticBag(const std::string& path, const SyntheticBagOptions
     imu.header.frame_id = "imu_link";
     const Eigen::Matrix3d world_R_body =
         RotationFromRollPitchYaw(options.body_roll_radians, options.body_pitch_radians, kYawRateRadps * t);
-    const Eigen::Vector3d gyro = imu_R_base * Eigen::Vector3d(0.0, 0.0, kYawRateRadps);
+    const Eigen::Vector3d gyro = imu_R_base * world_R_body.transpose() * Eigen::Vector3d(0.0, 0.0, kYawRateRadps);
     const Eigen::Vector3d accel = imu_R_base * world_R_body.transpose() * Eigen::Vector3d(0.0, 0.0, kGravity);
     imu.angular_velocity.x = gyro.x();
     imu.angular_velocity.y = gyro.y();
@@ -155,7 +165,9 @@ inline void WriteSyntheticBag(const std::string& path, const SyntheticBagOptions
       scan.angle_max = static_cast<float>(kAngleMin + (kBeams - 1) * kAngleIncrement);
       scan.range_min = 0.05f;
       scan.range_max = static_cast<float>(kRangeMax);
-      for (int i = 0; i < kBeams; ++i) scan.ranges.push_back(ExpectedRange(k, i));
+      for (int i = 0; i < kBeams; ++i) {
+        scan.ranges.push_back(ExpectedRange(k, i, options.body_roll_radians, options.body_pitch_radians));
+      }
       bag.write("/scan", stamp, scan);
     }
     nav_msgs::Odometry odom;
