@@ -151,13 +151,15 @@ Status ChooseTopic(const std::string& path, const std::string& requested, const 
   const std::string types = Join(kind.types, " or ");
   if (requested == "none") return Status::Ok();
   if (!requested.empty()) {
+    // "scan" names "/scan" too: ROS 1 topics are global.
+    const std::string global = requested[0] == '/' ? requested : "/" + requested;
     for (const TopicInfo& t : topics) {
-      if (t.topic != requested) continue;
+      if (t.topic != requested && t.topic != global) continue;
       if (!Accepts(kind, t.datatype)) {
         return Status::Error(path + ": topic '" + requested + "' holds " + t.datatype + " messages, but " +
                              kind.option + " needs " + types + " (the bag has: " + TopicList(topics) + ")");
       }
-      *topic = requested;
+      *topic = t.topic;
       return Status::Ok();
     }
     return Status::Error(path + ": no topic '" + requested + "' (" + kind.option + "); the bag has: " +

@@ -26,7 +26,8 @@
 // Topic choice per kind: "" = automatic (the bag's only topic of that type; among several, the
 // conventional name /scan, /imu/data or /imu, /odom, /cmd_vel, else: scans an error listing
 // them, other kinds a warning and none read); "none" = do not read that kind; any other value
-// must be a topic of the bag with an accepted type (else an error listing the bag's topics).
+// must be a topic of the bag with an accepted type (else an error listing the bag's topics);
+// a name without the leading '/' matches the global topic ("scan" is "/scan").
 #ifndef HETSLAM_CORE_ROS_BAG_H_
 #define HETSLAM_CORE_ROS_BAG_H_
 

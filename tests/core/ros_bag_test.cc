@@ -131,7 +131,8 @@ INSTANTIATE_TEST_SUITE_P(Compression, RosBagReadTest,
                          ::testing::Values(rosbag::compression::Uncompressed, rosbag::compression::BZ2,
                                            rosbag::compression::LZ4));
 
-// A mount given in the options wins over /tf_static; "none" leaves a kind out.
+// A mount given in the options wins over /tf_static; "none" leaves a kind out; a topic named
+// without its leading slash is found.
 TEST(RosBagTest, OptionsOverrideTheMountAndLeaveKindsOut) {
   const std::string path = TempPath("options.bag");
   WriteSyntheticBag(path, SyntheticBagOptions());
@@ -141,6 +142,7 @@ TEST(RosBagTest, OptionsOverrideTheMountAndLeaveKindsOut) {
   options.robot_T_laser = mount;
   options.imu_topic = "none";
   options.cmd_topic = "none";
+  options.odom_topic = "odom";  // the global /odom
   RosBagContents bag;
   const Status status = ReadRosBag(path, options, &bag);
   ASSERT_TRUE(status.ok()) << status.message();
@@ -150,6 +152,7 @@ TEST(RosBagTest, OptionsOverrideTheMountAndLeaveKindsOut) {
   EXPECT_TRUE(bag.attitudes.empty());
   EXPECT_TRUE(bag.commands.empty());
   EXPECT_EQ(20u, bag.odometry.size());
+  EXPECT_EQ("/odom", bag.params.at("odom_topic"));
 }
 
 TEST(RosBagTest, MissingTopicListsTheBagsTopics) {
