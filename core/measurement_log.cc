@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -22,12 +23,48 @@ const char* MeasurementKindName(const Measurement& m) {
 }
 
 const char* LogFormatName(LogFormat format) {
-  return format == LogFormat::kRobotLog ? "hetslam robot log" : "CARMEN log";
+  switch (format) {
+    case LogFormat::kRobotLog:
+      return "hetslam robot log";
+    case LogFormat::kRosBag:
+      return "ROS 1 bag";
+    case LogFormat::kCarmen:
+      break;
+  }
+  return "CARMEN log";
 }
 
+namespace {
+
+constexpr char kRos2Refusal[] =
+    ": a ROS 2 bag; hetslam reads ROS 1 bags only (convert it to a ROS 1 bag first, e.g. with the "
+    "`rosbags-convert` tool)";
+
+}  // namespace
+
 Status DetectLogFormat(const std::string& path, LogFormat* format) {
-  std::ifstream in(path);
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    if (std::filesystem::exists(std::filesystem::path(path) / "metadata.yaml", ec)) {
+      return Status::Error("'" + path + "'" + kRos2Refusal);
+    }
+    return Status::Error("'" + path + "' is a folder, not a log file");
+  }
+  std::ifstream in(path, std::ios::binary);
   if (!in) return Status::Error("cannot open '" + path + "' for reading");
+  // Binary formats by their magic bytes.
+  char magic[16] = {};
+  in.read(magic, sizeof(magic));
+  const std::string head(magic, static_cast<size_t>(in.gcount()));
+  if (head.compare(0, 9, "#ROSBAG V") == 0) {
+    *format = LogFormat::kRosBag;
+    return Status::Ok();
+  }
+  if (head.compare(0, 16, std::string("SQLite format 3\0", 16)) == 0) {
+    return Status::Error("'" + path + "' is an SQLite file, probably" + kRos2Refusal);
+  }
+  in.clear();
+  in.seekg(0);
   *format = LogFormat::kCarmen;
   std::string line;
   while (std::getline(in, line)) {
@@ -43,6 +80,9 @@ Status ReadTruthTrajectory(const std::string& path, std::vector<StampedPose2>* t
   CHECK(truth != nullptr);
   LogFormat format;
   HETSLAM_RETURN_IF_ERROR(DetectLogFormat(path, &format));
+  if (format == LogFormat::kRosBag) {
+    return Status::Error("'" + path + "' is a ROS bag; ground truth is read from a trajectory file or a robot log");
+  }
   if (format != LogFormat::kRobotLog) return ReadTrajectory(path, truth);
   MeasurementLog log;
   HETSLAM_RETURN_IF_ERROR(ReadMeasurementLog(path, MeasurementLogOptions(), &log));
@@ -59,6 +99,9 @@ bool MeasurementLogOptions::IsValid(std::string* error) const {
     why << "flaser_max_range_meters must be > 0 and finite, got " << flaser_max_range_meters;
   } else if (max_warnings_kept < 0) {
     why << "max_warnings_kept must be >= 0, got " << max_warnings_kept;
+  } else {
+    std::string ros_bag_error;
+    if (!ros_bag.IsValid(&ros_bag_error)) why << ros_bag_error;
   }
   if (error != nullptr) *error = why.str();
   return why.str().empty();
@@ -186,6 +229,26 @@ Status ReadHetslamRobotLog(const std::string& path, const MeasurementLogOptions&
   return Status::Ok();
 }
 
+Status ReadBag(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
+  RosBagReadOptions read = options.ros_bag;
+  read.lenient = options.lenient;
+  read.max_warnings_kept = options.max_warnings_kept;
+  RosBagContents bag;
+  HETSLAM_RETURN_IF_ERROR(ReadRosBag(path, read, &bag));
+  log->params = std::move(bag.params);
+  log->warnings = std::move(bag.warnings);
+  log->malformed_lines_skipped = bag.malformed_messages_skipped;
+  std::vector<std::vector<Measurement>> streams;
+  streams.push_back(AsMeasurements(&bag.odometry));
+  streams.push_back(AsMeasurements(&bag.commands));
+  streams.push_back(AsMeasurements(&bag.marg));
+  streams.push_back(AsMeasurements(&bag.attitudes));
+  streams.push_back(AsMeasurements(&bag.lasers));
+  streams.push_back(AsMeasurements(&bag.images));
+  MergeByStamp(&streams, &log->measurements);
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
@@ -195,8 +258,18 @@ Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& 
   if (!options.IsValid(&invalid)) return Status::Error("invalid MeasurementLogOptions: " + invalid);
   const Status detected = DetectLogFormat(path, &log->format);
   if (!detected.ok()) return detected;
-  const Status status = log->format == LogFormat::kRobotLog ? ReadHetslamRobotLog(path, options, log)
-                                                            : ReadCarmen(path, options, log);
+  Status status;
+  switch (log->format) {
+    case LogFormat::kRobotLog:
+      status = ReadHetslamRobotLog(path, options, log);
+      break;
+    case LogFormat::kRosBag:
+      status = ReadBag(path, options, log);
+      break;
+    case LogFormat::kCarmen:
+      status = ReadCarmen(path, options, log);
+      break;
+  }
   if (!status.ok()) return status;
   log->num_scans = 0;
   for (const Measurement& m : log->measurements) log->num_scans += std::holds_alternative<LaserReading>(m);

@@ -1,7 +1,9 @@
 // One reader entry point for every log format: a file becomes a single time-ordered stream of
 // measurements (core/measurement.h), the input of an online estimator. Format detection lives
-// here: a file whose first non-blank, non-comment line starts with `HSLOG` is a hetslam robot
-// log (core/robot_log.h), anything else is read as a CARMEN log (core/carmen_log.h).
+// here: a file that starts with `#ROSBAG V2.0` is a ROS 1 bag (core/ros_bag.h), a file whose
+// first non-blank, non-comment line starts with `HSLOG` is a hetslam robot log
+// (core/robot_log.h), anything else is read as a CARMEN log (core/carmen_log.h). A ROS 2 bag
+// (an SQLite .db3 file or its folder) is recognised and refused with a message: not supported.
 //
 // Order: the messages of each kind stay in file order (a kind whose stamps go backwards is not
 // re-sorted; the readers count and report that), and the kinds are merged by stamp; at equal
@@ -16,15 +18,17 @@
 #include <vector>
 
 #include "core/measurement.h"
+#include "core/ros_bag.h"
 #include "core/status.h"
 #include "core/trajectory_io.h"
 
 namespace hetslam {
 
-enum class LogFormat { kCarmen, kRobotLog };
-const char* LogFormatName(LogFormat format);  // "CARMEN log", "hetslam robot log"
+enum class LogFormat { kCarmen, kRobotLog, kRosBag };
+const char* LogFormatName(LogFormat format);  // "CARMEN log", "hetslam robot log", "ROS 1 bag"
 
-// Which format `path` is in (see above); an error naming the file if it cannot be opened.
+// Which format `path` is in (see above); an error naming the file if it cannot be opened or is
+// a ROS 2 bag.
 Status DetectLogFormat(const std::string& path, LogFormat* format);
 
 struct MeasurementLogOptions {
@@ -33,6 +37,9 @@ struct MeasurementLogOptions {
   double flaser_fov_radians = M_PI;
   double flaser_max_range_meters = 81.0;
   int max_warnings_kept = 10;
+  // ROS 1 bags: topics, laser mount, image folder (its lenient and max_warnings_kept are
+  // taken from the fields above).
+  RosBagReadOptions ros_bag;
 
   bool IsValid(std::string* error) const;
 };
@@ -40,13 +47,13 @@ struct MeasurementLogOptions {
 struct MeasurementLog {
   std::string path;
   LogFormat format = LogFormat::kCarmen;
-  std::map<std::string, std::string> params;
+  std::map<std::string, std::string> params;  // a ROS bag's: RosBagContents::params
   std::vector<Measurement> measurements;  // merged by stamp, see above
   // The log's ground truth as planar world_T_body (x, y, yaw of a robot log's TRUTH); empty
   // for CARMEN logs.
   std::vector<StampedPose2> truth;
   std::vector<std::string> warnings;  // first few, "file:line: message"
-  int malformed_lines_skipped = 0;    // lenient mode only
+  int malformed_lines_skipped = 0;    // lenient mode only (a ROS bag's skipped messages)
   int num_scans = 0;
 
   // The time span of the laser scans (0 without scans).

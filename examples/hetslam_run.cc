@@ -1,7 +1,8 @@
-// hetslam_run: single-robot laser SLAM on a CARMEN log or a hetslam robot log (attitude, 2.5D
-// projection, command prediction); writes the map and trajectory.
+// hetslam_run: single-robot laser SLAM on a CARMEN log, a hetslam robot log or a ROS 1 bag
+// (attitude, 2.5D projection, command prediction); writes the map and trajectory.
 //
 //   hetslam_run --log=intel.clf --out=out/intel
+//   hetslam_run --log=demo.bag --out=out/demo --trajectory_bag=out/demo/trajectory.bag
 //   hetslam_run --log=sim/log.clf --truth=sim/truth.txt --out=out/sim
 //   hetslam_run --log=team/nao/log.txt --out=out/nao      (scored against the log's TRUTH)
 #include <algorithm>
@@ -15,9 +16,11 @@
 #include <sstream>
 #include <string>
 
+#include "core/euler.h"
 #include "core/g2o_io.h"
 #include "core/map_io.h"
 #include "core/measurement_log.h"
+#include "core/ros_bag.h"
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
@@ -29,7 +32,28 @@
 DEFINE_string(log, "", "Log to map: a CARMEN log (.clf: FLASER/ROBOTLASER1/RAWLASER1 scans, ODOM optional), or a "
               "hetslam robot log (a file whose first line is `HSLOG 1`, e.g. a simulated robot's <dir>/<robot>/log.txt: "
               "LASER scans with their MOUNT, ODOM optional, TRUTH used as --truth when that is not given; ATTITUDE/ALTITUDE "
-              "for the 2.5D projection, see --use_attitude). Required.");
+              "for the 2.5D projection, see --use_attitude), or a ROS 1 bag (.bag, plain or bz2/lz4: sensor_msgs/LaserScan, "
+              "sensor_msgs/Imu as MARG samples, nav_msgs/Odometry, geometry_msgs/Twist commands; see --scan_topic). "
+              "Required.");
+DEFINE_string(scan_topic, "", "ROS bags: the sensor_msgs/LaserScan topic to map. Empty = the bag's only LaserScan topic "
+              "(among several: /scan).");
+DEFINE_string(imu_topic, "", "ROS bags: the sensor_msgs/Imu topic whose rates and accelerations feed the MARG attitude "
+              "filter (and whose orientation, when present, is the --attitude_source=logged attitude). Empty = the "
+              "bag's only Imu topic (among several: /imu/data, /imu); none = no IMU.");
+DEFINE_string(odom_topic, "", "ROS bags: the nav_msgs/Odometry topic (used with --use_odometry). Empty = the bag's only "
+              "Odometry topic (among several: /odom); none = no odometry.");
+DEFINE_string(cmd_topic, "", "ROS bags: the geometry_msgs/Twist or TwistStamped command topic (see --use_commands). "
+              "Empty = the bag's only such topic (among several: /cmd_vel); none = no commands.");
+DEFINE_string(image_topic, "", "ROS bags: the sensor_msgs/Image topic, read only with --image_dir. Empty = the bag's only "
+              "Image topic.");
+DEFINE_string(image_dir, "", "ROS bags: folder that receives the image topic's images as 8-bit grey PGM files (empty = "
+              "images are not read; single-robot SLAM does not use them).");
+DEFINE_string(base_frame, "base_link", "ROS bags: the body frame; the laser and IMU mounts are looked up from it in "
+              "/tf_static (frames not connected to it count as mounted at the body origin, with a warning).");
+DEFINE_string(laser_mount, "", "ROS bags: the laser mount in the body frame as x,y,z,roll,pitch,yaw (metres, degrees); "
+              "overrides /tf_static. Empty = from /tf_static.");
+DEFINE_string(trajectory_bag, "", "Also write the trajectory as a ROS 1 bag at this path: geometry_msgs/PoseStamped on "
+              "/hetslam/pose and one nav_msgs/Path on /hetslam/path at the end, frame_id map (plays in RViz).");
 DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png (a readable picture: walls, other structure, floor obstacles, the trajectory, a scale bar and a legend), planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
@@ -146,11 +170,43 @@ bool Fail(const std::string& message) {
   return false;
 }
 
+// "x,y,z,roll,pitch,yaw" (metres, degrees) as robot_T_sensor.
+bool ParseMount(const std::string& text, Eigen::Isometry3d* robot_T_sensor) {
+  std::istringstream in(text);
+  double v[6];
+  char comma;
+  for (int i = 0; i < 6; ++i) {
+    if (!(in >> v[i]) || !std::isfinite(v[i])) return false;
+    if (i < 5 && !(in >> comma && comma == ',')) return false;
+  }
+  if (in >> comma) return false;  // trailing text
+  *robot_T_sensor = Eigen::Isometry3d::Identity();
+  robot_T_sensor->translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+  robot_T_sensor->linear() = RotationFromRollPitchYaw(v[3] * M_PI / 180.0, v[4] * M_PI / 180.0, v[5] * M_PI / 180.0);
+  return true;
+}
+
 bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* read, std::string* error) {
   LocalSlamOptions* options = &estimator->local;
-  if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file or a hetslam robot log)"), false;
+  if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file, a hetslam robot log or a ROS bag)"), false;
   if (FLAGS_out.empty()) return (*error = "--out is required (an output folder)"), false;
   read->lenient = FLAGS_lenient;
+  RosBagReadOptions* bag = &read->ros_bag;
+  bag->scan_topic = FLAGS_scan_topic;
+  bag->imu_topic = FLAGS_imu_topic;
+  bag->odom_topic = FLAGS_odom_topic;
+  bag->cmd_topic = FLAGS_cmd_topic;
+  bag->image_topic = FLAGS_image_topic;
+  bag->image_directory = FLAGS_image_dir;
+  bag->base_frame = FLAGS_base_frame;
+  if (!FLAGS_laser_mount.empty()) {
+    Eigen::Isometry3d robot_T_laser;
+    if (!ParseMount(FLAGS_laser_mount, &robot_T_laser)) {
+      return (*error = "--laser_mount must be x,y,z,roll,pitch,yaw (metres, degrees), got '" + FLAGS_laser_mount + "'"),
+             false;
+    }
+    bag->robot_T_laser = robot_T_laser;
+  }
   read->flaser_max_range_meters = FLAGS_flaser_max_range;
   read->flaser_fov_radians = FLAGS_flaser_fov_deg * M_PI / 180.0;
   options->grid.resolution_meters = FLAGS_resolution;
@@ -299,6 +355,9 @@ int Run() {
   if (!FLAGS_g2o_out.empty() && FLAGS_no_loop_closure) {
     return Fail("--g2o_out needs the loop-closing pipeline (drop --no_loop_closure)"), 2;
   }
+  if (!FLAGS_trajectory_bag.empty() && !RosBagSupported()) {
+    return Fail("--trajectory_bag: this build has no ROS bag support (scripts/install_deps.sh, then configure again)"), 2;
+  }
 
   MeasurementLog log;
   const Status read = ReadMeasurementLog(FLAGS_log, read_options, &log);
@@ -322,6 +381,11 @@ int Run() {
   std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log << " (" << LogFormatName(log.format)
             << ", " << log.measurements.size() << " measurements; "
             << (FLAGS_use_odometry ? "odometry prediction" : "no odometry") << ")\n";
+  if (log.format == LogFormat::kRosBag) {
+    std::cout << "topics: scans " << log.params["scan_topic"] << ", IMU " << log.params["imu_topic"] << ", odometry "
+              << log.params["odom_topic"] << ", commands " << log.params["cmd_topic"] << "; laser frame '"
+              << log.params["laser_frame"] << "', mount from " << log.params["laser_mount"] << "\n";
+  }
   auto estimator = std::make_unique<OnlineEstimator>(options);
   const auto start = std::chrono::steady_clock::now();
   int scans = 0, errors = 0;
@@ -385,6 +449,9 @@ int Run() {
     written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator->graph().LoopClosures()));
     written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator->LocalTrajectory()));
   }
+  if (!FLAGS_trajectory_bag.empty()) {
+    written.push_back(WriteTrajectoryBag(FLAGS_trajectory_bag, trajectory, TrajectoryBagOptions()));
+  }
   if (!FLAGS_g2o_out.empty()) {
     written.push_back(WriteG2oPoseGraph2d(FLAGS_g2o_out, estimator->graph().ExportGraph(options.robot)));
   }
@@ -411,7 +478,8 @@ int Run() {
                 truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
                 ate.rotation_rmse_degrees, ate.rotation_max_degrees);
   }
-  std::printf("wrote %s.pgm, %s.yaml, %s.png, %s\n", base.c_str(), base.c_str(), base.c_str(), trajectory_path.c_str());
+  std::printf("wrote %s.pgm, %s.yaml, %s.png, %s%s%s\n", base.c_str(), base.c_str(), base.c_str(),
+              trajectory_path.c_str(), FLAGS_trajectory_bag.empty() ? "" : ", ", FLAGS_trajectory_bag.c_str());
   return 0;
 }
 
@@ -420,8 +488,9 @@ int Run() {
 
 int main(int argc, char** argv) {
   gflags::SetUsageMessage(
-      "single-robot laser SLAM on a CARMEN log, without odometry by default.\n"
+      "single-robot laser SLAM on a CARMEN log, a hetslam robot log or a ROS 1 bag, without odometry by default.\n"
       "  hetslam_run --log=FILE.clf --out=DIR [--truth=truth.txt]\n"
+      "  hetslam_run --log=FILE.bag --out=DIR [--scan_topic=/scan] [--trajectory_bag=DIR/trajectory.bag]\n"
       "Writes DIR/map.pgm + map.yaml (ROS map_server), DIR/map.png (map with trajectory) and\n"
       "DIR/trajectory.txt (`timestamp x y theta`), and prints a summary.");
   hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);

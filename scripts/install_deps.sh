@@ -8,6 +8,9 @@ packages=(
   libgflags-dev libgoogle-glog-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   time  # /usr/bin/time -v: peak memory in tests/bench/run_real_logs.sh
+  # ROS 1 bags (core/ros_bag.h): Debian's rosbag_storage and the message headers, no ROS install.
+  librosbag-storage-dev libroscpp-core-dev
+  libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
 )
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then

@@ -1,5 +1,6 @@
 #include "core/measurement_log.h"
 
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -102,6 +103,35 @@ TEST(MeasurementLogTest, ErrorsNameTheFile) {
   MeasurementLogOptions invalid;
   invalid.flaser_fov_radians = -1;
   EXPECT_THAT(ReadMeasurementLog(bad, invalid, &log).message(), HasSubstr("flaser_fov_radians"));
+}
+
+// Bags are told by their magic bytes (the CARMEN / robot log check would skip `#ROSBAG V2.0`
+// as a comment). A ROS 2 bag, its SQLite file or its folder, is refused with a message.
+TEST(MeasurementLogTest, DetectsRosBagsAndRefusesRos2Bags) {
+  const std::string bag = WriteText("magic.bag", std::string("#ROSBAG V2.0\n") + std::string(4, '\0'));
+  LogFormat format;
+  ASSERT_TRUE(DetectLogFormat(bag, &format).ok());
+  EXPECT_EQ(LogFormat::kRosBag, format);
+  EXPECT_STREQ("ROS 1 bag", LogFormatName(format));
+  MeasurementLog log;
+  const Status status = ReadMeasurementLog(bag, MeasurementLogOptions(), &log);
+  ASSERT_FALSE(status.ok());  // a header and nothing else: truncated, or no ROS support in this build
+  EXPECT_THAT(status.message(), HasSubstr("magic.bag"));
+  if (!RosBagSupported()) {
+    EXPECT_THAT(status.message(), HasSubstr("without ROS bag support"));
+  }
+
+  const std::string db3 = WriteText("ros2.db3", std::string("SQLite format 3\0", 16) + "rest");
+  Status ros2 = DetectLogFormat(db3, &format);
+  ASSERT_FALSE(ros2.ok());
+  EXPECT_THAT(ros2.message(), HasSubstr("ros2.db3"));
+  EXPECT_THAT(ros2.message(), HasSubstr("ROS 2 bag"));
+  const std::string folder = ::testing::TempDir() + "/measurement_log_test_ros2_bag";
+  std::filesystem::create_directories(folder);
+  std::ofstream(folder + "/metadata.yaml") << "rosbag2_bagfile_information:\n";
+  ros2 = ReadMeasurementLog(folder, MeasurementLogOptions(), &log);
+  ASSERT_FALSE(ros2.ok());
+  EXPECT_THAT(ros2.message(), HasSubstr("ROS 2 bag"));
 }
 
 TEST(ReadTruthTrajectoryTest, ReadsARobotLogsTruthOrATrajectoryFile) {

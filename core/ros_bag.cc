@@ -1,0 +1,631 @@
+#include "core/ros_bag.h"
+
+#include <cmath>
+#include <sstream>
+
+#ifdef HETSLAM_HAVE_ROSBAG
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <utility>
+
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/Twist.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <rosbag/bag.h>
+#include <rosbag/exceptions.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include "core/euler.h"
+#endif
+
+#include "glog/logging.h"
+
+namespace hetslam {
+
+bool RosBagReadOptions::IsValid(std::string* error) const {
+  std::ostringstream why;
+  if (base_frame.empty()) {
+    why << "base_frame must not be empty";
+  } else if (max_warnings_kept < 0) {
+    why << "max_warnings_kept must be >= 0, got " << max_warnings_kept;
+  } else if (robot_T_laser.has_value() && !robot_T_laser->matrix().allFinite()) {
+    why << "robot_T_laser must be finite";
+  } else if (!image_topic.empty() && image_topic != "none" && image_directory.empty()) {
+    why << "image_topic '" << image_topic << "' needs an image_directory to write the images to";
+  }
+  if (error != nullptr) *error = why.str();
+  return why.str().empty();
+}
+
+bool TrajectoryBagOptions::IsValid(std::string* error) const {
+  std::ostringstream why;
+  if (pose_topic.empty() || path_topic.empty()) {
+    why << "pose_topic and path_topic must not be empty";
+  } else if (pose_topic == path_topic) {
+    why << "pose_topic and path_topic must differ (both '" << pose_topic << "')";
+  } else if (frame_id.empty()) {
+    why << "frame_id must not be empty";
+  }
+  if (error != nullptr) *error = why.str();
+  return why.str().empty();
+}
+
+#ifndef HETSLAM_HAVE_ROSBAG
+
+namespace {
+std::string Unsupported(const std::string& path) {
+  return "'" + path + "': this hetslam was built without ROS bag support (install librosbag-storage-dev, "
+         "libsensor-msgs-dev, libnav-msgs-dev, libgeometry-msgs-dev and libtf2-msgs-dev, e.g. with "
+         "scripts/install_deps.sh, then configure the build again)";
+}
+}  // namespace
+
+bool RosBagSupported() { return false; }
+
+Status ReadRosBag(const std::string& path, const RosBagReadOptions&, RosBagContents*) {
+  return Status::Error(Unsupported(path));
+}
+
+Status WriteTrajectoryBag(const std::string& path, const std::vector<StampedPose2>&, const TrajectoryBagOptions&) {
+  return Status::Error(Unsupported(path));
+}
+
+#else  // HETSLAM_HAVE_ROSBAG
+
+bool RosBagSupported() { return true; }
+
+namespace {
+
+constexpr char kTfStaticTopic[] = "/tf_static";
+constexpr char kTfMessageType[] = "tf2_msgs/TFMessage";
+
+struct TopicInfo {
+  std::string topic;
+  std::string datatype;
+  uint32_t messages = 0;
+};
+
+// One kind of measurement a topic can feed.
+struct KindSpec {
+  const char* option;                     // the option (and program flag) that picks the topic
+  std::vector<std::string> types;         // accepted message types
+  std::vector<std::string> conventional;  // names preferred among several candidates
+  bool required;                          // scans: a bag without them cannot be mapped
+};
+
+const KindSpec kScanKind{"scan_topic", {"sensor_msgs/LaserScan"}, {"/scan"}, true};
+const KindSpec kImuKind{"imu_topic", {"sensor_msgs/Imu"}, {"/imu/data", "/imu"}, false};
+const KindSpec kOdomKind{"odom_topic", {"nav_msgs/Odometry"}, {"/odom"}, false};
+const KindSpec kCmdKind{"cmd_topic", {"geometry_msgs/Twist", "geometry_msgs/TwistStamped"}, {"/cmd_vel"}, false};
+const KindSpec kImageKind{"image_topic", {"sensor_msgs/Image"}, {"/camera/image_raw", "/image_raw"}, false};
+
+std::string Join(const std::vector<std::string>& items, const char* separator) {
+  std::string out;
+  for (size_t i = 0; i < items.size(); ++i) out += (i > 0 ? separator : "") + items[i];
+  return out;
+}
+
+// "/scan [sensor_msgs/LaserScan, 360 messages], /tf [tf2_msgs/TFMessage, 12 messages]".
+std::string TopicList(const std::vector<TopicInfo>& topics) {
+  if (topics.empty()) return "no topics";
+  std::vector<std::string> items;
+  for (const TopicInfo& t : topics) {
+    items.push_back(t.topic + " [" + t.datatype + ", " + std::to_string(t.messages) + " messages]");
+  }
+  return Join(items, ", ");
+}
+
+// The topics of `bag` in name order, one entry per topic (several connections may share one).
+std::vector<TopicInfo> ListTopics(const rosbag::Bag& bag) {
+  std::map<std::string, TopicInfo> by_name;
+  rosbag::View view(bag);
+  for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+    TopicInfo& info = by_name[c->topic];
+    info.topic = c->topic;
+    info.datatype = c->datatype;
+  }
+  for (auto& [name, info] : by_name) info.messages = rosbag::View(bag, rosbag::TopicQuery(name)).size();
+  std::vector<TopicInfo> topics;
+  for (auto& entry : by_name) topics.push_back(entry.second);
+  return topics;
+}
+
+bool Accepts(const KindSpec& kind, const std::string& datatype) {
+  return std::find(kind.types.begin(), kind.types.end(), datatype) != kind.types.end();
+}
+
+// Picks the topic of `kind` (see the header); *topic = "" when none is read.
+Status ChooseTopic(const std::string& path, const std::string& requested, const KindSpec& kind,
+                   const std::vector<TopicInfo>& topics, std::string* topic, std::vector<std::string>* notes) {
+  topic->clear();
+  const std::string types = Join(kind.types, " or ");
+  if (requested == "none") return Status::Ok();
+  if (!requested.empty()) {
+    // "scan" names "/scan" too: ROS 1 topics are global.
+    const std::string global = requested[0] == '/' ? requested : "/" + requested;
+    for (const TopicInfo& t : topics) {
+      if (t.topic != requested && t.topic != global) continue;
+      if (!Accepts(kind, t.datatype)) {
+        return Status::Error(path + ": topic '" + requested + "' holds " + t.datatype + " messages, but " +
+                             kind.option + " needs " + types + " (the bag has: " + TopicList(topics) + ")");
+      }
+      *topic = t.topic;
+      return Status::Ok();
+    }
+    return Status::Error(path + ": no topic '" + requested + "' (" + kind.option + "); the bag has: " +
+                         TopicList(topics));
+  }
+  std::vector<std::string> candidates;
+  for (const TopicInfo& t : topics) {
+    if (Accepts(kind, t.datatype)) candidates.push_back(t.topic);
+  }
+  if (candidates.size() == 1) {
+    *topic = candidates.front();
+    return Status::Ok();
+  }
+  if (candidates.empty()) {
+    if (!kind.required) return Status::Ok();
+    return Status::Error(path + ": no " + types + " topic, so no laser scans to map; the bag has: " +
+                         TopicList(topics));
+  }
+  for (const std::string& name : kind.conventional) {
+    if (std::find(candidates.begin(), candidates.end(), name) != candidates.end()) {
+      *topic = name;
+      notes->push_back(path + ": several " + types + " topics (" + Join(candidates, ", ") + "); reading " + name +
+                       " (choose another with " + kind.option + ")");
+      return Status::Ok();
+    }
+  }
+  const std::string several = "several " + types + " topics (" + Join(candidates, ", ") + ")";
+  if (kind.required) return Status::Error(path + ": " + several + "; choose one with " + kind.option);
+  notes->push_back(path + ": " + several + ", none read; choose one with " + kind.option);
+  return Status::Ok();
+}
+
+std::string StripLeadingSlashes(std::string frame) {
+  const size_t start = frame.find_first_not_of('/');
+  return start == std::string::npos ? std::string() : frame.substr(start);
+}
+
+Eigen::Quaterniond ToEigen(const geometry_msgs::Quaternion& q) { return Eigen::Quaterniond(q.w, q.x, q.y, q.z); }
+
+// The static transforms of a bag: child frame -> (parent frame, parent_T_child).
+class StaticTransforms {
+ public:
+  void Add(const tf2_msgs::TFMessage& message) {
+    for (const geometry_msgs::TransformStamped& t : message.transforms) {
+      const Eigen::Quaterniond q = ToEigen(t.transform.rotation);
+      if (!(q.norm() > 0.5) || !std::isfinite(q.norm())) continue;  // unusable; the lookup then fails
+      Eigen::Isometry3d parent_T_child = Eigen::Isometry3d::Identity();
+      parent_T_child.linear() = q.normalized().toRotationMatrix();
+      parent_T_child.translation() =
+          Eigen::Vector3d(t.transform.translation.x, t.transform.translation.y, t.transform.translation.z);
+      if (!parent_T_child.matrix().allFinite()) continue;
+      parents_[StripLeadingSlashes(t.child_frame_id)] = {StripLeadingSlashes(t.header.frame_id), parent_T_child};
+    }
+  }
+
+  // base_T_frame by walking from `frame` up its parents to `base`; false when not connected.
+  bool Lookup(const std::string& base, const std::string& frame, Eigen::Isometry3d* base_T_frame) const {
+    Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+    std::string current = frame;
+    for (size_t step = 0; step <= parents_.size(); ++step) {  // bounded: a cycle ends the walk
+      if (current == base) {
+        *base_T_frame = transform;
+        return true;
+      }
+      const auto it = parents_.find(current);
+      if (it == parents_.end()) return false;
+      transform = it->second.second * transform;
+      current = it->second.first;
+    }
+    return false;
+  }
+
+ private:
+  std::map<std::string, std::pair<std::string, Eigen::Isometry3d>> parents_;
+};
+
+double SecondsOf(const ros::Time& header_stamp, const rosbag::MessageInstance& m) {
+  return header_stamp.isZero() ? m.getTime().toSec() : header_stamp.toSec();
+}
+
+// Converts one image to 8-bit grey rows (width * height bytes); an error text when the encoding
+// is not handled or the data is short.
+std::string ImageToGrey(const sensor_msgs::Image& image, std::vector<uint8_t>* grey) {
+  int channels = 0, bytes_per_channel = 1;
+  int r = 0, g = 0, b = 0;  // channel index of red, green, blue
+  const std::string& e = image.encoding;
+  if (e == "mono8" || e == "8UC1") {
+    channels = 1;
+  } else if (e == "mono16" || e == "16UC1") {
+    channels = 1;
+    bytes_per_channel = 2;
+  } else if (e == "rgb8" || e == "rgba8") {
+    channels = e == "rgb8" ? 3 : 4;
+    r = 0, g = 1, b = 2;
+  } else if (e == "bgr8" || e == "bgra8") {
+    channels = e == "bgr8" ? 3 : 4;
+    r = 2, g = 1, b = 0;
+  } else {
+    return "image encoding '" + e + "' is not handled (mono8, mono16, rgb8, bgr8, rgba8, bgra8 are)";
+  }
+  const uint64_t row_bytes = uint64_t{image.width} * channels * bytes_per_channel;
+  if (image.width == 0 || image.height == 0 || image.step < row_bytes ||
+      image.data.size() < uint64_t{image.step} * image.height) {
+    return "image data is shorter than its " + std::to_string(image.width) + " x " + std::to_string(image.height) +
+           " " + e + " size";
+  }
+  grey->resize(size_t{image.width} * image.height);
+  for (uint32_t row = 0; row < image.height; ++row) {
+    const uint8_t* in = image.data.data() + size_t{row} * image.step;
+    for (uint32_t col = 0; col < image.width; ++col) {
+      const uint8_t* px = in + size_t{col} * channels * bytes_per_channel;
+      uint8_t value;
+      if (channels == 1 && bytes_per_channel == 2) {
+        value = image.is_bigendian ? px[0] : px[1];  // the high byte
+      } else if (channels == 1) {
+        value = px[0];
+      } else {
+        value = static_cast<uint8_t>(std::lround(0.299 * px[r] + 0.587 * px[g] + 0.114 * px[b]));
+      }
+      (*grey)[size_t{row} * image.width + col] = value;
+    }
+  }
+  return "";
+}
+
+// Reads one bag; exceptions of the library propagate to ReadRosBag, which turns them into a
+// Status.
+class BagReader {
+ public:
+  BagReader(const std::string& path, const RosBagReadOptions& options, RosBagContents* contents)
+      : path_(path), options_(options), contents_(contents) {}
+
+  Status Read() {
+    rosbag::Bag bag;
+    bag.open(path_, rosbag::bagmode::Read);
+    const std::vector<TopicInfo> topics = ListTopics(bag);
+    std::vector<std::string> notes;
+    HETSLAM_RETURN_IF_ERROR(ChooseTopic(path_, options_.scan_topic, kScanKind, topics, &scan_topic_, &notes));
+    HETSLAM_RETURN_IF_ERROR(ChooseTopic(path_, options_.imu_topic, kImuKind, topics, &imu_topic_, &notes));
+    HETSLAM_RETURN_IF_ERROR(ChooseTopic(path_, options_.odom_topic, kOdomKind, topics, &odom_topic_, &notes));
+    HETSLAM_RETURN_IF_ERROR(ChooseTopic(path_, options_.cmd_topic, kCmdKind, topics, &cmd_topic_, &notes));
+    if (!options_.image_directory.empty()) {
+      HETSLAM_RETURN_IF_ERROR(ChooseTopic(path_, options_.image_topic, kImageKind, topics, &image_topic_, &notes));
+      std::error_code ec;
+      std::filesystem::create_directories(options_.image_directory, ec);
+      if (ec) return Status::Error("cannot create image folder '" + options_.image_directory + "': " + ec.message());
+    }
+    for (const std::string& note : notes) Warn(note);
+    for (const TopicInfo& t : topics) {
+      if (t.topic == kTfStaticTopic && t.datatype == kTfMessageType) has_tf_static_ = true;
+    }
+    auto& params = contents_->params;
+    params["scan_topic"] = scan_topic_;
+    params["imu_topic"] = imu_topic_.empty() ? "none" : imu_topic_;
+    params["odom_topic"] = odom_topic_.empty() ? "none" : odom_topic_;
+    params["cmd_topic"] = cmd_topic_.empty() ? "none" : cmd_topic_;
+    params["image_topic"] = image_topic_.empty() ? "none" : image_topic_;
+
+    // Static transforms first: a laser's mount may be latched after its first scans.
+    if (has_tf_static_) {
+      rosbag::View tf_view(bag, rosbag::TopicQuery(kTfStaticTopic));
+      for (const rosbag::MessageInstance& m : tf_view) {
+        if (const auto tf = m.instantiate<tf2_msgs::TFMessage>()) transforms_.Add(*tf);
+      }
+    }
+
+    // One pass over every message, so that a message's number is its position in the bag.
+    rosbag::View view(bag);
+    int number = 0;
+    for (const rosbag::MessageInstance& m : view) {
+      ++number;
+      const std::string& topic = m.getTopic();
+      Status status;
+      if (topic == scan_topic_) {
+        status = AddScan(m, number);
+      } else if (topic == imu_topic_) {
+        status = AddImu(m, number);
+      } else if (topic == odom_topic_) {
+        status = AddOdometry(m, number);
+      } else if (topic == cmd_topic_) {
+        status = AddCommand(m, number);
+      } else if (topic == image_topic_) {
+        status = AddImage(m, number);
+      }
+      if (!status.ok()) return status;
+    }
+    bag.close();
+    if (contents_->lasers.empty()) {
+      return Status::Error(path_ + ": topic '" + scan_topic_ + "' holds no usable laser scans (the bag has: " +
+                           TopicList(topics) + ")");
+    }
+    return Status::Ok();
+  }
+
+ private:
+  std::string Where(int number, const rosbag::MessageInstance& m) const {
+    return path_ + ": message " + std::to_string(number) + " (" + m.getTopic() + ")";
+  }
+
+  // Each kind keeps the bag's order (ReadMeasurementLog does not re-sort a kind); a header stamp
+  // before its predecessor's is reported once per topic.
+  void CheckOrder(const rosbag::MessageInstance& m, int number, double stamp_seconds) {
+    auto [it, inserted] = last_stamps_.emplace(m.getTopic(), stamp_seconds);
+    if (inserted) return;
+    if (stamp_seconds < it->second && backwards_reported_.emplace(m.getTopic(), true).second) {
+      Warn(Where(number, m) + ": header stamp " + std::to_string(stamp_seconds) + " is before the previous one's (" +
+           std::to_string(it->second) + "); kept in bag order");
+    }
+    it->second = stamp_seconds;
+  }
+
+  void Warn(const std::string& text) {
+    if (static_cast<int>(contents_->warnings.size()) < options_.max_warnings_kept) contents_->warnings.push_back(text);
+  }
+
+  // A message that cannot be used: skipped with a count when lenient, else the read's error.
+  Status Bad(int number, const rosbag::MessageInstance& m, const std::string& why) {
+    const std::string text = Where(number, m) + ": " + why;
+    if (!options_.lenient) return Status::Error(text);
+    ++contents_->malformed_messages_skipped;
+    Warn(text);
+    return Status::Ok();
+  }
+
+  template <typename Message>
+  boost::shared_ptr<Message> Instantiate(const rosbag::MessageInstance& m) {
+    return m.instantiate<Message>();  // null when the type or its md5sum differs
+  }
+
+  Status WrongType(int number, const rosbag::MessageInstance& m, const char* expected) {
+    return Bad(number, m,
+               "holds " + m.getDataType() + " (md5 " + m.getMD5Sum() + "), which is not the " + expected +
+                   " this build knows");
+  }
+
+  // The mount of `frame` in base_frame from /tf_static, cached per frame; identity (with one
+  // warning) when /tf_static does not connect them. *found (optional) says which.
+  Eigen::Isometry3d MountOf(const std::string& raw_frame, const char* what, bool* found = nullptr) {
+    const std::string frame = StripLeadingSlashes(raw_frame);
+    auto cached = mounts_.find(frame);
+    if (cached == mounts_.end()) {
+      Eigen::Isometry3d base_T_frame = Eigen::Isometry3d::Identity();
+      const std::string base = StripLeadingSlashes(options_.base_frame);
+      const bool connected = transforms_.Lookup(base, frame, &base_T_frame);
+      if (!connected) {
+        Warn(path_ + ": no /tf_static transform from '" + base + "' to the " + what + " frame '" + frame +
+             "': the " + what + " is taken as mounted at the body origin, level and facing forward");
+      }
+      cached = mounts_.emplace(frame, std::make_pair(base_T_frame, connected)).first;
+    }
+    if (found != nullptr) *found = cached->second.second;
+    return cached->second.first;
+  }
+
+  Status AddScan(const rosbag::MessageInstance& m, int number) {
+    const auto msg = Instantiate<sensor_msgs::LaserScan>(m);
+    if (msg == nullptr) return WrongType(number, m, "sensor_msgs/LaserScan");
+    if (!(std::isfinite(msg->angle_min) && std::isfinite(msg->angle_increment) && msg->angle_increment != 0.0f)) {
+      return Bad(number, m, "angle_min " + std::to_string(msg->angle_min) + " / angle_increment " +
+                                std::to_string(msg->angle_increment) + " do not define the beam angles");
+    }
+    if (msg->ranges.empty()) return Bad(number, m, "scan has no ranges");
+    if (!(std::isfinite(msg->range_max) && msg->range_max > msg->range_min && msg->range_min >= 0.0f)) {
+      return Bad(number, m, "range_min " + std::to_string(msg->range_min) + " / range_max " +
+                                std::to_string(msg->range_max) + " are not a valid interval");
+    }
+    LaserReading reading;
+    reading.line_number = number;
+    LaserScan& scan = reading.scan;
+    scan.stamp_seconds = SecondsOf(msg->header.stamp, m);
+    scan.angles_radians = EvenlySpacedAngles(static_cast<int>(msg->ranges.size()), msg->angle_min, msg->angle_increment);
+    scan.ranges_meters.assign(msg->ranges.begin(), msg->ranges.end());
+    scan.range_min_meters = msg->range_min;
+    scan.range_max_meters = msg->range_max;
+    bool from_tf_static = false;
+    scan.robot_T_sensor = options_.robot_T_laser.has_value() ? *options_.robot_T_laser
+                                                             : MountOf(msg->header.frame_id, "laser", &from_tf_static);
+    if (contents_->params.count("laser_frame") == 0) {
+      contents_->params["laser_frame"] = StripLeadingSlashes(msg->header.frame_id);
+      contents_->params["laser_mount"] =
+          options_.robot_T_laser.has_value() ? "options" : (from_tf_static ? "tf_static" : "identity");
+    }
+    CheckOrder(m, number, scan.stamp_seconds);
+    contents_->lasers.push_back(std::move(reading));
+    return Status::Ok();
+  }
+
+  Status AddImu(const rosbag::MessageInstance& m, int number) {
+    const auto msg = Instantiate<sensor_msgs::Imu>(m);
+    if (msg == nullptr) return WrongType(number, m, "sensor_msgs/Imu");
+    const Eigen::Matrix3d base_R_imu = MountOf(msg->header.frame_id, "IMU").linear();
+    MargSample sample;
+    sample.line_number = number;
+    sample.stamp_seconds = SecondsOf(msg->header.stamp, m);
+    const auto& w = msg->angular_velocity;
+    const auto& a = msg->linear_acceleration;
+    sample.gyro_radps = base_R_imu * Eigen::Vector3d(w.x, w.y, w.z);
+    sample.accel_mps2 = base_R_imu * Eigen::Vector3d(a.x, a.y, a.z);
+    sample.has_magnetometer = false;
+    if (!(sample.gyro_radps.allFinite() && sample.accel_mps2.allFinite())) {
+      return Bad(number, m, "angular_velocity or linear_acceleration is not finite");
+    }
+    // orientation_covariance[0] == -1 means "no orientation estimate" (sensor_msgs/Imu).
+    if (msg->orientation_covariance[0] != -1.0) {
+      const Eigen::Quaterniond world_q_imu = ToEigen(msg->orientation);
+      if (std::isfinite(world_q_imu.norm()) && world_q_imu.norm() > 0.5) {
+        const Eigen::Matrix3d world_R_base = world_q_imu.normalized().toRotationMatrix() * base_R_imu.transpose();
+        const Eigen::Vector3d rpy = RollPitchYawFromRotation(world_R_base);
+        AttitudeReading attitude;
+        attitude.stamp_seconds = sample.stamp_seconds;
+        attitude.roll_radians = rpy.x();
+        attitude.pitch_radians = rpy.y();
+        attitude.yaw_radians = rpy.z();
+        attitude.line_number = number;
+        contents_->attitudes.push_back(attitude);
+      }
+    }
+    CheckOrder(m, number, sample.stamp_seconds);
+    contents_->marg.push_back(sample);
+    return Status::Ok();
+  }
+
+  Status AddOdometry(const rosbag::MessageInstance& m, int number) {
+    const auto msg = Instantiate<nav_msgs::Odometry>(m);
+    if (msg == nullptr) return WrongType(number, m, "nav_msgs/Odometry");
+    const Eigen::Quaterniond q = ToEigen(msg->pose.pose.orientation);
+    if (!(std::isfinite(q.norm()) && q.norm() > 0.5 && std::isfinite(msg->pose.pose.position.x) &&
+          std::isfinite(msg->pose.pose.position.y))) {
+      return Bad(number, m, "odometry pose is not finite or its quaternion is not a rotation");
+    }
+    OdometryReading reading;
+    reading.line_number = number;
+    reading.stamp_seconds = SecondsOf(msg->header.stamp, m);
+    const double yaw = RollPitchYawFromRotation(q.normalized().toRotationMatrix()).z();
+    reading.pose = Pose2(msg->pose.pose.position.x, msg->pose.pose.position.y, yaw);
+    CheckOrder(m, number, reading.stamp_seconds);
+    contents_->odometry.push_back(reading);
+    return Status::Ok();
+  }
+
+  Status AddCommand(const rosbag::MessageInstance& m, int number) {
+    VelocityCommand command;
+    command.line_number = number;
+    const geometry_msgs::Twist* twist = nullptr;
+    boost::shared_ptr<geometry_msgs::Twist> bare;
+    boost::shared_ptr<geometry_msgs::TwistStamped> stamped;
+    if (m.getDataType() == "geometry_msgs/TwistStamped") {
+      stamped = Instantiate<geometry_msgs::TwistStamped>(m);
+      if (stamped == nullptr) return WrongType(number, m, "geometry_msgs/TwistStamped");
+      twist = &stamped->twist;
+      command.stamp_seconds = SecondsOf(stamped->header.stamp, m);
+    } else {
+      bare = Instantiate<geometry_msgs::Twist>(m);
+      if (bare == nullptr) return WrongType(number, m, "geometry_msgs/Twist");
+      twist = bare.get();
+      command.stamp_seconds = m.getTime().toSec();  // a Twist has no header
+    }
+    command.forward_mps = twist->linear.x;
+    command.left_mps = twist->linear.y;
+    command.yaw_rate_radps = twist->angular.z;
+    if (!(std::isfinite(command.forward_mps) && std::isfinite(command.left_mps) &&
+          std::isfinite(command.yaw_rate_radps))) {
+      return Bad(number, m, "command velocity is not finite");
+    }
+    CheckOrder(m, number, command.stamp_seconds);
+    contents_->commands.push_back(command);
+    return Status::Ok();
+  }
+
+  Status AddImage(const rosbag::MessageInstance& m, int number) {
+    const auto msg = Instantiate<sensor_msgs::Image>(m);
+    if (msg == nullptr) return WrongType(number, m, "sensor_msgs/Image");
+    std::vector<uint8_t> grey;
+    const std::string why = ImageToGrey(*msg, &grey);
+    if (!why.empty()) return Bad(number, m, why);
+    char name[32];
+    std::snprintf(name, sizeof(name), "%08d.pgm", number);
+    CameraImage image;
+    image.line_number = number;
+    image.stamp_seconds = SecondsOf(msg->header.stamp, m);
+    image.path = (std::filesystem::path(options_.image_directory) / name).string();
+    std::ofstream out(image.path, std::ios::binary);
+    out << "P5\n" << msg->width << ' ' << msg->height << "\n255\n";
+    out.write(reinterpret_cast<const char*>(grey.data()), static_cast<std::streamsize>(grey.size()));
+    out.close();
+    if (!out) return Status::Error("cannot write image '" + image.path + "'");
+    CheckOrder(m, number, image.stamp_seconds);
+    contents_->images.push_back(std::move(image));
+    return Status::Ok();
+  }
+
+  const std::string path_;
+  const RosBagReadOptions& options_;
+  RosBagContents* contents_;
+  std::string scan_topic_, imu_topic_, odom_topic_, cmd_topic_, image_topic_;
+  bool has_tf_static_ = false;
+  StaticTransforms transforms_;
+  std::map<std::string, std::pair<Eigen::Isometry3d, bool>> mounts_;  // frame -> (base_T_frame, from tf)
+  std::map<std::string, double> last_stamps_;       // topic -> last header stamp
+  std::map<std::string, bool> backwards_reported_;  // topics whose stamps went backwards
+};
+
+// ros::Time holds unsigned 32-bit seconds.
+bool RepresentableAsRosTime(double stamp_seconds) {
+  return std::isfinite(stamp_seconds) && stamp_seconds >= 0.0 && stamp_seconds < 4294967295.0;
+}
+
+}  // namespace
+
+Status ReadRosBag(const std::string& path, const RosBagReadOptions& options, RosBagContents* contents) {
+  CHECK(contents != nullptr);
+  *contents = RosBagContents();
+  std::string invalid;
+  if (!options.IsValid(&invalid)) return Status::Error("invalid RosBagReadOptions: " + invalid);
+  // The library reports every problem of the file (cannot open, not a bag, truncated, a chunk
+  // that does not decompress, a message shorter than its type) by throwing.
+  try {
+    return BagReader(path, options, contents).Read();
+  } catch (const rosbag::BagUnindexedException&) {
+    return Status::Error(path + ": the ROS bag has no index (truncated, or its recording was interrupted); "
+                         "`rosbag reindex` may repair it");
+  } catch (const std::exception& e) {
+    return Status::Error(path + ": cannot read the ROS bag (truncated or corrupt?): " + e.what());
+  }
+}
+
+Status WriteTrajectoryBag(const std::string& path, const std::vector<StampedPose2>& trajectory,
+                          const TrajectoryBagOptions& options) {
+  std::string invalid;
+  if (!options.IsValid(&invalid)) return Status::Error("invalid TrajectoryBagOptions: " + invalid);
+  for (size_t i = 0; i < trajectory.size(); ++i) {
+    const Pose2& pose = trajectory[i].pose;
+    if (!RepresentableAsRosTime(trajectory[i].stamp_seconds) ||
+        !(std::isfinite(pose.x()) && std::isfinite(pose.y()) && std::isfinite(pose.theta()))) {
+      return Status::Error("cannot write '" + path + "': pose " + std::to_string(i) +
+                           " has a stamp outside ROS time [0, 2^32) s or a non-finite value");
+    }
+  }
+  try {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    nav_msgs::Path path_message;
+    path_message.header.frame_id = options.frame_id;
+    ros::Time record_time = ros::TIME_MIN;
+    for (size_t i = 0; i < trajectory.size(); ++i) {
+      geometry_msgs::PoseStamped pose;
+      pose.header.seq = static_cast<uint32_t>(i);
+      pose.header.stamp = ros::Time(trajectory[i].stamp_seconds);
+      pose.header.frame_id = options.frame_id;
+      pose.pose.position.x = trajectory[i].pose.x();
+      pose.pose.position.y = trajectory[i].pose.y();
+      const double half_yaw = 0.5 * trajectory[i].pose.theta();
+      pose.pose.orientation.z = std::sin(half_yaw);
+      pose.pose.orientation.w = std::cos(half_yaw);
+      record_time = std::max(ros::TIME_MIN, pose.header.stamp);
+      bag.write(options.pose_topic, record_time, pose);
+      path_message.poses.push_back(pose);
+    }
+    if (!trajectory.empty()) path_message.header.stamp = path_message.poses.back().header.stamp;
+    bag.write(options.path_topic, record_time, path_message);
+    bag.close();
+  } catch (const std::exception& e) {
+    return Status::Error("cannot write ROS bag '" + path + "': " + e.what());
+  }
+  return Status::Ok();
+}
+
+#endif  // HETSLAM_HAVE_ROSBAG
+
+}  // namespace hetslam
