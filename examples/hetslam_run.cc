@@ -305,11 +305,12 @@ std::string Summary(const OnlineEstimator& estimator) {
   char line[1024];
   std::snprintf(line, sizeof(line),
                 "scans: %d processed, %d skipped (too few points), %d refused (too late), %d timestamps backwards, %d "
-                "match failures, %lld floor points dropped, %d degenerate matches, %d predicted by the EKF, %d "
+                "match failures, %lld floor points dropped, %d degenerate matches (prediction kept along a flat "
+                "direction), %d with %lld frontier points left out of the match, %d predicted by the EKF, %d "
                 "without attitude\n",
                 s.scans, s.skipped_too_few_points, s.scans_refused, s.scans_stamped_backwards, s.match_failures,
-                s.floor_points,
-                s.degenerate_matches, s.ekf_predicted_scans, s.scans_without_attitude);
+                s.floor_points, s.degenerate_matches, s.frontier_scans, s.frontier_points, s.ekf_predicted_scans,
+                s.scans_without_attitude);
   std::string out = line;
   if (s.floor_points > 0 || s.floor_obstacle_points > 0 || s.suspended_scans > 0) {
     std::snprintf(line, sizeof(line),

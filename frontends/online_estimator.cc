@@ -301,6 +301,8 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   if (result.matched && !result.match.converged) ++stats_.match_failures;
   if (result.match.converged) match_scores_.push_back(result.match.score);
   stats_.degenerate_matches += result.degenerate;
+  stats_.frontier_scans += result.frontier_points > 0;
+  stats_.frontier_points += result.frontier_points;
   const Pose2 local_pose = result.local_pose;
   const std::vector<StampedPose2>& recent = local_.state().recent;
   const double step = recent.size() >= 2 ? (recent[1].pose.translation() - recent[0].pose.translation()).norm() : 0.0;

@@ -111,6 +111,8 @@ struct OnlineEstimatorStats {
   int skipped_too_few_points = 0;
   int match_failures = 0;           // inserted at the prediction
   int degenerate_matches = 0;       // weak direction kept the prediction
+  int frontier_scans = 0;           // scans with points left out at the map's frontier
+  long long frontier_points = 0;    // points left out (LocalSlamOptions::frontier_margin_meters)
   long long floor_points = 0;       // end points dropped as floor hits
   long long floor_obstacle_points = 0;  // end points labelled floor obstacles (planner map only)
   int suspended_scans = 0;          // the laser faced the floor: the EKF carried the pose
