@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <string>
 #include <unordered_set>
 
 #include "core/euler.h"
@@ -13,6 +15,32 @@ int LaserScan::NumValidBeams() const {
   int count = 0;
   for (double r : ranges_meters) count += IsValidRange(r) ? 1 : 0;
   return count;
+}
+
+Status CheckBeamAngles(int num_beams, double first_angle_radians, double increment_radians,
+                       const char* first_name, const char* increment_name) {
+  auto text = [](double v) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof(buffer), "%.9g", v);
+    return std::string(buffer);
+  };
+  if (!std::isfinite(first_angle_radians) || std::abs(first_angle_radians) > 2 * M_PI) {
+    return Status::Error(std::string(first_name) + " " + text(first_angle_radians) +
+                         " rad is not a finite angle in [-2 pi, 2 pi]");
+  }
+  if (!std::isfinite(increment_radians)) {
+    return Status::Error(std::string(increment_name) + " " + text(increment_radians) + " rad is not finite");
+  }
+  if (num_beams >= 2 && increment_radians == 0.0) {
+    return Status::Error(std::string(increment_name) + " is 0 with " + std::to_string(num_beams) +
+                         " beams: every beam would point the same way");
+  }
+  if (num_beams >= 2 && std::abs(increment_radians) * (num_beams - 1) > 2 * M_PI + 1e-6) {
+    return Status::Error(std::string(increment_name) + " " + text(increment_radians) + " rad with " +
+                         std::to_string(num_beams) + " beams spans " +
+                         text(std::abs(increment_radians) * (num_beams - 1)) + " rad, more than one turn");
+  }
+  return Status::Ok();
 }
 
 std::vector<double> EvenlySpacedAngles(int num_beams, double first_angle_radians,

@@ -29,7 +29,7 @@ namespace hetslam {
 
 struct LikelihoodFieldOptions {
   double sigma_meters = 0.10;            // p_hit ~ exp(-d / sigma)
-  double max_distance_meters = 0.30;     // window radius R = ceil(max_distance / resolution)
+  double max_distance_meters = 0.30;     // window radius R = ceil(max_distance / resolution); <= 5 m
   double republish_distance_meters = 0.005;
 
   bool IsValid(std::string* error) const;

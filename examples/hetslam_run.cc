@@ -15,6 +15,7 @@
 #include <sstream>
 #include <string>
 
+#include "core/file_io.h"
 #include "core/g2o_io.h"
 #include "core/map_io.h"
 #include "core/measurement_log.h"
@@ -34,6 +35,9 @@ DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yam
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
+DEFINE_double(max_time_gap, 60.0, "Largest time gap between a log's measurements that is bridged (seconds; 0 = no "
+              "bound): a measurement stamped later than that after every earlier one is an error naming file:line "
+              "(with --lenient it is dropped and counted). A gap is never integrated by the motion prediction.");
 DEFINE_bool(use_odometry, false, "Predict each scan's pose from the log's odometry. Off by default: the pipeline is "
             "odometry-free and uses --prediction instead.");
 DEFINE_bool(use_commands, true, "Robot logs with COMMAND lines: the EKF predicts each scan's pose from the "
@@ -136,6 +140,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   read->lenient = FLAGS_lenient;
   read->flaser_max_range_meters = FLAGS_flaser_max_range;
   read->flaser_fov_radians = FLAGS_flaser_fov_deg * M_PI / 180.0;
+  read->max_time_gap_seconds = FLAGS_max_time_gap;
   options->grid.resolution_meters = FLAGS_resolution;
   options->field.sigma_meters = FLAGS_sigma;
   options->field.max_distance_meters = FLAGS_field_max_distance;
@@ -204,7 +209,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
 
 // Every accepted loop closure as measured and as in the final graph.
 Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureReport>& closures) {
-  std::ofstream out(path);
+  std::ostringstream out;  // written through a temporary file: no truncated output
   out << "# submap node score measured_x measured_y measured_theta final_x final_y final_theta removed\n"
          "# submap_T_node as matched and as in the final graph (metres, radians); removed = 1 when the\n"
          "# consistency check took the closure out\n";
@@ -215,8 +220,8 @@ Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureR
     out << loop.submap.index << ' ' << loop.node.index << ' ' << loop.score << ' ' << m.x() << ' ' << m.y() << ' '
         << m.theta() << ' ' << f.x() << ' ' << f.y() << ' ' << f.theta() << ' ' << (loop.removed ? 1 : 0) << '\n';
   }
-  out.close();
-  return out ? Status::Ok() : Status::Error("cannot write '" + path + "'");
+  const std::string text = out.str();
+  return WriteFileBytes(path, text.data(), text.size());
 }
 
 std::string Summary(const OnlineEstimator& estimator) {
@@ -225,7 +230,7 @@ std::string Summary(const OnlineEstimator& estimator) {
   const LoopCloserStats& l = estimator.loop_closer().stats();
   char line[1024];
   std::snprintf(line, sizeof(line),
-                "scans: %d processed, %d skipped (too few points), %d refused (too late), %d timestamps backwards, %d "
+                "scans: %d processed, %d skipped (too few points), %d refused (too late or too far), %d timestamps backwards, %d "
                 "match failures, %lld floor points dropped, %d degenerate matches, %d predicted by the EKF, %d "
                 "without attitude\n",
                 s.scans, s.skipped_too_few_points, s.scans_refused, s.scans_stamped_backwards, s.match_failures,
@@ -283,6 +288,9 @@ int Run() {
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
   if (log.malformed_lines_skipped > 0)
     std::cerr << "warning: skipped " << log.malformed_lines_skipped << " malformed lines (--lenient)\n";
+  if (log.time_gaps_dropped > 0)
+    std::cerr << "warning: dropped " << log.time_gaps_dropped << " measurements stamped more than --max_time_gap = "
+              << FLAGS_max_time_gap << " s after every earlier one (--lenient)\n";
   if (log.num_scans == 0) return Fail("'" + FLAGS_log + "' holds no laser scans"), 1;
   std::vector<StampedPose2> truth = log.truth;
   std::string truth_name = FLAGS_log + " (TRUTH)";
@@ -384,9 +392,14 @@ int Run() {
               scans / wall_seconds, duration, duration / wall_seconds);
   if (!truth.empty()) {
     const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, truth);
-    std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
-                truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
-                ate.rotation_rmse_degrees, ate.rotation_max_degrees);
+    if (ate.matched == 0) {
+      std::printf("trajectory error vs %s: no estimated pose has a truth pose at its stamp: no error computed\n",
+                  truth_name.c_str());
+    } else {
+      std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
+                  truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
+                  ate.rotation_rmse_degrees, ate.rotation_max_degrees);
+    }
   }
   std::printf("wrote %s.pgm, %s.yaml, %s.png, %s\n", base.c_str(), base.c_str(), base.c_str(), trajectory_path.c_str());
   return 0;

@@ -60,6 +60,7 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
   if (!(attitude_max_age_seconds >= 0 && altitude_max_age_seconds >= 0 && odometry_max_age_seconds >= 0))
     msg << "attitude, altitude and odometry ages must be >= 0; ";
+  if (!(max_scan_jump_meters > 0)) msg << "max_scan_jump_meters must be > 0; ";
   if (!(scan_match_translation_sigma_meters > 0 && scan_match_rotation_sigma_radians > 0))
     msg << "scan-match sigmas must be > 0; ";
   if (error != nullptr) *error = msg.str();
@@ -269,6 +270,14 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
     prediction.pose = at_scan.pose();
     prediction.external = true;
     ++stats_.ekf_predicted_scans;
+  }
+  const std::vector<StampedPose2>& last = local_.state().recent;
+  if (!last.empty() && !((prediction.pose.translation() - last.back().pose.translation()).norm() <=
+                         options_.max_scan_jump_meters)) {
+    ++stats_.scans_refused;
+    return Status::Error(Where(reading.line_number) + "scan at " + StampText(stamp) + " is predicted " +
+                         StampText((prediction.pose.translation() - last.back().pose.translation()).norm()) +
+                         " m from the last pose, over max_scan_jump_meters (refused)");
   }
   const long long floor_obstacle_points = static_cast<long long>(points.floor_obstacles.size());
   LocalResult result = local_.AddScan(stamp, std::move(points), prediction);

@@ -63,8 +63,10 @@ Pose2 StepOdometry(const OdometryOptions& options, const Pose2& previous_truth,
 bool SimulatorOptions::IsValid(std::string* error) const {
   std::ostringstream why;
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (!(std::isfinite(start_stamp_seconds) && start_stamp_seconds >= 0.0)) {
-    why << "start stamp must be finite and >= 0, got " << start_stamp_seconds;
+  // At most 1e10 s (year 2286 as a Unix time): beyond, t0 + k / rate rounds to t0 and the
+  // simulated clock would stand still.
+  if (!(std::isfinite(start_stamp_seconds) && start_stamp_seconds >= 0.0 && start_stamp_seconds <= 1e10)) {
+    why << "start stamp must be in [0, 1e10] s, got " << start_stamp_seconds;
   } else if (!(positive(control_rate_hz) && control_rate_hz <= 1000.0)) {
     why << "control rate must be in (0, 1000] Hz, got " << control_rate_hz;
   } else if (!positive(heading_gain_per_second)) {
