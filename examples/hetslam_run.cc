@@ -14,6 +14,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "core/file_io.h"
 #include "core/g2o_io.h"
@@ -133,6 +134,28 @@ bool Fail(const std::string& message) {
   return false;
 }
 
+// The flags behind the option fields an IsValid message names, so that the user sees which
+// flag to change (" (check --resolution)").
+std::string FlagsNamedIn(const std::string& message) {
+  static const std::pair<const char*, const char*> kFlagOf[] = {
+      {"resolution_meters", "--resolution"},
+      {"max_distance_meters", "--field_max_distance"},
+      {"sigma_meters", "--sigma"},
+      {"linear search windows", "--linear_window, --narrow_linear_window"},
+      {"angular_search_window_radians", "--angular_window_deg"},
+      {"wide_window_meters", "--loop_wide_window"},
+      {"max_time_gap_seconds", "--max_time_gap"},
+      {"flaser_fov_radians", "--flaser_fov_deg"},
+      {"flaser_max_range_meters", "--flaser_max_range"},
+      {"scans_per_submap", "--scans_per_submap"},
+  };
+  std::string flags;
+  for (const auto& [field, flag] : kFlagOf) {
+    if (message.find(field) != std::string::npos) flags += std::string(flags.empty() ? "" : ", ") + flag;
+  }
+  return flags.empty() ? "" : " (check " + flags + ")";
+}
+
 bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* read, std::string* error) {
   LocalSlamOptions* options = &estimator->local;
   if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file or a hetslam robot log)"), false;
@@ -202,8 +225,8 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
-  if (!read->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
-  if (!estimator->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
+  if (!read->IsValid(&invalid)) return (*error = "bad flag value: " + invalid + FlagsNamedIn(invalid)), false;
+  if (!estimator->IsValid(&invalid)) return (*error = "bad flag value: " + invalid + FlagsNamedIn(invalid)), false;
   return true;
 }
 

@@ -112,6 +112,9 @@ Eigen::Isometry3d TagSpec::WorldTTag() const {
 // Scenario::IsValid's bound of num_beams x rate x duration summed over the lasers (about 5 GB
 // of log text).
 constexpr double kMaxSimulatedBeams = 1e9;
+// Scenario::IsValid's bound of the world's extent (the world image, truth grids and ray casts
+// are sized by it).
+constexpr double kMaxWorldSpanMeters = 1000.0;
 
 Pose2 Scenario::InitialPose() const {
   if (has_start_pose) return start_pose;
@@ -153,6 +156,11 @@ bool Scenario::IsValid(std::string* error) const {
     // Reported below.
   } else if (world.empty()) {
     why = "scenario has no walls ('wall' or 'box' lines)";
+  } else if (!(world.Bounds().sizes().maxCoeff() <= kMaxWorldSpanMeters)) {
+    std::ostringstream text;
+    text << "the world spans " << world.Bounds().sizes().x() << " x " << world.Bounds().sizes().y()
+         << " m, more than " << kMaxWorldSpanMeters << " m a side (a building, not a country)";
+    why = text.str();
   } else if (!(duration_limit_seconds > 0.0 && duration_limit_seconds <= 86400.0)) {
     why = "duration limit must be in (0, 86400] s";
   } else {
@@ -304,7 +312,7 @@ class ScenarioParser {
                        const LineContext& context, std::vector<double>* v) {
     HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 5, 6, usage, context, v));
     if (!((*v)[2] >= kMinSizeMeters && (*v)[3] >= kMinSizeMeters && (*v)[4] >= kMinSizeMeters)) {
-      return context.Error("'" + tokens[0] + "' width, depth and height must be at least 1 mm");
+      return context.Error("'" + tokens[0] + "' width, depth and height must be positive, at least 1 mm");
     }
     if ((*v)[4] > 100.0) return context.Error("'" + tokens[0] + "' height must be <= 100 m");
     if (v->size() == 5) v->push_back(0.0);
@@ -323,7 +331,7 @@ class ScenarioParser {
     } else if (keyword == "box") {
       HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 4, 5, "box cx cy w h [yaw_deg]", context, &v));
       if (!(v[2] >= kMinSizeMeters && v[3] >= kMinSizeMeters)) {
-        return context.Error("box width and height must be at least 1 mm");
+        return context.Error("box width and height must be positive, at least 1 mm");
       }
       const double yaw = v.size() == 5 ? v[4] * kDegToRad : 0.0;
       world.AddBox(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]), yaw,
@@ -370,7 +378,7 @@ class ScenarioParser {
           "shelf x1 y1 x2 y2 lower_depth lower_height upper_depth height";
       HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 8, 8, usage, context, &v));
       if ((Eigen::Vector2d(v[2], v[3]) - Eigen::Vector2d(v[0], v[1])).norm() < kMinSizeMeters) {
-        return context.Error("shelf back must be at least 1 mm long");
+        return context.Error("shelf back has zero length (under 1 mm)");
       }
       if (!(v[4] >= kMinSizeMeters && v[5] > 0.0 && v[6] >= kMinSizeMeters && v[7] > v[5] && v[7] <= 100.0)) {
         return context.Error("shelf depths and heights must be positive, height > lower_height");
@@ -478,7 +486,7 @@ class ScenarioParser {
       HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
       HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "duration_limit_s seconds", context, &v));
       if (!(v[0] > 0.0 && v[0] <= kMaxDurationSeconds)) {
-        return context.Error("duration_limit_s must be in (0, 86400] s");
+        return context.Error("duration_limit_s must be positive and at most 86400 s");
       }
       scenario_->duration_limit_seconds = v[0];
     } else {
