@@ -351,6 +351,11 @@ int Run() {
     }
   }
   if (errors > 5) std::cerr << "warning: " << errors << " measurements refused in all (first 5 shown)\n";
+  if (estimator->stats().scans_stamped_backwards > 0) {
+    std::cerr << "warning: " << estimator->stats().scans_stamped_backwards << " of " << scans
+              << " scans are stamped before an earlier scan (processed in file order; time-based figures and the "
+                 "truth association are unreliable)\n";
+  }
   estimator->Finish();
   const std::vector<StampedPose2> trajectory = estimator->Trajectory();
   const std::unique_ptr<OccupancyGrid> grid = estimator->RenderMap();
@@ -415,9 +420,11 @@ int Run() {
               scans / wall_seconds, duration, duration / wall_seconds);
   if (!truth.empty()) {
     const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, truth);
-    if (ate.matched == 0) {
-      std::printf("trajectory error vs %s: no estimated pose has a truth pose at its stamp: no error computed\n",
-                  truth_name.c_str());
+    // An SE(2) alignment of one or two poses fits them exactly: an error of 0 would say nothing.
+    if (ate.matched < 3) {
+      std::printf("trajectory error vs %s: only %d estimated poses have a truth pose at their stamp (3 or more are "
+                  "needed for an aligned error): no error computed\n",
+                  truth_name.c_str(), ate.matched);
     } else {
       std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
                   truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
