@@ -8,6 +8,7 @@ packages=(
   libgflags-dev libgoogle-glog-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   time  # /usr/bin/time -v: peak memory in tests/bench/run_real_logs.sh
+  clang libclang-rt-14-dev  # libFuzzer targets of tests/fuzz (scripts/fuzz.sh, CI smoke run)
 )
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then
