@@ -416,6 +416,11 @@ int Run() {
                 scores[scores.size() / 10], scores[scores.size() / 2], scores[scores.size() * 9 / 10]);
   }
   const double duration = last_stamp - first_stamp;
+  // A clock jump (bounded by --max_time_gap unless that is 0) makes the time figures meaningless.
+  if (scans > 1 && duration / (scans - 1) > 60.0) {
+    std::cerr << "warning: the " << scans << " scans span " << duration
+              << " s of data, over a minute per scan: a clock jump? (the real-time factor below is meaningless)\n";
+  }
   std::printf("time: %.2f s wall, %.1f scans/s, data duration %.1f s, real-time factor %.1fx\n", wall_seconds,
               scans / wall_seconds, duration, duration / wall_seconds);
   if (!truth.empty()) {
