@@ -33,7 +33,7 @@ Status CommitWrittenFile(std::FILE* file, const std::string& path);
 // The temporary name OpenForWriting uses for `path`.
 std::string TemporaryPathFor(const std::string& path);
 
-// Writes the `size` bytes at `data` to `path` (binary) through a temporary file (see above). the `size` bytes at `data` to it (binary).
+// Writes the `size` bytes at `data` to `path` (binary) through a temporary file (see above).
 Status WriteFileBytes(const std::string& path, const void* data, std::size_t size);
 
 // Writes each comment as '#' lines ("# text"; a comment with line breaks gives one '#' line per

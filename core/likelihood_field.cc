@@ -18,7 +18,8 @@ constexpr float kStale = -1.f;
 bool LikelihoodFieldOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
   // Upper limits: the field's window is (2 max_distance / cell)^2 cells around every hit.
-  if (!(sigma_meters > 0.0 && sigma_meters <= 5.0)) msg << "sigma_meters must be in (0, 5] (got " << sigma_meters << "); ";
+  if (!(sigma_meters > 0.0 && sigma_meters <= 5.0))
+    msg << "sigma_meters must be in (0, 5] (got " << sigma_meters << "); ";
   if (!(max_distance_meters > 0.0 && max_distance_meters <= 5.0))
     msg << "max_distance_meters must be in (0, 5] (got " << max_distance_meters << "); ";
   if (!(republish_distance_meters >= 0.0)) msg << "republish_distance_meters must be >= 0; ";

@@ -253,9 +253,9 @@ std::string Summary(const OnlineEstimator& estimator) {
   const LoopCloserStats& l = estimator.loop_closer().stats();
   char line[1024];
   std::snprintf(line, sizeof(line),
-                "scans: %d processed, %d skipped (too few points), %d refused (too late or too far), %d timestamps backwards, %d "
-                "match failures, %lld floor points dropped, %d degenerate matches, %d predicted by the EKF, %d "
-                "without attitude\n",
+                "scans: %d processed, %d skipped (too few points), %d refused (too late or too far), %d timestamps "
+                "backwards, %d match failures, %lld floor points dropped, %d degenerate matches, %d predicted by the "
+                "EKF, %d without attitude\n",
                 s.scans, s.skipped_too_few_points, s.scans_refused, s.scans_stamped_backwards, s.match_failures,
                 s.floor_points,
                 s.degenerate_matches, s.ekf_predicted_scans, s.scans_without_attitude);
@@ -431,7 +431,8 @@ int Run() {
                   "needed for an aligned error): no error computed\n",
                   truth_name.c_str(), ate.matched);
     } else {
-      std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
+      std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), "
+                  "rotation rmse %.2f deg (max %.2f deg)\n",
                   truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
                   ate.rotation_rmse_degrees, ate.rotation_max_degrees);
     }

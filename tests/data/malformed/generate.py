@@ -85,6 +85,11 @@ def main():
     write("robot_crlf.txt", ["HSLOG 1"] + scans(five), ending="\r\n")
     write("robot_cr_only.txt", ["HSLOG 1"] + scans(five), ending="\r")
     write("robot_lenient_mixed.txt", ["HSLOG 1", "LASER 0.05 3 0 0 0 10 1 2 3", "FOO 1"] + scans(five))
+    # Degenerate worlds: nothing in range, a single wall, one scan per hour.
+    write("robot_all_max_range.txt", ["HSLOG 1"] + scans(five, ranges=["30"] * 91))
+    wall = ["%.3f" % (2.0 / math.cos(-math.pi / 4 + i * math.pi / 180)) for i in range(91)]
+    write("robot_single_wall.txt", ["HSLOG 1"] + scans(five, angle_min=-math.pi / 4, increment=math.pi / 180, ranges=wall))
+    write("robot_scan_per_hour.txt", ["HSLOG 1"] + scans(["%d" % (3600 * k) for k in range(5)]))
     # --- CARMEN logs ----------------------------------------------------------------------
     stamps = ["%.1f" % (1000 + 0.1 * k) for k in range(6)]
     write("carmen_ok.clf", [flaser(s) for s in stamps])
