@@ -83,8 +83,12 @@ std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& poi
   std::unordered_set<uint64_t> seen;
   std::vector<Eigen::Vector2f> kept;
   for (const Eigen::Vector2f& p : points) {
-    const int64_t ix = static_cast<int64_t>(std::floor(p.x() / voxel_size_meters));
-    const int64_t iy = static_cast<int64_t>(std::floor(p.y() / voxel_size_meters));
+    const double fx = std::floor(static_cast<double>(p.x()) / voxel_size_meters);
+    const double fy = std::floor(static_cast<double>(p.y()) / voxel_size_meters);
+    // A non-finite point, or one whose voxel index does not fit an int64, is no usable point.
+    if (!(std::abs(fx) < 9e18 && std::abs(fy) < 9e18)) continue;
+    const int64_t ix = static_cast<int64_t>(fx);
+    const int64_t iy = static_cast<int64_t>(fy);
     const uint64_t key = (static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffu);
     if (seen.insert(key).second) kept.push_back(p);
   }

@@ -21,6 +21,7 @@ using robot_log_text::FormatDouble;
 using robot_log_text::JoinPath;
 using robot_log_text::kMaxBeams;
 using robot_log_text::kMaxPositionMeters;
+using robot_log_text::kMaxRangeMeters;
 using robot_log_text::kMaxRate;
 using robot_log_text::kMaxStampSeconds;
 using robot_log_text::kPoseNames;
@@ -134,6 +135,7 @@ Status ParseLaser(const std::vector<std::string>& fields, LaserScan* scan,
     return Status::Error("LASER needs 0 <= range_min < range_max (got " + fields[5] + ", " +
                          fields[6] + ")");
   }
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("range_max", scan->range_max_meters, kMaxRangeMeters, "m"));
   scan->ranges_meters.resize(n);
   int non_finite = 0;
   for (long long i = 0; i < n; ++i) {

@@ -52,7 +52,7 @@
 // LASER range limits not 0 <= range_min < range_max, LASER angles outside the range of
 // CheckBeamAngles in core/laser_scan.h (a zero increment, beams spanning more than one turn),
 // a number beyond the magnitude limits of core/robot_log_text.h: stamps 1e12 s, positions 1e7 m,
-// speeds and rates 1e3 m/s or rad/s) is an error unless
+// speeds and rates 1e3 m/s or rad/s, range_max 1e5 m) is an error unless
 // `lenient` is set, in which case it is skipped and counted. Time stamps going backwards
 // within one message type are counted and the first few reported in `warnings`, never
 // reordered. A missing or wrong HSLOG header is an error even when lenient.

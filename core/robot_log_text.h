@@ -23,10 +23,11 @@ constexpr long long kMaxBeams = 100000;
 // Magnitude limits of the numbers a robot log describes (beyond them the value is corrupt, and
 // using it would overflow a grid or an integration): positions |x|, |y|, |z| <= 1e7 m (pose
 // lines: MOUNT, TRUTH, ODOM), command and MARG rates and speeds |v| <= 1e3 (m/s, rad/s),
-// stamps |t| <= 1e12 s (about 31700 years).
+// stamps |t| <= 1e12 s (about 31700 years), LASER range_max <= 1e5 m.
 constexpr double kMaxPositionMeters = 1e7;
 constexpr double kMaxRate = 1e3;
 constexpr double kMaxStampSeconds = 1e12;
+constexpr double kMaxRangeMeters = 1e5;  // LASER range_max
 // The six numbers of a pose "x y z roll pitch yaw", named for the errors.
 inline const std::vector<const char*> kPoseNames = {"x", "y", "z", "roll", "pitch", "yaw"};
 

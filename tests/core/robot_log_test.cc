@@ -297,6 +297,7 @@ TEST(RobotLogTest, MalformedLinesNameFileAndLineOrAreSkippedWhenLenient) {
       {"LASER 1 3 0 1e300 0 10 1 2 3", "LASER angle_increment 1e+300 rad with 3 beams spans"},
       {"LASER 1 3 100 0.1 0 10 1 2 3", "LASER angle_min 100 rad is not a finite angle in [-2 pi, 2 pi]"},
       {"LASER 1e20 1 0 0.1 0 10 1", "LASER stamp 1e+20 is beyond +-"},
+      {"LASER 1 1 0 0.1 0 1e300 1", "LASER range_max 1e+300 is beyond +-"},
       {"COMMAND 1 1e12 0 0", "COMMAND vx 1e+12 is beyond +-"},
       {"COMMAND 1 0 0 -5000", "COMMAND yaw_rate -5000 is beyond +-"},
       {"ODOM 1 0 -1e8 0", "ODOM y -1e+08 is beyond +-"},
