@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/file_io.h"
+#include "core/robot_log_text.h"
 #include "core/text_fields.h"
 #include "glog/logging.h"
 
@@ -63,6 +64,10 @@ Eigen::Isometry3d PlanarIsometry(const Pose2& pose) {
   return iso;
 }
 
+// Magnitude limits of CARMEN fields, as for robot logs (core/robot_log_text.h).
+constexpr double kMaxPositionMeters = robot_log_text::kMaxPositionMeters;
+constexpr double kMaxStampSeconds = robot_log_text::kMaxStampSeconds;
+
 // Cursor over the fields of one message; every getter names the message and field in its
 // error so that the caller only has to prefix "file:line: ".
 class FieldReader {
@@ -78,6 +83,17 @@ class FieldReader {
     const std::string& f = fields_[next_++];
     if (!ParseFiniteDouble(f, value)) {
       return Status::Error(type_ + " field " + name + " ('" + f + "') is not a finite number");
+    }
+    return Status::Ok();
+  }
+
+  // A finite number with |value| <= limit (positions: 1e7 m, stamps: 1e12 s; beyond them a
+  // value is corrupt and would overflow a grid or a time integration).
+  Status Bounded(const char* name, double limit, double* value) {
+    HETSLAM_RETURN_IF_ERROR(Finite(name, value));
+    if (std::abs(*value) > limit) {
+      return Status::Error(type_ + " field " + name + " (" + robot_log_text::FormatDouble(*value) +
+                           ") is beyond +-" + robot_log_text::FormatDouble(limit));
     }
     return Status::Ok();
   }
@@ -162,9 +178,9 @@ class FieldReader {
 Status ReadTimestamps(FieldReader* r, double* ipc_timestamp) {
   std::string host;
   double logger_timestamp = 0.0;
-  HETSLAM_RETURN_IF_ERROR(r->Finite("ipc_timestamp", ipc_timestamp));
+  HETSLAM_RETURN_IF_ERROR(r->Bounded("ipc_timestamp", kMaxStampSeconds, ipc_timestamp));
   HETSLAM_RETURN_IF_ERROR(r->Word("ipc_hostname", &host));
-  HETSLAM_RETURN_IF_ERROR(r->Finite("logger_timestamp", &logger_timestamp));
+  HETSLAM_RETURN_IF_ERROR(r->Bounded("logger_timestamp", kMaxStampSeconds, &logger_timestamp));
   return Status::Ok();
 }
 
@@ -180,11 +196,11 @@ Status ParseFlaser(const std::vector<std::string>& fields, const FlaserGeometry&
   scan.ranges_meters.resize(n);
   for (int i = 0; i < n; ++i) HETSLAM_RETURN_IF_ERROR(r.Range(i, &scan.ranges_meters[i]));
   double x, y, theta, odom_x, odom_y, odom_theta;
-  HETSLAM_RETURN_IF_ERROR(r.Finite("x", &x));
-  HETSLAM_RETURN_IF_ERROR(r.Finite("y", &y));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("x", kMaxPositionMeters, &x));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("y", kMaxPositionMeters, &y));
   HETSLAM_RETURN_IF_ERROR(r.Finite("theta", &theta));
-  HETSLAM_RETURN_IF_ERROR(r.Finite("odom_x", &odom_x));
-  HETSLAM_RETURN_IF_ERROR(r.Finite("odom_y", &odom_y));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("odom_x", kMaxPositionMeters, &odom_x));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("odom_y", kMaxPositionMeters, &odom_y));
   HETSLAM_RETURN_IF_ERROR(r.Finite("odom_theta", &odom_theta));
   HETSLAM_RETURN_IF_ERROR(ReadTimestamps(&r, &scan.stamp_seconds));
   HETSLAM_RETURN_IF_ERROR(r.ExpectEnd());
@@ -218,6 +234,7 @@ Status ParseLaserBody(FieldReader* r, size_t trailing_fields, const char* traili
   int m = 0;
   HETSLAM_RETURN_IF_ERROR(r->Count("remissions", trailing_fields, trailing_description, &m));
   for (int i = 0; i < m; ++i) HETSLAM_RETURN_IF_ERROR(r->Remission(i));
+  HETSLAM_RETURN_IF_ERROR(CheckBeamAngles(n, start_angle, angular_res, "start_angle", "angular_res"));
   scan->angles_radians = EvenlySpacedAngles(n, start_angle, angular_res);
   scan->range_min_meters = options.range_min_meters;
   scan->range_max_meters = max_range;
@@ -234,11 +251,11 @@ Status ParseRobotLaser(const std::vector<std::string>& fields, const CarmenReadO
       "side_safety turn_axis ipc_timestamp ipc_hostname logger_timestamp",
       options, &scan));
   double laser_x, laser_y, laser_theta, robot_x, robot_y, robot_theta, unused;
-  HETSLAM_RETURN_IF_ERROR(r.Finite("laser_x", &laser_x));
-  HETSLAM_RETURN_IF_ERROR(r.Finite("laser_y", &laser_y));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("laser_x", kMaxPositionMeters, &laser_x));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("laser_y", kMaxPositionMeters, &laser_y));
   HETSLAM_RETURN_IF_ERROR(r.Finite("laser_theta", &laser_theta));
-  HETSLAM_RETURN_IF_ERROR(r.Finite("robot_x", &robot_x));
-  HETSLAM_RETURN_IF_ERROR(r.Finite("robot_y", &robot_y));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("robot_x", kMaxPositionMeters, &robot_x));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("robot_y", kMaxPositionMeters, &robot_y));
   HETSLAM_RETURN_IF_ERROR(r.Finite("robot_theta", &robot_theta));
   HETSLAM_RETURN_IF_ERROR(r.Finite("tv", &unused));
   HETSLAM_RETURN_IF_ERROR(r.Finite("rv", &unused));
@@ -272,8 +289,8 @@ Status ParseRawLaser(const std::vector<std::string>& fields, const CarmenReadOpt
 Status ParseOdom(const std::vector<std::string>& fields, OdometryReading* reading) {
   FieldReader r(fields, "ODOM");
   double x, y, theta, unused;
-  HETSLAM_RETURN_IF_ERROR(r.Finite("x", &x));
-  HETSLAM_RETURN_IF_ERROR(r.Finite("y", &y));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("x", kMaxPositionMeters, &x));
+  HETSLAM_RETURN_IF_ERROR(r.Bounded("y", kMaxPositionMeters, &y));
   HETSLAM_RETURN_IF_ERROR(r.Finite("theta", &theta));
   HETSLAM_RETURN_IF_ERROR(r.Finite("tv", &unused));
   HETSLAM_RETURN_IF_ERROR(r.Finite("rv", &unused));
@@ -533,10 +550,8 @@ Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
     }
   }
 
-  FILE* file = std::fopen(path.c_str(), "w");
-  if (file == nullptr) {
-    return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
-  }
+  FILE* file = nullptr;
+  HETSLAM_RETURN_IF_ERROR(OpenForWriting(path, "w", &file));
   WriteCommentLines(file, comment_lines);
   // PARAM lines carry CARMEN's ipc_timestamp ipc_hostname logger_timestamp tail.
   if (geometry.has_angles) {
@@ -578,7 +593,7 @@ Status WriteCarmenLog(const std::string& path, const CarmenLog& log,
                  pose.theta(), pose.x(), pose.y(), pose.theta(), scan.stamp_seconds,
                  scan.stamp_seconds);
   }
-  return CloseWrittenFile(file, path);
+  return CommitWrittenFile(file, path);
 }
 
 }  // namespace hetslam

@@ -23,10 +23,11 @@
 // dropped downstream.
 //
 // Errors: a malformed line (too few fields, a non-numeric or non-finite field where a number
-// is required, a beam count that is negative, over 100000 or larger than the fields present)
-// is an error naming file and line, unless `lenient` is set, in which case the line is
-// skipped and counted. Timestamps that go backwards are counted (and the first few reported
-// in `warnings`), never reordered.
+// is required, a beam count that is negative, over 100000 or larger than the fields present,
+// a position beyond +-1e7 m or a timestamp beyond +-1e12 s, ROBOTLASER1/RAWLASER1 angles outside
+// the range of CheckBeamAngles in core/laser_scan.h) is an error naming file and line, unless
+// `lenient` is set, in which case the line is skipped and counted. Timestamps that go
+// backwards are counted (and the first few reported in `warnings`), never reordered.
 #ifndef HETSLAM_CORE_CARMEN_LOG_H_
 #define HETSLAM_CORE_CARMEN_LOG_H_
 

@@ -21,13 +21,40 @@ Status CloseWrittenFile(std::FILE* file, const std::string& path) {
   return Status::Ok();
 }
 
-Status WriteFileBytes(const std::string& path, const void* data, std::size_t size) {
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (file == nullptr) {
+std::string TemporaryPathFor(const std::string& path) { return path + ".tmp"; }
+
+Status OpenForWriting(const std::string& path, const char* mode, std::FILE** file) {
+  CHECK(file != nullptr) << "OpenForWriting: file is null";
+  *file = nullptr;
+  if (path.empty()) return Status::Error("cannot write a file with an empty name");
+  const std::string temporary = TemporaryPathFor(path);
+  *file = std::fopen(temporary.c_str(), mode);
+  if (*file == nullptr) {
     return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
   }
+  return Status::Ok();
+}
+
+Status CommitWrittenFile(std::FILE* file, const std::string& path) {
+  const std::string temporary = TemporaryPathFor(path);
+  const Status closed = CloseWrittenFile(file, path);
+  if (!closed.ok()) {
+    std::remove(temporary.c_str());
+    return closed;
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::remove(temporary.c_str());
+    return Status::Error("cannot write '" + path + "': " + reason);
+  }
+  return Status::Ok();
+}
+
+Status WriteFileBytes(const std::string& path, const void* data, std::size_t size) {
+  std::FILE* file = nullptr;
+  HETSLAM_RETURN_IF_ERROR(OpenForWriting(path, "wb", &file));
   if (size > 0) std::fwrite(data, 1, size, file);
-  return CloseWrittenFile(file, path);
+  return CommitWrittenFile(file, path);
 }
 
 void WriteCommentLines(std::FILE* file, const std::vector<std::string>& comment_lines) {

@@ -1,5 +1,9 @@
 // Writing files with user-facing errors: every failure is a Status naming the path and the
 // system's reason ("error writing 'out/map.pgm': No space left on device").
+//
+// Every output is written to a temporary file next to it (`path` + ".tmp") and renamed over
+// `path` only when everything reached the disk: a failed write (full disk, unwritable folder)
+// leaves no truncated or empty output and keeps an older complete file of that name.
 #ifndef HETSLAM_CORE_FILE_IO_H_
 #define HETSLAM_CORE_FILE_IO_H_
 
@@ -18,7 +22,18 @@ namespace hetslam {
 // The file is closed in every case.
 Status CloseWrittenFile(std::FILE* file, const std::string& path);
 
-// Creates or truncates `path` and writes the `size` bytes at `data` to it (binary).
+// Opens `path` + ".tmp" for writing (`mode` as std::fopen: "w" or "wb"); *file is null on
+// error. Finish with CommitWrittenFile.
+Status OpenForWriting(const std::string& path, const char* mode, std::FILE** file);
+
+// CloseWrittenFile on the file OpenForWriting(path) gave, then renames `path` + ".tmp" to
+// `path` when everything was written, else removes the temporary file.
+Status CommitWrittenFile(std::FILE* file, const std::string& path);
+
+// The temporary name OpenForWriting uses for `path`.
+std::string TemporaryPathFor(const std::string& path);
+
+// Writes the `size` bytes at `data` to `path` (binary) through a temporary file (see above).
 Status WriteFileBytes(const std::string& path, const void* data, std::size_t size);
 
 // Writes each comment as '#' lines ("# text"; a comment with line breaks gives one '#' line per

@@ -11,6 +11,7 @@
 
 #include "Eigen/Cholesky"
 #include "core/file_io.h"
+#include "core/robot_log_text.h"
 
 namespace hetslam {
 namespace {
@@ -43,6 +44,10 @@ bool ParseId(const std::string& field, int* id) {
   *id = static_cast<int>(v);
   return true;
 }
+
+// Magnitude limits (header): beyond them a value is corrupt and the solve would overflow.
+constexpr double kMaxCoordinate = 1e9;    // metres
+constexpr double kMaxInformation = 1e18;  // information entries
 
 std::string Where(const std::string& source_name, int line_number) {
   return source_name + ":" + std::to_string(line_number) + ": ";
@@ -85,6 +90,9 @@ Status ParseG2oPoseGraph2d(std::istream& input, const std::string& source_name,
         return Status::Error(where + "vertex " + fields[1] + " already defined on line " +
                              std::to_string(inserted.first->second));
       }
+      if (std::abs(v[0]) > kMaxCoordinate || std::abs(v[1]) > kMaxCoordinate) {
+        return Status::Error(where + "VERTEX_SE2 position is beyond +-1e9 m");
+      }
       vertex.world_T_vertex = Pose2(v[0], v[1], v[2]);
       graph->vertices.push_back(vertex);
     } else if (tag == "EDGE_SE2") {
@@ -109,13 +117,25 @@ Status ParseG2oPoseGraph2d(std::istream& input, const std::string& source_name,
                                "' is not a finite number");
         }
       }
+      if (std::abs(v[0]) > kMaxCoordinate || std::abs(v[1]) > kMaxCoordinate) {
+        return Status::Error(where + "EDGE_SE2 translation is beyond +-1e9 m");
+      }
       edge.from_T_to_measured = Pose2(v[0], v[1], v[2]);
       Eigen::Matrix3d& info = edge.information;
       info << v[3], v[4], v[5],  //
           v[4], v[6], v[7],      //
           v[5], v[7], v[8];
+      for (int k = 3; k < 9; ++k) {
+        if (std::abs(v[k]) > kMaxInformation) {
+          return Status::Error(where + "EDGE_SE2 information entry '" + fields[3 + k] + "' is beyond +-1e18");
+        }
+      }
+      // Eigen's LLT reports success on some matrices whose factor is not finite (products that
+      // overflow): the factor itself is checked, as the factors' SqrtInformation CHECKs it.
       const Eigen::LLT<Eigen::Matrix3d> llt(info);
-      if (llt.info() != Eigen::Success) {
+      const Eigen::Matrix3d factor = llt.matrixL();
+      if (llt.info() != Eigen::Success || !factor.allFinite() || !(factor.diagonal().minCoeff() > 0.0) ||
+          !(factor * factor.transpose()).isApprox(info, 1e-6)) {
         return Status::Error(where + "EDGE_SE2 information matrix is not positive definite");
       }
       // The file names no kind: consecutive ids are sequential (header).
@@ -159,8 +179,8 @@ Status ParseG2oPoseGraph2d(std::istream& input, const std::string& source_name,
 }
 
 Status ReadG2oPoseGraph2d(const std::string& path, PoseGraph2d* graph) {
-  std::ifstream input(path);
-  if (!input) return Status::Error(path + ": cannot open for reading");
+  std::ifstream input;
+  HETSLAM_RETURN_IF_ERROR(robot_log_text::OpenForReading(path, &input));
   return ParseG2oPoseGraph2d(input, path, graph);
 }
 

@@ -18,8 +18,10 @@
 // stores no kind either: reading a written graph labels its edges by that convention again.
 // Blank lines and lines starting with '#' are skipped. Anything else, a wrong field count, a
 // non-finite or non-numeric field, a duplicated vertex id, an edge from a vertex to itself or to
-// an undefined vertex, and an information matrix that is not positive definite are errors whose
-// message names the file and the line ("graph.g2o:12: ...").
+// an undefined vertex, an information matrix that is not positive definite (its Cholesky factor
+// must be finite with a positive diagonal), positions or edge translations beyond +-1e9 m and
+// information entries beyond +-1e18 are errors whose message names the file and the line
+// ("graph.g2o:12: ...").
 #ifndef HETSLAM_CORE_G2O_IO_H_
 #define HETSLAM_CORE_G2O_IO_H_
 

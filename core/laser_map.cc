@@ -69,7 +69,7 @@ LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
                    const LikelihoodFieldOptions& field_options)
     : grid_(WithFieldMargin(grid_options, field_options)), field_(field_options) {}
 
-void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
+bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                           const std::vector<Eigen::Vector2f>& points_robot, const std::vector<PointLabel>* labels,
                           const std::vector<float>* heights) {
   points_world_.clear();
@@ -87,10 +87,13 @@ void LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
     for (ScanLine& line : lines_) line.direction = rotation * line.direction;
     lines = &lines_;
   }
-  grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_, labels != nullptr ? &labels_ : nullptr,
-                   heights, lines);
+  if (!grid_.InsertScan(world_T_robot * sensor_robot, points_world_, &changed_cells_,
+                        labels != nullptr ? &labels_ : nullptr, heights, lines)) {
+    return false;
+  }
   field_.ApplyChanges(grid_, changed_cells_);
   ++num_scans_inserted_;
+  return true;
 }
 
 }  // namespace hetslam

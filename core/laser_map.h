@@ -38,7 +38,8 @@ class LaserMap {
   // robot frame), with the robot at `world_T_robot`.
   // `labels` (optional, one PointLabel per point) and `heights` (optional, metres above the
   // floor) feed the grid's label layer (core/occupancy_grid.h: walls from the height span).
-  void InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
+  // False when the grid refused the scan (OccupancyGrid::InsertScan: non-finite or too far).
+  bool InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                   const std::vector<Eigen::Vector2f>& points_robot,
                   const std::vector<PointLabel>* labels = nullptr, const std::vector<float>* heights = nullptr);
 

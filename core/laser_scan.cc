@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <string>
 #include <unordered_set>
 
 #include "core/euler.h"
@@ -13,6 +15,32 @@ int LaserScan::NumValidBeams() const {
   int count = 0;
   for (double r : ranges_meters) count += IsValidRange(r) ? 1 : 0;
   return count;
+}
+
+Status CheckBeamAngles(int num_beams, double first_angle_radians, double increment_radians,
+                       const char* first_name, const char* increment_name) {
+  auto text = [](double v) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof(buffer), "%.9g", v);
+    return std::string(buffer);
+  };
+  if (!std::isfinite(first_angle_radians) || std::abs(first_angle_radians) > 2 * M_PI) {
+    return Status::Error(std::string(first_name) + " " + text(first_angle_radians) +
+                         " rad is not a finite angle in [-2 pi, 2 pi]");
+  }
+  if (!std::isfinite(increment_radians)) {
+    return Status::Error(std::string(increment_name) + " " + text(increment_radians) + " rad is not finite");
+  }
+  if (num_beams >= 2 && increment_radians == 0.0) {
+    return Status::Error(std::string(increment_name) + " is 0 with " + std::to_string(num_beams) +
+                         " beams: every beam would point the same way");
+  }
+  if (num_beams >= 2 && std::abs(increment_radians) * (num_beams - 1) > 2 * M_PI + 1e-6) {
+    return Status::Error(std::string(increment_name) + " " + text(increment_radians) + " rad with " +
+                         std::to_string(num_beams) + " beams spans " +
+                         text(std::abs(increment_radians) * (num_beams - 1)) + " rad, more than one turn");
+  }
+  return Status::Ok();
 }
 
 std::vector<double> EvenlySpacedAngles(int num_beams, double first_angle_radians,
@@ -55,8 +83,12 @@ std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& poi
   std::unordered_set<uint64_t> seen;
   std::vector<Eigen::Vector2f> kept;
   for (const Eigen::Vector2f& p : points) {
-    const int64_t ix = static_cast<int64_t>(std::floor(p.x() / voxel_size_meters));
-    const int64_t iy = static_cast<int64_t>(std::floor(p.y() / voxel_size_meters));
+    const double fx = std::floor(static_cast<double>(p.x()) / voxel_size_meters);
+    const double fy = std::floor(static_cast<double>(p.y()) / voxel_size_meters);
+    // A non-finite point, or one whose voxel index does not fit an int64, is no usable point.
+    if (!(std::abs(fx) < 9e18 && std::abs(fy) < 9e18)) continue;
+    const int64_t ix = static_cast<int64_t>(fx);
+    const int64_t iy = static_cast<int64_t>(fy);
     const uint64_t key = (static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffu);
     if (seen.insert(key).second) kept.push_back(p);
   }

@@ -11,6 +11,7 @@
 
 #include "Eigen/Core"
 #include "Eigen/Geometry"
+#include "core/status.h"
 
 namespace hetslam {
 
@@ -28,6 +29,13 @@ struct LaserScan {
   }
   int NumValidBeams() const;
 };
+
+// The valid range of an evenly spaced scan's angles, as every reader checks them before
+// EvenlySpacedAngles: both finite, |first angle| <= 2 pi, and with two or more beams a non-zero
+// increment whose beams span at most one turn (|increment| (n - 1) <= 2 pi). An error names the
+// fields ("angle_increment 0 with 181 beams: ..."); the caller adds file and line.
+Status CheckBeamAngles(int num_beams, double first_angle_radians, double increment_radians,
+                       const char* first_name = "angle_min", const char* increment_name = "angle_increment");
 
 // Builds evenly spaced beam angles: angle_i = first_angle + i * increment.
 std::vector<double> EvenlySpacedAngles(int num_beams, double first_angle_radians,

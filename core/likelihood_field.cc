@@ -24,8 +24,11 @@ LikelihoodField::Segment LikelihoodField::SegmentOf(const OccupancyGrid& grid, i
 
 bool LikelihoodFieldOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
-  if (!(sigma_meters > 0.0)) msg << "sigma_meters must be > 0 (got " << sigma_meters << "); ";
-  if (!(max_distance_meters > 0.0)) msg << "max_distance_meters must be > 0 (got " << max_distance_meters << "); ";
+  // Upper limits: the field's window is (2 max_distance / cell)^2 cells around every hit.
+  if (!(sigma_meters > 0.0 && sigma_meters <= 5.0))
+    msg << "sigma_meters must be in (0, 5] (got " << sigma_meters << "); ";
+  if (!(max_distance_meters > 0.0 && max_distance_meters <= 5.0))
+    msg << "max_distance_meters must be in (0, 5] (got " << max_distance_meters << "); ";
   if (!(republish_distance_meters >= 0.0)) msg << "republish_distance_meters must be >= 0; ";
   if (!(republish_angle_radians >= 0.0)) msg << "republish_angle_radians must be >= 0; ";
   std::string sub;

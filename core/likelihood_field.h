@@ -40,7 +40,7 @@ namespace hetslam {
 
 struct LikelihoodFieldOptions {
   double sigma_meters = 0.10;            // p_hit ~ exp(-d / sigma)
-  double max_distance_meters = 0.30;     // window radius R = ceil(max_distance / resolution)
+  double max_distance_meters = 0.30;     // window radius R = ceil(max_distance / resolution); <= 5 m
   double republish_distance_meters = 0.005;
   double republish_angle_radians = 0.035;  // 2°
   // The surfaces a LaserMap gives its hits (core/laser_map.h EstimateScanLines). Off by

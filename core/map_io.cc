@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/file_io.h"
+#include "core/robot_log_text.h"
 #include "core/text_fields.h"
 #include "glog/logging.h"
 
@@ -192,8 +193,8 @@ std::string Trim(const std::string& s) {
 }
 
 Status ParseMapYaml(const std::string& path, MapYaml* yaml) {
-  std::ifstream in(path);
-  if (!in) return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
+  std::ifstream in;
+  HETSLAM_RETURN_IF_ERROR(robot_log_text::OpenForReading(path, &in));
   bool has_image = false, has_resolution = false, has_origin = false;
   std::string line;
   int line_number = 0;
@@ -281,8 +282,8 @@ struct PgmImage {
 
 // Binary PGM (P5) with 8-bit samples; '#' comments are allowed in the header.
 Status ReadPgm(const std::string& path, PgmImage* image) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
+  std::ifstream in;
+  HETSLAM_RETURN_IF_ERROR(robot_log_text::OpenForReading(path, &in));  // text mode is binary on POSIX
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   size_t at = 0;
   // The next header token: white space and comments (to the end of the line) are skipped.

@@ -12,6 +12,7 @@
 #include "core/carmen_log.h"
 #include "core/euler.h"
 #include "core/robot_log.h"
+#include "core/robot_log_text.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -99,6 +100,8 @@ bool MeasurementLogOptions::IsValid(std::string* error) const {
     why << "flaser_max_range_meters must be > 0 and finite, got " << flaser_max_range_meters;
   } else if (max_warnings_kept < 0) {
     why << "max_warnings_kept must be >= 0, got " << max_warnings_kept;
+  } else if (!(max_time_gap_seconds >= 0 && std::isfinite(max_time_gap_seconds))) {
+    why << "max_time_gap_seconds must be >= 0 and finite (0 = no bound), got " << max_time_gap_seconds;
   } else {
     std::string ros_bag_error;
     if (!ros_bag.IsValid(&ros_bag_error)) why << ros_bag_error;
@@ -249,6 +252,46 @@ Status ReadBag(const std::string& path, const MeasurementLogOptions& options, Me
   return Status::Ok();
 }
 
+std::string NumberText(double value) {
+  std::ostringstream out;
+  out.precision(15);
+  out << value;
+  return out.str();
+}
+
+// The time-gap bound of MeasurementLogOptions::max_time_gap_seconds on the merged stream. The
+// reference is the newest stamp accepted so far, so one corrupt stamp far in the future is
+// dropped alone (lenient) and the stamps after it are compared with the ones before it.
+Status BoundTimeGaps(const MeasurementLogOptions& options, MeasurementLog* log) {
+  if (options.max_time_gap_seconds <= 0 || log->measurements.empty()) return Status::Ok();
+  std::vector<Measurement> kept;
+  kept.reserve(log->measurements.size());
+  double newest = -std::numeric_limits<double>::infinity();
+  int newest_line = 0;
+  for (Measurement& m : log->measurements) {
+    const double stamp = StampOf(m);
+    if (std::isfinite(newest) && stamp - newest > options.max_time_gap_seconds) {
+      const std::string message = log->path + ":" + std::to_string(LineOf(m)) + ": " + MeasurementKindName(m) +
+                                  " stamp " + NumberText(stamp) + " is " + NumberText(stamp - newest) +
+                                  " s after the newest earlier stamp " + NumberText(newest) + " (line " +
+                                  std::to_string(newest_line) + "): gaps over max_time_gap_seconds = " +
+                                  NumberText(options.max_time_gap_seconds) + " s are not integrated";
+      if (!options.lenient) return Status::Error(message);
+      if (log->time_gaps_dropped++ < options.max_warnings_kept) {
+        log->warnings.push_back(message + " (measurement dropped)");
+      }
+      continue;
+    }
+    if (stamp > newest) {
+      newest = stamp;
+      newest_line = LineOf(m);
+    }
+    kept.push_back(std::move(m));
+  }
+  log->measurements = std::move(kept);
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
@@ -271,6 +314,7 @@ Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& 
       break;
   }
   if (!status.ok()) return status;
+  HETSLAM_RETURN_IF_ERROR(BoundTimeGaps(options, log));
   log->num_scans = 0;
   for (const Measurement& m : log->measurements) log->num_scans += std::holds_alternative<LaserReading>(m);
   return Status::Ok();

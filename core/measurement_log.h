@@ -40,6 +40,13 @@ struct MeasurementLogOptions {
   // ROS 1 bags: topics, laser mount, image folder (its lenient and max_warnings_kept are
   // taken from the fields above).
   RosBagReadOptions ros_bag;
+  // Time gaps: a measurement stamped more than this many seconds after every earlier one (in
+  // the merged order) is not bridged: the EKF would integrate the gap (a 10-hour pause moves the
+  // next scan tens of metres; a corrupt 1e20 s stamp makes the data duration meaningless). An
+  // error naming file:line, or with `lenient` the measurement is dropped, counted in
+  // `time_gaps_dropped` and reported in `warnings`. 0 = no bound. Real logs have gaps of a
+  // few seconds (Intel: 3.5 s, ACES: 3.0 s).
+  double max_time_gap_seconds = 60.0;
 
   bool IsValid(std::string* error) const;
 };
@@ -54,6 +61,7 @@ struct MeasurementLog {
   std::vector<StampedPose2> truth;
   std::vector<std::string> warnings;  // first few, "file:line: message"
   int malformed_lines_skipped = 0;    // lenient mode only (a ROS bag's skipped messages)
+  int time_gaps_dropped = 0;          // lenient mode only: measurements after a gap (see above)
   int num_scans = 0;
 
   // The time span of the laser scans (0 without scans).

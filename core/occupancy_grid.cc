@@ -11,7 +11,9 @@ namespace hetslam {
 
 bool OccupancyGridOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
-  if (!(resolution_meters > 0.0)) msg << "resolution_meters must be > 0 (got " << resolution_meters << "); ";
+  // 5 mm .. 10 m: finer cells make a laser's 30 m reach exceed the grid's kMaxCells.
+  if (!(resolution_meters >= 0.005 && resolution_meters <= 10.0))
+    msg << "resolution_meters must be in [0.005, 10] (got " << resolution_meters << "); ";
   if (!(hit_log_odds > 0.0)) msg << "hit_log_odds must be > 0 (got " << hit_log_odds << "); ";
   if (!(miss_log_odds < 0.0)) msg << "miss_log_odds must be < 0 (got " << miss_log_odds << "); ";
   if (!(min_log_odds < occupied_threshold_log_odds && occupied_threshold_log_odds < max_log_odds))
@@ -38,43 +40,65 @@ OccupancyGrid::OccupancyGrid(const OccupancyGridOptions& options) : options_(opt
   geometry_ = GridGeometry(Eigen::Vector2d::Zero(), options_.resolution_meters, 0, 0);
 }
 
-bool OccupancyGrid::EnsureContains(const Eigen::Vector2d& min_world,
-                                   const Eigen::Vector2d& max_world) {
-  CHECK(!frozen_) << "EnsureContains on a frozen grid";
-  CHECK(min_world.allFinite() && max_world.allFinite()) << "non-finite box";
+bool OccupancyGrid::GrownBounds(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world,
+                                Eigen::Vector2d* new_min, Eigen::Vector2d* new_max) const {
   const double r = options_.resolution_meters;
   const double margin = options_.border_margin_meters;
   const Eigen::Vector2d need_min = min_world.array() - margin;
   const Eigen::Vector2d need_max = max_world.array() + margin;
+  // In doubles (continuous cell coordinates), not through WorldToCell: a far point must not
+  // overflow an int cast before the size limit is checked.
   if (geometry_.num_cells() > 0) {
-    const CellIndex lo = geometry_.WorldToCell(need_min);
-    const CellIndex hi = geometry_.WorldToCell(need_max);
-    if (geometry_.Contains(lo) && geometry_.Contains(hi)) return false;
+    const Eigen::Vector2d lo = geometry_.WorldToContinuousCell(need_min);
+    const Eigen::Vector2d hi = geometry_.WorldToContinuousCell(need_max);
+    if (std::floor(lo.x()) >= 0 && std::floor(lo.y()) >= 0 && std::floor(hi.x()) < geometry_.width() &&
+        std::floor(hi.y()) < geometry_.height()) {
+      return false;
+    }
   }
   const double step = options_.growth_step_meters;
   // New bounds in whole cells on a world-aligned lattice (origin a multiple of r), so that
   // the grid does not depend on the order in which areas were explored.
   auto align_down = [r](double v) { return r * std::floor(v / r); };
-  Eigen::Vector2d new_min, new_max;
   if (geometry_.num_cells() == 0) {
-    new_min = Eigen::Vector2d(align_down(need_min.x() - step / 2), align_down(need_min.y() - step / 2));
-    new_max = need_max.array() + step / 2;
+    *new_min = Eigen::Vector2d(align_down(need_min.x() - step / 2), align_down(need_min.y() - step / 2));
+    *new_max = need_max.array() + step / 2;
   } else {
     const Eigen::Vector2d old_min = geometry_.origin();
     const Eigen::Vector2d old_max =
         old_min + Eigen::Vector2d(geometry_.width(), geometry_.height()) * r;
-    new_min = old_min;
-    new_max = old_max;
+    *new_min = old_min;
+    *new_max = old_max;
     for (int i = 0; i < 2; ++i) {
-      if (need_min[i] < old_min[i]) new_min[i] = old_min[i] - r * std::ceil((old_min[i] - need_min[i] + step) / r);
-      if (need_max[i] >= old_max[i]) new_max[i] = old_max[i] + (need_max[i] - old_max[i] + step);
+      if (need_min[i] < old_min[i]) (*new_min)[i] = old_min[i] - r * std::ceil((old_min[i] - need_min[i] + step) / r);
+      if (need_max[i] >= old_max[i]) (*new_max)[i] = old_max[i] + (need_max[i] - old_max[i] + step);
     }
   }
+  return true;
+}
+
+bool OccupancyGrid::CanContain(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world) const {
+  if (!(min_world.allFinite() && max_world.allFinite())) return false;
+  Eigen::Vector2d new_min, new_max;
+  if (!GrownBounds(min_world, max_world, &new_min, &new_max)) return true;
+  const double r = options_.resolution_meters;
+  const double width = std::ceil((new_max.x() - new_min.x()) / r - 1e-9);
+  const double height = std::ceil((new_max.y() - new_min.y()) / r - 1e-9);
+  return width * height < kMaxCells;
+}
+
+bool OccupancyGrid::EnsureContains(const Eigen::Vector2d& min_world,
+                                   const Eigen::Vector2d& max_world) {
+  CHECK(!frozen_) << "EnsureContains on a frozen grid";
+  CHECK(min_world.allFinite() && max_world.allFinite()) << "non-finite box";
+  CHECK(CanContain(min_world, max_world))
+      << "occupancy grid would exceed " << kMaxCells << " cells to contain (" << min_world.transpose() << ") .. ("
+      << max_world.transpose() << "): the caller must check CanContain first";
+  Eigen::Vector2d new_min, new_max;
+  if (!GrownBounds(min_world, max_world, &new_min, &new_max)) return false;
+  const double r = options_.resolution_meters;
   const int width = static_cast<int>(std::ceil((new_max.x() - new_min.x()) / r - 1e-9));
   const int height = static_cast<int>(std::ceil((new_max.y() - new_min.y()) / r - 1e-9));
-  CHECK_LT(static_cast<double>(width) * height, 4e8)
-      << "occupancy grid would exceed 4e8 cells (" << width << " x " << height
-      << "); a pose or scan point is far away (bad input?)";
   Resize(GridGeometry(new_min, r, width, height));
   return true;
 }
@@ -152,7 +176,7 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
   }
 }
 
-void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
+bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
                                const std::vector<Eigen::Vector2d>& points_world,
                                std::vector<int>* changed_cells, const std::vector<uint8_t>* labels,
                                const std::vector<float>* heights, const std::vector<ScanLine>* lines) {
@@ -160,9 +184,16 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
       << "InsertScan: " << labels->size() << " labels for " << points_world.size() << " points";
   Eigen::Vector2d lo = sensor_world, hi = sensor_world;
   for (const Eigen::Vector2d& p : points_world) {
-    CHECK(p.allFinite()) << "non-finite scan point";
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
+  }
+  // Non-finite or far points come from data (a corrupt pose, an absurd beam angle): the scan
+  // is refused, not a crash. (NaN does not propagate through min/max: test every point.)
+  bool finite = sensor_world.allFinite();
+  for (const Eigen::Vector2d& p : points_world) finite = finite && p.allFinite();
+  if (!finite || !CanContain(lo, hi)) {
+    ++num_scans_refused_;
+    return false;
   }
   EnsureContains(lo, hi);
   CHECK(heights == nullptr || heights->size() == points_world.size()) << "InsertScan: heights do not match points";
@@ -235,6 +266,7 @@ void OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
       }
     }
   }
+  return true;
 }
 
 void OccupancyGrid::AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds) {

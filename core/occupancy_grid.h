@@ -22,7 +22,7 @@
 namespace hetslam {
 
 struct OccupancyGridOptions {
-  double resolution_meters = 0.05;
+  double resolution_meters = 0.05;  // in [0.005, 10] (IsValid)
   double hit_log_odds = 0.85;     // log(0.7 / 0.3)
   double miss_log_odds = -0.4;    // log(0.4 / 0.6)
   double min_log_odds = -2.0;     // clamping keeps cells able to change state
@@ -73,7 +73,14 @@ class OccupancyGrid {
   // Makes sure the box [min, max] (world, metres) plus the border margin lies in the grid,
   // growing it if needed. Returns true when the geometry changed. Growth keeps every cell's
   // contents and world position; linear indices change.
+  // CHECK-fails unless CanContain(min_world, max_world).
   bool EnsureContains(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world);
+
+  // The grid is limited to kMaxCells cells (1.6 GB of cell data; 1 km x 1 km at 5 cm): false
+  // when containing the box would exceed that, or when the box is not finite. Computed in
+  // doubles, so any box can be asked about.
+  static constexpr double kMaxCells = 4e8;
+  bool CanContain(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world) const;
 
   // Inserts one scan: rays from `sensor_world` to each end point lower the log-odds of the
   // cells they cross (once per cell per scan); each end cell is raised once per scan and its
@@ -88,7 +95,10 @@ class OccupancyGrid {
   // assumption, hit wherever the tilt puts the beam) and gets the wall bit (1 << kWallLabelBit).
   // `lines` (optional, one per point: the surface the point lies on, see ScanLine) feeds
   // each end cell's line layer (Line below), accumulated with the hit point.
-  void InsertScan(const Eigen::Vector2d& sensor_world,
+  // A scan with a non-finite point or sensor, or one the grid cannot grow to contain
+  // (CanContain), is refused: false, nothing changes, counted in num_scans_refused() (bad
+  // data, e.g. a corrupt pose far away; the caller reports it).
+  bool InsertScan(const Eigen::Vector2d& sensor_world,
                   const std::vector<Eigen::Vector2d>& points_world,
                   std::vector<int>* changed_cells, const std::vector<uint8_t>* labels = nullptr,
                   const std::vector<float>* heights = nullptr, const std::vector<ScanLine>* lines = nullptr);
@@ -144,9 +154,13 @@ class OccupancyGrid {
   // CHECK-fail. For finished submaps that are only matched against.
   void Freeze();
   bool frozen() const { return frozen_; }
+  int num_scans_refused() const { return num_scans_refused_; }
 
  private:
   void Resize(const GridGeometry& new_geometry);
+  // The bounds EnsureContains grows to; false when the box is inside already.
+  bool GrownBounds(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world, Eigen::Vector2d* new_min,
+                   Eigen::Vector2d* new_max) const;
   void UpdateCell(int linear_index, float delta_log_odds, std::vector<int>* changed_cells);
 
   OccupancyGridOptions options_;
@@ -169,6 +183,7 @@ class OccupancyGrid {
   std::vector<uint8_t> height_min_, height_max_;
   uint32_t scan_counter_ = 0;
   bool frozen_ = false;
+  int num_scans_refused_ = 0;  // see InsertScan
   CellIndex observed_min_{1, 1};
   CellIndex observed_max_{0, 0};
 };

@@ -20,6 +20,10 @@ using robot_log_text::DirectoryOf;
 using robot_log_text::FormatDouble;
 using robot_log_text::JoinPath;
 using robot_log_text::kMaxBeams;
+using robot_log_text::kMaxPositionMeters;
+using robot_log_text::kMaxRangeMeters;
+using robot_log_text::kMaxRate;
+using robot_log_text::kMaxStampSeconds;
 using robot_log_text::kPoseNames;
 using robot_log_text::OpenForReading;
 using robot_log_text::PoseFromValues;
@@ -50,7 +54,15 @@ class MessageFields {
 
   Status Stamp(double* stamp_seconds) const {
     if (fields_.size() < 2) return Status::Error(type_ + " has no stamp");
-    return FiniteAt(1, "stamp", stamp_seconds);
+    HETSLAM_RETURN_IF_ERROR(FiniteAt(1, "stamp", stamp_seconds));
+    return Bounded("stamp", *stamp_seconds, kMaxStampSeconds, "s");
+  }
+
+  // |value| <= limit (the magnitude limits of robot_log_text.h).
+  Status Bounded(const char* name, double value, double limit, const char* unit) const {
+    if (std::abs(value) <= limit) return Status::Ok();
+    return Status::Error(type_ + " " + name + " " + FormatDouble(value) + " is beyond +-" + FormatDouble(limit) +
+                         " " + unit);
   }
 
   Status FiniteAt(size_t index, const char* name, double* value) const {
@@ -80,6 +92,7 @@ Status ParseStampedPose(const std::vector<std::string>& fields, StampedPose3* po
   MessageFields m(fields);
   double v[6];
   HETSLAM_RETURN_IF_ERROR(m.Numbers(kPoseNames, v));
+  for (int i = 0; i < 3; ++i) HETSLAM_RETURN_IF_ERROR(m.Bounded(kPoseNames[i], v[i], kMaxPositionMeters, "m"));
   HETSLAM_RETURN_IF_ERROR(m.Stamp(&pose->stamp_seconds));
   pose->pose = PoseFromValues(v);
   return Status::Ok();
@@ -112,12 +125,17 @@ Status ParseLaser(const std::vector<std::string>& fields, LaserScan* scan,
   double angle_min = 0.0, increment = 0.0;
   HETSLAM_RETURN_IF_ERROR(m.FiniteAt(3, "angle_min", &angle_min));
   HETSLAM_RETURN_IF_ERROR(m.FiniteAt(4, "angle_increment", &increment));
+  {
+    const Status angles = CheckBeamAngles(static_cast<int>(n), angle_min, increment);
+    if (!angles.ok()) return Status::Error("LASER " + angles.message());
+  }
   HETSLAM_RETURN_IF_ERROR(m.FiniteAt(5, "range_min", &scan->range_min_meters));
   HETSLAM_RETURN_IF_ERROR(m.FiniteAt(6, "range_max", &scan->range_max_meters));
   if (!(scan->range_min_meters >= 0.0 && scan->range_max_meters > scan->range_min_meters)) {
     return Status::Error("LASER needs 0 <= range_min < range_max (got " + fields[5] + ", " +
                          fields[6] + ")");
   }
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("range_max", scan->range_max_meters, kMaxRangeMeters, "m"));
   scan->ranges_meters.resize(n);
   int non_finite = 0;
   for (long long i = 0; i < n; ++i) {
@@ -143,6 +161,7 @@ Status ParseMarg(const std::vector<std::string>& fields, MargSample* reading) {
   double v[9];
   HETSLAM_RETURN_IF_ERROR(
       m.Numbers({"gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"}, v));
+  for (int i = 0; i < 3; ++i) HETSLAM_RETURN_IF_ERROR(m.Bounded("gyro rate", v[i], kMaxRate, "rad/s"));
   HETSLAM_RETURN_IF_ERROR(m.Stamp(&reading->stamp_seconds));
   reading->gyro_radps = Eigen::Vector3d(v[0], v[1], v[2]);
   reading->accel_mps2 = Eigen::Vector3d(v[3], v[4], v[5]);
@@ -164,6 +183,7 @@ Status ParseAttitude(const std::vector<std::string>& fields, AttitudeReading* re
 Status ParseAltitude(const std::vector<std::string>& fields, AltitudeReading* reading) {
   MessageFields m(fields);
   HETSLAM_RETURN_IF_ERROR(m.Numbers({"z"}, &reading->height_meters));
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("z", reading->height_meters, kMaxPositionMeters, "m"));
   return m.Stamp(&reading->stamp_seconds);
 }
 
@@ -171,6 +191,8 @@ Status ParseOdom(const std::vector<std::string>& fields, OdometryReading* readin
   MessageFields m(fields);
   double v[3];
   HETSLAM_RETURN_IF_ERROR(m.Numbers({"x", "y", "theta"}, v));
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("x", v[0], kMaxPositionMeters, "m"));
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("y", v[1], kMaxPositionMeters, "m"));
   HETSLAM_RETURN_IF_ERROR(m.Stamp(&reading->stamp_seconds));
   reading->pose = Pose2(v[0], v[1], v[2]);
   return Status::Ok();
@@ -180,6 +202,9 @@ Status ParseCommand(const std::vector<std::string>& fields, VelocityCommand* rea
   MessageFields m(fields);
   double v[3];
   HETSLAM_RETURN_IF_ERROR(m.Numbers({"vx", "vy", "yaw_rate"}, v));
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("vx", v[0], kMaxRate, "m/s"));
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("vy", v[1], kMaxRate, "m/s"));
+  HETSLAM_RETURN_IF_ERROR(m.Bounded("yaw_rate", v[2], kMaxRate, "rad/s"));
   HETSLAM_RETURN_IF_ERROR(m.Stamp(&reading->stamp_seconds));
   reading->forward_mps = v[0];
   reading->left_mps = v[1];
@@ -194,6 +219,10 @@ Status ParseImage(const std::vector<std::string>& fields, CameraImage* image) {
                          std::to_string(fields.size() - 1) + " fields");
   }
   HETSLAM_RETURN_IF_ERROR(m.Stamp(&image->stamp_seconds));
+  if (!robot_log_text::StaysInside(fields[2])) {
+    return Status::Error("IMAGE path '" + fields[2] +
+                         "' leaves the log's folder (an absolute path or a '..' component)");
+  }
   image->path = fields[2];
   return Status::Ok();
 }

@@ -49,7 +49,10 @@
 // ("uav/log.txt:120: MARG needs 9 numbers after the stamp (gx .. mz), found 7"). A malformed
 // line (unknown message, wrong field count, a non-numeric or non-finite number where one is
 // required, a beam count that is negative, over 100000 or not the number of ranges present,
-// LASER range limits not 0 <= range_min < range_max) is an error unless
+// LASER range limits not 0 <= range_min < range_max, LASER angles outside the range of
+// CheckBeamAngles in core/laser_scan.h (a zero increment, beams spanning more than one turn),
+// a number beyond the magnitude limits of core/robot_log_text.h: stamps 1e12 s, positions 1e7 m,
+// speeds and rates 1e3 m/s or rad/s, range_max 1e5 m) is an error unless
 // `lenient` is set, in which case it is skipped and counted. Time stamps going backwards
 // within one message type are counted and the first few reported in `warnings`, never
 // reordered. A missing or wrong HSLOG header is an error even when lenient.

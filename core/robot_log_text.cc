@@ -37,6 +37,17 @@ std::string DirectoryOf(const std::string& path) {
   return path.substr(0, end);
 }
 
+bool StaysInside(const std::string& relative) {
+  if (relative.empty() || relative[0] == '/' || relative[0] == '\\') return false;
+  size_t start = 0;
+  while (start <= relative.size()) {
+    const size_t end = std::min(relative.find_first_of("/\\", start), relative.size());
+    if (relative.compare(start, end - start, "..") == 0 && end - start == 2) return false;
+    start = end + 1;
+  }
+  return true;
+}
+
 std::string JoinPath(const std::string& directory, const std::string& relative) {
   if (!relative.empty() && relative[0] == '/') return relative;
   if (directory.empty()) return relative;

@@ -20,6 +20,14 @@ namespace robot_log_text {
 constexpr int kVersion = 1;
 // Largest beam count of a LASER message (reader and writer).
 constexpr long long kMaxBeams = 100000;
+// Magnitude limits of the numbers a robot log describes (beyond them the value is corrupt, and
+// using it would overflow a grid or an integration): positions |x|, |y|, |z| <= 1e7 m (pose
+// lines: MOUNT, TRUTH, ODOM), command and MARG rates and speeds |v| <= 1e3 (m/s, rad/s),
+// stamps |t| <= 1e12 s (about 31700 years), LASER range_max <= 1e5 m.
+constexpr double kMaxPositionMeters = 1e7;
+constexpr double kMaxRate = 1e3;
+constexpr double kMaxStampSeconds = 1e12;
+constexpr double kMaxRangeMeters = 1e5;  // LASER range_max
 // The six numbers of a pose "x y z roll pitch yaw", named for the errors.
 inline const std::vector<const char*> kPoseNames = {"x", "y", "z", "roll", "pitch", "yaw"};
 
@@ -41,6 +49,12 @@ std::string DirectoryOf(const std::string& path);
 
 // `relative` inside `directory`; an absolute `relative` as it is.
 std::string JoinPath(const std::string& directory, const std::string& relative);
+
+// True when `relative` stays inside the directory it is relative to: not empty, not absolute
+// (no leading '/' or '\\'), and no ".." component. Paths in a dataset's files (manifest robot
+// directories, IMAGE paths) must pass, so that a file cannot make a reader open files outside
+// the dataset ("../../../../etc").
+bool StaysInside(const std::string& relative);
 
 // The header line "<magic> 1" (first non-comment line), split into `fields` (not empty).
 // Errors even in lenient mode; the caller prefixes "file:line: ".

@@ -282,10 +282,8 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
     }
   }
 
-  FILE* file = std::fopen(path.c_str(), "w");
-  if (file == nullptr) {
-    return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
-  }
+  FILE* file = nullptr;
+  HETSLAM_RETURN_IF_ERROR(OpenForWriting(path, "w", &file));
   std::fprintf(file, "HSLOG %d\n", kVersion);
   WriteCommentLines(file, comment_lines);
   for (const auto& [name, value] : log.params) {
@@ -304,7 +302,7 @@ Status WriteRobotLog(const std::string& path, const RobotLog& log,
     const std::string line = kinds[pick].format(next[pick]++);
     std::fprintf(file, "%s\n", line.c_str());
   }
-  return CloseWrittenFile(file, path);
+  return CommitWrittenFile(file, path);
 }
 
 }  // namespace hetslam

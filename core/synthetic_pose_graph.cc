@@ -3,6 +3,7 @@
 #include <cmath>
 #include <map>
 #include <random>
+#include <string>
 #include <utility>
 
 #include "glog/logging.h"
@@ -14,17 +15,24 @@ bool ManhattanGraphOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = message;
     return false;
   };
-  if (num_poses < 2) return fail("num_poses must be >= 2");
+  // Upper limits keep memory and time bounded (and the lattice in int range): the standard
+  // benchmark graphs have 3500 (M3500) to 10000 (City10000) poses.
+  if (num_poses < 2 || num_poses > kMaxPoses) {
+    return fail("num_poses must be in [2, " + std::to_string(kMaxPoses) + "], got " + std::to_string(num_poses));
+  }
   if (!(step_meters > 0.0) || !std::isfinite(step_meters)) return fail("step_meters must be > 0");
-  if (block_steps < 1) return fail("block_steps must be >= 1");
-  if (half_extent_blocks < 1) return fail("half_extent_blocks must be >= 1");
+  if (block_steps < 1 || block_steps > 1000) return fail("block_steps must be in [1, 1000]");
+  if (half_extent_blocks < 1 || half_extent_blocks > 10000) return fail("half_extent_blocks must be in [1, 10000]");
+  if (!(step_meters <= 1e3)) return fail("step_meters must be <= 1000");
   if (!(turn_probability >= 0.0 && turn_probability <= 1.0)) {
     return fail("turn_probability must be in [0, 1]");
   }
   if (!(loop_closure_probability >= 0.0 && loop_closure_probability <= 1.0)) {
     return fail("loop_closure_probability must be in [0, 1]");
   }
-  if (max_loop_closures_per_pose < 0) return fail("max_loop_closures_per_pose must be >= 0");
+  if (max_loop_closures_per_pose < 0 || max_loop_closures_per_pose > 100) {
+    return fail("max_loop_closures_per_pose must be in [0, 100]");
+  }
   if (min_loop_separation_poses < 2) return fail("min_loop_separation_poses must be >= 2");
   if (!(translation_stddev_meters > 0.0) || !std::isfinite(translation_stddev_meters)) {
     return fail("translation_stddev_meters must be > 0");

@@ -22,6 +22,7 @@
 namespace hetslam {
 
 struct ManhattanGraphOptions {
+  static constexpr int kMaxPoses = 100000;  // IsValid's upper limit of num_poses
   int num_poses = 1000;
   double step_meters = 1.0;                // distance between consecutive poses
   int block_steps = 5;                     // steps between intersections

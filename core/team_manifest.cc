@@ -66,6 +66,11 @@ Status ReadTeamManifest(const std::string& path, TeamManifest* manifest) {
       robot.kind = fields[2];
       robot.directory = fields[3];
       robot.line_number = line_number;
+      if (!robot_log_text::StaysInside(robot.directory)) {
+        return Status::Error(where(line_number) + "robot " + robot.name + " directory '" + robot.directory +
+                             "' leaves the dataset (an absolute path or a '..' component): it must be relative to "
+                             "the manifest's folder and inside it");
+      }
       if (robot.kind != "wheeled" && robot.kind != "uav" && robot.kind != "humanoid") {
         return Status::Error(where(line_number) + "robot " + robot.name + " has unknown kind '" +
                              robot.kind + "' (wheeled, uav or humanoid)");
@@ -152,10 +157,8 @@ Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
       return Status::Error(which + " is placed twice");
     }
   }
-  FILE* file = std::fopen(path.c_str(), "w");
-  if (file == nullptr) {
-    return Status::Error("cannot open '" + path + "' for writing: " + std::strerror(errno));
-  }
+  FILE* file = nullptr;
+  HETSLAM_RETURN_IF_ERROR(OpenForWriting(path, "w", &file));
   std::fprintf(file, "HSTEAM %d\n", robot_log_text::kVersion);
   WriteCommentLines(file, comment_lines);
   for (const TeamRobot& robot : manifest.robots) {
@@ -167,7 +170,7 @@ Status WriteTeamManifest(const std::string& path, const TeamManifest& manifest,
                  robot_log_text::FormatDouble(tag.size_meters).c_str(),
                  robot_log_text::FormatPose(tag.world_T_tag).c_str());
   }
-  return CloseWrittenFile(file, path);
+  return CommitWrittenFile(file, path);
 }
 
 }  // namespace hetslam

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/carmen_log.h"
+#include "core/file_io.h"
 #include "core/relations.h"
 #include "core/trajectory_io.h"
 #include "examples/flag_help.h"
@@ -73,8 +74,21 @@ int Run() {
   if (!OptionsFromFlags(&options, &error)) return Fail(error + "; see --help");
 
   std::vector<StampedPose2> trajectory;
-  Status status = ReadTrajectory(FLAGS_trajectory, &trajectory);
+  TrajectoryStampReport stamps;
+  Status status = ReadTrajectoryChecked(FLAGS_trajectory, &trajectory, &stamps);
   if (!status.ok()) return Fail(status.message());
+  // Stamp disorder changes which poses are nearest matches: said before any figure.
+  for (const std::string& warning : stamps.warnings) std::cerr << "warning: " << warning << "\n";
+  if (stamps.duplicate_rows_dropped > 0) {
+    std::cerr << "warning: " << stamps.duplicate_rows_dropped << " rows of '" << FLAGS_trajectory
+              << "' repeat the row before them exactly and were dropped\n";
+  }
+  if (stamps.repeated_stamps > 0 || stamps.stamps_backwards > 0) {
+    std::cerr << "warning: '" << FLAGS_trajectory << "' has " << stamps.repeated_stamps
+              << " repeated stamps with another pose and " << stamps.stamps_backwards
+              << " stamps going backwards: relation ends near them may match the wrong pose or be "
+                 "counted ambiguous\n";
+  }
   std::vector<Relation> relations;
   status = ReadRelations(FLAGS_relations, &relations);
   if (!status.ok()) return Fail(status.message());
@@ -100,6 +114,10 @@ int Run() {
                 FLAGS_readings_log.c_str());
   }
   std::printf("matched: %d / %d relations\n", result.matched, result.total);
+  if (stamps.duplicate_rows_dropped + stamps.repeated_stamps + stamps.stamps_backwards > 0) {
+    std::printf("trajectory stamps: %d exact duplicate rows dropped, %d repeated stamps, %d backwards\n",
+                stamps.duplicate_rows_dropped, stamps.repeated_stamps, stamps.stamps_backwards);
+  }
   if (result.on_other_reading > 0) {
     std::printf("not scored: %d relations with an end whose nearest reading is not a trajectory pose\n",
                 result.on_other_reading);
@@ -136,15 +154,17 @@ int Run() {
               result.rot_sq_std_deg2);
 
   if (!FLAGS_errors_out.empty()) {
-    FILE* file = std::fopen(FLAGS_errors_out.c_str(), "w");
-    if (file == nullptr) return Fail("cannot open '" + FLAGS_errors_out + "' for writing");
+    FILE* file = nullptr;
+    const Status opened = OpenForWriting(FLAGS_errors_out, "w", &file);
+    if (!opened.ok()) return Fail(opened.message());
     std::fprintf(file, "# t1 t2 trans_error_m rot_error_deg\n");
     for (const RelationError& e : result.errors) {
       const Relation& r = relations[e.relation_index];
       std::fprintf(file, "%.6f %.6f %.9f %.9f\n", r.t1_seconds, r.t2_seconds, e.trans_error_m,
                    e.rot_error_deg);
     }
-    if (std::fclose(file) != 0) return Fail("error writing '" + FLAGS_errors_out + "'");
+    const Status written = CommitWrittenFile(file, FLAGS_errors_out);
+    if (!written.ok()) return Fail(written.message());
     std::printf("per-relation errors written to %s\n", FLAGS_errors_out.c_str());
   }
   return 0;

@@ -15,8 +15,10 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "core/euler.h"
+#include "core/file_io.h"
 #include "core/g2o_io.h"
 #include "core/map_io.h"
 #include "core/measurement_log.h"
@@ -58,6 +60,9 @@ DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yam
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
+DEFINE_double(max_time_gap, 60.0, "Largest time gap between a log's measurements that is bridged (seconds; 0 = no "
+              "bound): a measurement stamped later than that after every earlier one is an error naming file:line "
+              "(with --lenient it is dropped and counted). A gap is never integrated by the motion prediction.");
 DEFINE_bool(use_odometry, false, "Predict each scan's pose from the log's odometry. Off by default: the pipeline is "
             "odometry-free and uses --prediction instead.");
 DEFINE_bool(use_commands, true, "Robot logs with COMMAND lines: the EKF predicts each scan's pose from the "
@@ -186,6 +191,39 @@ bool ParseMount(const std::string& text, Eigen::Isometry3d* robot_T_sensor) {
   return true;
 }
 
+// The flags behind the option fields an IsValid message names, so that the user sees which
+// flag to change (" (check --resolution)").
+std::string FlagsNamedIn(const std::string& message) {
+  static const std::pair<const char*, const char*> kFlagOf[] = {
+      {"resolution_meters", "--resolution"},
+      {"max_distance_meters", "--field_max_distance"},
+      {"sigma_meters", "--sigma"},
+      {"local: matcher: linear search windows", "--linear_window, --narrow_linear_window"},
+      {"loop: matcher: linear search windows", "--loop_linear_window"},
+      {"max_point_range_meters", "--max_range"},
+      {"densify_max_gap_meters", "--densify_max_gap"},
+      {"matching_voxel_meters", "--matching_voxel"},
+      {"angular_search_window_radians", "--angular_window_deg"},
+      {"wide_window_meters", "--loop_wide_window"},
+      {"max_time_gap_seconds", "--max_time_gap"},
+      {"flaser_fov_radians", "--flaser_fov_deg"},
+      {"flaser_max_range_meters", "--flaser_max_range"},
+      {"scans_per_submap", "--scans_per_submap"},
+      {"degenerate_sigma_meters", "--degenerate_sigma"},
+      {"degenerate_max_drop_ratio", "--degenerate_drop_ratio"},
+      {"degenerate_eigenvalue_ratio", "--degenerate_ratio"},
+      {"frontier_margin_meters", "--frontier_margin"},
+      {"covariance_sigmas", "--covariance_sigmas"},
+      {"odometry_noise_fraction", "--odometry_noise_fraction"},
+      {"lines: max_gap_meters", "--line_max_gap"},
+  };
+  std::string flags;
+  for (const auto& [field, flag] : kFlagOf) {
+    if (message.find(field) != std::string::npos) flags += std::string(flags.empty() ? "" : ", ") + flag;
+  }
+  return flags.empty() ? "" : " (check " + flags + ")";
+}
+
 bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* read, std::string* error) {
   LocalSlamOptions* options = &estimator->local;
   if (FLAGS_log.empty()) return (*error = "--log is required (a CARMEN .clf file, a hetslam robot log or a ROS bag)"), false;
@@ -209,6 +247,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   }
   read->flaser_max_range_meters = FLAGS_flaser_max_range;
   read->flaser_fov_radians = FLAGS_flaser_fov_deg * M_PI / 180.0;
+  read->max_time_gap_seconds = FLAGS_max_time_gap;
   options->grid.resolution_meters = FLAGS_resolution;
   options->field.sigma_meters = FLAGS_sigma;
   options->field.max_distance_meters = FLAGS_field_max_distance;
@@ -276,14 +315,14 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
-  if (!read->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
-  if (!estimator->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
+  if (!read->IsValid(&invalid)) return (*error = "bad flag value: " + invalid + FlagsNamedIn(invalid)), false;
+  if (!estimator->IsValid(&invalid)) return (*error = "bad flag value: " + invalid + FlagsNamedIn(invalid)), false;
   return true;
 }
 
 // Every accepted loop closure as measured and as in the final graph.
 Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureReport>& closures) {
-  std::ofstream out(path);
+  std::ostringstream out;  // written through a temporary file: no truncated output
   out << "# submap node score measured_x measured_y measured_theta final_x final_y final_theta removed\n"
          "# submap_T_node as matched and as in the final graph (metres, radians); removed = 1 when the\n"
          "# consistency check took the closure out\n";
@@ -294,8 +333,8 @@ Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureR
     out << loop.submap.index << ' ' << loop.node.index << ' ' << loop.score << ' ' << m.x() << ' ' << m.y() << ' '
         << m.theta() << ' ' << f.x() << ' ' << f.y() << ' ' << f.theta() << ' ' << (loop.removed ? 1 : 0) << '\n';
   }
-  out.close();
-  return out ? Status::Ok() : Status::Error("cannot write '" + path + "'");
+  const std::string text = out.str();
+  return WriteFileBytes(path, text.data(), text.size());
 }
 
 std::string Summary(const OnlineEstimator& estimator) {
@@ -304,9 +343,9 @@ std::string Summary(const OnlineEstimator& estimator) {
   const LoopCloserStats& l = estimator.loop_closer().stats();
   char line[1024];
   std::snprintf(line, sizeof(line),
-                "scans: %d processed, %d skipped (too few points), %d refused (too late), %d timestamps backwards, %d "
-                "match failures, %lld floor points dropped, %d degenerate matches (prediction kept along a flat "
-                "direction), %d with %lld frontier points left out of the match, %d predicted by the EKF, %d "
+                "scans: %d processed, %d skipped (too few points), %d refused (too late or too far), %d timestamps "
+                "backwards, %d match failures, %lld floor points dropped, %d degenerate matches (prediction kept along "
+                "a flat direction), %d with %lld frontier points left out of the match, %d predicted by the EKF, %d "
                 "without attitude\n",
                 s.scans, s.skipped_too_few_points, s.scans_refused, s.scans_stamped_backwards, s.match_failures,
                 s.floor_points, s.degenerate_matches, s.frontier_scans, s.frontier_points, s.ekf_predicted_scans,
@@ -366,6 +405,9 @@ int Run() {
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
   if (log.malformed_lines_skipped > 0)
     std::cerr << "warning: skipped " << log.malformed_lines_skipped << " malformed lines (--lenient)\n";
+  if (log.time_gaps_dropped > 0)
+    std::cerr << "warning: dropped " << log.time_gaps_dropped << " measurements stamped more than --max_time_gap = "
+              << FLAGS_max_time_gap << " s after every earlier one (--lenient)\n";
   if (log.num_scans == 0) return Fail("'" + FLAGS_log + "' holds no laser scans"), 1;
   std::vector<StampedPose2> truth = log.truth;
   std::string truth_name = FLAGS_log + " (TRUTH)";
@@ -408,6 +450,11 @@ int Run() {
     }
   }
   if (errors > 5) std::cerr << "warning: " << errors << " measurements refused in all (first 5 shown)\n";
+  if (estimator->stats().scans_stamped_backwards > 0) {
+    std::cerr << "warning: " << estimator->stats().scans_stamped_backwards << " of " << scans
+              << " scans are stamped before an earlier scan (processed in file order; time-based figures and the "
+                 "truth association are unreliable)\n";
+  }
   estimator->Finish();
   const std::vector<StampedPose2> trajectory = estimator->Trajectory();
   const std::unique_ptr<OccupancyGrid> grid = estimator->RenderMap();
@@ -471,13 +518,26 @@ int Run() {
                 scores[scores.size() / 10], scores[scores.size() / 2], scores[scores.size() * 9 / 10]);
   }
   const double duration = last_stamp - first_stamp;
+  // A clock jump (bounded by --max_time_gap unless that is 0) makes the time figures meaningless.
+  if (scans > 1 && duration / (scans - 1) > 60.0) {
+    std::cerr << "warning: the " << scans << " scans span " << duration
+              << " s of data, over a minute per scan: a clock jump? (the real-time factor below is meaningless)\n";
+  }
   std::printf("time: %.2f s wall, %.1f scans/s, data duration %.1f s, real-time factor %.1fx\n", wall_seconds,
               scans / wall_seconds, duration, duration / wall_seconds);
   if (!truth.empty()) {
     const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, truth);
-    std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), rotation rmse %.2f deg (max %.2f deg)\n",
-                truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
-                ate.rotation_rmse_degrees, ate.rotation_max_degrees);
+    // An SE(2) alignment of one or two poses fits them exactly: an error of 0 would say nothing.
+    if (ate.matched < 3) {
+      std::printf("trajectory error vs %s: only %d estimated poses have a truth pose at their stamp (3 or more are "
+                  "needed for an aligned error): no error computed\n",
+                  truth_name.c_str(), ate.matched);
+    } else {
+      std::printf("trajectory error vs %s: %d poses matched, ATE rmse %.3f m (max %.3f m), "
+                  "rotation rmse %.2f deg (max %.2f deg)\n",
+                  truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
+                  ate.rotation_rmse_degrees, ate.rotation_max_degrees);
+    }
   }
   std::printf("wrote %s.pgm, %s.yaml, %s.png, %s%s%s\n", base.c_str(), base.c_str(), base.c_str(),
               trajectory_path.c_str(), FLAGS_trajectory_bag.empty() ? "" : ", ", FLAGS_trajectory_bag.c_str());

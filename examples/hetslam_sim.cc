@@ -40,10 +40,10 @@ DEFINE_string(out, "", "Output folder, created if missing. Single robot: receive
 DEFINE_uint64(seed, 1, "Seed of the one std::mt19937_64 behind every random number (sensor "
               "noise, dropouts, odometry noise, random obstacles, image noise). Same seed, same "
               "bytes.");
-DEFINE_double(start_stamp, 0.0, "Single robot only: time stamp of the first scan, seconds (>= 0).");
+DEFINE_double(start_stamp, 0.0, "Single robot only: time stamp of the first scan, seconds, in [0, 1e10].");
 DEFINE_double(control_rate_hz, 0.0, "Controller update rate, Hz (commands are recorded at this "
-              "rate; teams also integrate the truth at it). 0: 50 Hz for a single robot, 100 Hz "
-              "for a team.");
+              "rate; teams also integrate the truth at it), in (0, 1000]. 0 or unset: 50 Hz for a single "
+              "robot, 100 Hz for a team; a negative value is an error.");
 DEFINE_double(waypoint_radius, 0.35, "Single robot only: a waypoint counts as reached within "
               "this distance, metres.");
 DEFINE_double(goal_radius, 0.1, "Single robot only: the last waypoint counts as reached within "
@@ -151,6 +151,11 @@ int RunTeam(const sim::Scenario& scenario) {
 }
 
 int Run() {
+  if (FLAGS_control_rate_hz < 0.0 || !std::isfinite(FLAGS_control_rate_hz)) {
+    std::cerr << "hetslam_sim: --control_rate_hz must be 0 (the default rate) or in (0, 1000] Hz, got "
+              << FLAGS_control_rate_hz << " (see --help)\n";
+    return 2;
+  }
   if (FLAGS_out.empty()) {
     std::cerr << "hetslam_sim: --out is required (an output folder) (see --help)\n";
     return 2;

@@ -14,9 +14,11 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "core/file_io.h"
 #include "core/map_io.h"
 #include "core/measurement_log.h"
 #include "core/robot_log.h"
@@ -116,7 +118,7 @@ std::string PoseText(const Pose2& p) {
 }
 
 Status WriteConstraints(const std::string& path, const TeamEstimator& team) {
-  std::ofstream out(path);
+  std::ostringstream out;  // written through a temporary file: no truncated output
   out << "# stamp robot_a robot_b kind tag a_T_b_x a_T_b_y a_T_b_theta submap_robot submap node_robot node score "
          "status reason\n"
          "# a_T_b: the relative pose of the robots' frames the constraint measures (metres, radians); scan matches\n"
@@ -131,12 +133,12 @@ Status WriteConstraints(const std::string& path, const TeamEstimator& team) {
         << (match ? r.node.index : -1) << ' ' << r.score << ' ' << (r.accepted ? "accepted" : "rejected") << ' '
         << r.reason << '\n';
   }
-  out.close();
-  return out ? Status::Ok() : Status::Error("cannot write '" + path + "'");
+  const std::string text = out.str();
+  return WriteFileBytes(path, text.data(), text.size());
 }
 
 Status WriteFrames(const std::string& path, const TeamEstimator& team) {
-  std::ofstream out(path);
+  std::ostringstream out;  // written through a temporary file: no truncated output
   out << "# robot in_common_frame common_T_robot_x common_T_robot_y common_T_robot_theta\n"
          "# in_common_frame 0: the robot never merged with " << team.robot_name(0)
       << "; its trajectory and map stay in its own frame\n";
@@ -146,8 +148,8 @@ Status WriteFrames(const std::string& path, const TeamEstimator& team) {
     out << team.robot_name(r) << ' ' << (team.InCommonFrame(r) ? 1 : 0) << ' ' << p.x() << ' ' << p.y() << ' '
         << p.theta() << '\n';
   }
-  out.close();
-  return out ? Status::Ok() : Status::Error("cannot write '" + path + "'");
+  const std::string text = out.str();
+  return WriteFileBytes(path, text.data(), text.size());
 }
 
 int Run() {

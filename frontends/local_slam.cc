@@ -41,13 +41,15 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
     msg << "velocity_fraction must be in [0, 1.5] (got " << velocity_fraction << "); ";
   if (!(angular_velocity_fraction >= 0 && angular_velocity_fraction <= 1.5))
     msg << "angular_velocity_fraction must be in [0, 1.5] (got " << angular_velocity_fraction << "); ";
-  if (!(max_point_range_meters > 0)) msg << "max_point_range_meters must be > 0; ";
+  if (!(max_point_range_meters > 0 && max_point_range_meters <= 1e4))
+    msg << "max_point_range_meters must be in (0, 1e4] (got " << max_point_range_meters << "); ";
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
   if (!(odometry_noise_fraction >= 0 && odometry_noise_fraction <= 1)) msg << "odometry_noise_fraction must be in [0, 1]; ";
   if (!(covariance_sigmas > 0 && covariance_sigmas <= 10)) msg << "covariance_sigmas must be in (0, 10]; ";
   if (!frontier_lines.IsValid(&sub)) msg << "frontier_lines: " << sub;
   if (!(frontier_margin_meters >= 0 && frontier_margin_meters <= 10)) msg << "frontier_margin_meters must be in [0, 10]; ";
-  if (!(densify_max_gap_meters >= 0)) msg << "densify_max_gap_meters must be >= 0; ";
+  if (!(densify_max_gap_meters >= 0 && densify_max_gap_meters <= 10))
+    msg << "densify_max_gap_meters must be in [0, 10] (got " << densify_max_gap_meters << "); ";
   if (!(wall_weight > 0)) msg << "wall_weight must be > 0; ";
   if (!(floor_attitude_tolerance_radians >= 0 && floor_attitude_tolerance_radians < 0.5))
     msg << "floor_attitude_tolerance_radians must be in [0, 0.5); ";
@@ -58,7 +60,8 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
     msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
   if (!(degenerate_max_drop_ratio >= 0 && degenerate_max_drop_ratio < 1))
     msg << "degenerate_max_drop_ratio must be in [0, 1); ";
-  if (!(matching_voxel_meters >= 0)) msg << "matching_voxel_meters must be >= 0; ";
+  if (!(matching_voxel_meters == 0 || (matching_voxel_meters >= 1e-3 && matching_voxel_meters <= 10)))
+    msg << "matching_voxel_meters must be 0 or in [0.001, 10] (got " << matching_voxel_meters << "); ";
   if (min_points < 1) msg << "min_points must be >= 1; ";
   if (scans_per_submap != 0 && scans_per_submap < 2) msg << "scans_per_submap must be 0 or >= 2; ";
   if (error != nullptr) *error = msg.str();

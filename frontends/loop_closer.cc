@@ -34,6 +34,7 @@ bool LoopCloserOptions::IsValid(std::string* error) const {
   std::string sub;
   if (!matcher.IsValid(&sub)) msg << "matcher: " << sub;
   if (!wide_matcher.IsValid(&sub)) msg << "wide_matcher: " << sub;
+  if (!(wide_window_meters <= 50)) msg << "wide_window_meters must be <= 50 (got " << wide_window_meters << "); ";
   if (!(wide_window_meters > 0 && wide_angular_window_radians > 0 && wide_search_spacing_meters >= 0 &&
         wide_agreement_meters > 0 && wide_agreement_radians > 0))
     msg << "wide search windows and agreement bounds must be > 0, its spacing >= 0; ";

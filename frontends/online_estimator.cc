@@ -61,6 +61,7 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
   if (!(attitude_max_age_seconds >= 0 && altitude_max_age_seconds >= 0 && odometry_max_age_seconds >= 0))
     msg << "attitude, altitude and odometry ages must be >= 0; ";
   if (!(degenerate_sigma_meters > 0 && degenerate_sigma_meters <= 1e3)) msg << "degenerate_sigma_meters must be in (0, 1000]; ";
+  if (!(max_scan_jump_meters > 0)) msg << "max_scan_jump_meters must be > 0; ";
   if (!(scan_match_translation_sigma_meters > 0 && scan_match_rotation_sigma_radians > 0))
     msg << "scan-match sigmas must be > 0; ";
   if (error != nullptr) *error = msg.str();
@@ -274,6 +275,14 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
     prediction.measures_translation =
         last_command_stamp_.has_value() && *last_command_stamp_ >= stamp - options_.ekf.command_timeout_seconds;
     ++stats_.ekf_predicted_scans;
+  }
+  const std::vector<StampedPose2>& last = local_.state().recent;
+  if (!last.empty() && !((prediction.pose.translation() - last.back().pose.translation()).norm() <=
+                         options_.max_scan_jump_meters)) {
+    ++stats_.scans_refused;
+    return Status::Error(Where(reading.line_number) + "scan at " + StampText(stamp) + " is predicted " +
+                         StampText((prediction.pose.translation() - last.back().pose.translation()).norm()) +
+                         " m from the last pose, over max_scan_jump_meters (refused)");
   }
   const long long floor_obstacle_points = static_cast<long long>(points.floor_obstacles.size());
   LocalResult result = local_.AddScan(stamp, std::move(points), prediction);

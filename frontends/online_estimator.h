@@ -85,6 +85,10 @@ struct OnlineEstimatorOptions {
   bool use_commands = true;    // commands drive the EKF prediction
   bool use_odometry = false;   // predict scans from odometry (the scan's own pose, else the latest reading)
   double odometry_max_age_seconds = 0.05;
+  // A scan whose predicted pose is farther than this from the last inserted pose (a corrupt
+  // odometry pose or command) is refused with an error and counted in scans_refused: mapping
+  // it would stretch the submap grids past their size limit (issue #16).
+  double max_scan_jump_meters = 100.0;
   // Uncertainty (1 sigma) of a scan-match pose as an EKF measurement. Tight on purpose: the
   // nodes are the matched poses, and the EKF's prediction for the next scan should start from
   // them (measured: 1 cm / 0.005 rad let the EKF lag the matches and made the humanoid and UAV
@@ -106,7 +110,7 @@ struct OnlineEstimatorOptions {
 
 struct OnlineEstimatorStats {
   int scans = 0;                    // laser scans added
-  int scans_refused = 0;            // older than the EKF history (an error was returned)
+  int scans_refused = 0;            // older than the EKF history or a jump (an error was returned)
   int scans_stamped_backwards = 0;  // stamped before the previous scan (processed)
   int skipped_too_few_points = 0;
   int match_failures = 0;           // inserted at the prediction

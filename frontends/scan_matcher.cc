@@ -256,7 +256,10 @@ SearchContext MakeContext(const ScanMatcherOptions& options, const LaserMap& map
 
 bool ScanMatcherOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
-  if (!(linear_search_window_meters >= 0)) msg << "linear_search_window_meters must be >= 0; ";
+  // Windows up to 50 m: the search visits (2 window / cell)^2 offsets per angle (hostile-input rule).
+  if (!(linear_search_window_meters >= 0 && linear_search_window_meters <= 50 &&
+        fallback_linear_search_window_meters <= 50 && narrow_linear_search_window_meters <= 50))
+    msg << "linear search windows must be in [0, 50] m (got " << linear_search_window_meters << "); ";
   if (!(angular_search_window_radians >= 0 && angular_search_window_radians <= M_PI))
     msg << "angular_search_window_radians must be in [0, pi] (got " << angular_search_window_radians << "); ";
   if (!(angular_step_radians >= 0)) msg << "angular_step_radians must be >= 0; ";

@@ -34,6 +34,9 @@ int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_
     min = min.cwiseMin(p);
     max = max.cwiseMax(p);
   }
+  // A teammate placed far away (a wrong or corrupt link) would grow the merged grid past its
+  // size limit: nothing is merged (issue #16).
+  if (!merged->CanContain(min, max)) return 0;
   merged->EnsureContains(min, max);
   const GridGeometry& target = merged->geometry();
   const CellIndex first = target.WorldToCell(min), last = target.WorldToCell(max);

@@ -28,7 +28,8 @@ struct MapMergeOptions {
 
 // Adds `teammate` (a grid in its own frame) to `merged` as one observation per cell, with the
 // teammate's frame at `merged_T_teammate` in the merged map's frame. Returns the number of merged
-// cells that received an observation.
+// cells that received an observation: 0 when `merged` cannot grow to contain the teammate's map
+// there (OccupancyGrid::CanContain: a non-finite or far-away transform).
 int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_T_teammate,
                              const MapMergeOptions& options, OccupancyGrid* merged);
 

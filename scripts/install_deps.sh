@@ -11,6 +11,7 @@ packages=(
   # ROS 1 bags (core/ros_bag.h): Debian's rosbag_storage and the message headers, no ROS install.
   librosbag-storage-dev libroscpp-core-dev
   libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
+  clang libclang-rt-14-dev  # libFuzzer targets of tests/fuzz (scripts/fuzz.sh, CI smoke run)
 )
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "core/euler.h"
+#include "core/robot_log_text.h"
 #include "datasets/sim/sim_text.h"
 #include "glog/logging.h"
 
@@ -20,6 +21,14 @@ namespace sim {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
+// Every number of a scenario is within +-kMaxMagnitude (positions in metres, angles in degrees,
+// rates, counts): beyond it a world is not a building and sizes lose their precision.
+constexpr double kMaxMagnitude = 1e6;
+// Sizes (box and obstacle sides, shelf depths) are at least this: smaller shapes round to
+// degenerate walls and prisms far from the origin.
+constexpr double kMinSizeMeters = 1e-3;
+// A simulation runs at most a day of simulated time.
+constexpr double kMaxDurationSeconds = 86400.0;
 
 // Splits a line into white-space separated tokens, dropping a '#' comment.
 std::vector<std::string> Tokenize(const std::string& line) {
@@ -67,6 +76,10 @@ Status ParseNumbers(const std::vector<std::string>& tokens, size_t expected, siz
       return context.Error("'" + tokens[0] + "' field " + std::to_string(i) + " '" + token +
                            "' is not a finite number");
     }
+    if (std::abs(value) > kMaxMagnitude) {
+      return context.Error("'" + tokens[0] + "' field " + std::to_string(i) + " '" + token +
+                           "' is beyond +-1e6 (every number of a scenario is)");
+    }
     values->push_back(value);
   }
   return Status::Ok();
@@ -95,6 +108,13 @@ Eigen::Isometry3d TagSpec::WorldTTag() const {
 }
 
 // ---- Scenario -------------------------------------------------------------------------------
+
+// Scenario::IsValid's bound of num_beams x rate x duration summed over the lasers (about 5 GB
+// of log text).
+constexpr double kMaxSimulatedBeams = 1e9;
+// Scenario::IsValid's bound of the world's extent (the world image, truth grids and ray casts
+// are sized by it).
+constexpr double kMaxWorldSpanMeters = 1000.0;
 
 Pose2 Scenario::InitialPose() const {
   if (has_start_pose) return start_pose;
@@ -136,8 +156,25 @@ bool Scenario::IsValid(std::string* error) const {
     // Reported below.
   } else if (world.empty()) {
     why = "scenario has no walls ('wall' or 'box' lines)";
-  } else if (!(duration_limit_seconds > 0.0)) {
-    why = "duration limit must be positive";
+  } else if (!(world.Bounds().sizes().maxCoeff() <= kMaxWorldSpanMeters)) {
+    std::ostringstream text;
+    text << "the world spans " << world.Bounds().sizes().x() << " x " << world.Bounds().sizes().y()
+         << " m, more than " << kMaxWorldSpanMeters << " m a side (a building, not a country)";
+    why = text.str();
+  } else if (!(duration_limit_seconds > 0.0 && duration_limit_seconds <= 86400.0)) {
+    why = "duration limit must be in (0, 86400] s";
+  } else {
+    // Work and output size: the beams simulated over the duration limit (each a ray cast and
+    // a number in the log).
+    double beams = 0.0;
+    if (!IsTeam()) beams = laser.num_beams * laser.rate_hz * duration_limit_seconds;
+    for (const RobotSpec& spec : robots) beams += spec.laser.num_beams * spec.laser.rate_hz * duration_limit_seconds;
+    if (beams > kMaxSimulatedBeams) {
+      std::ostringstream text;
+      text << "the lasers would cast " << beams << " beams over duration_limit_s " << duration_limit_seconds
+           << ", more than " << kMaxSimulatedBeams << ": lower the beam counts, the laser rates or duration_limit_s";
+      why = text.str();
+    }
   }
   if (why.empty()) return true;
   if (error != nullptr) *error = why;
@@ -274,8 +311,8 @@ class ScenarioParser {
   Status ParseBoxPrism(const std::vector<std::string>& tokens, const std::string& usage,
                        const LineContext& context, std::vector<double>* v) {
     HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 5, 6, usage, context, v));
-    if (!((*v)[2] > 0.0 && (*v)[3] > 0.0 && (*v)[4] > 0.0)) {
-      return context.Error("'" + tokens[0] + "' width, depth and height must be positive");
+    if (!((*v)[2] >= kMinSizeMeters && (*v)[3] >= kMinSizeMeters && (*v)[4] >= kMinSizeMeters)) {
+      return context.Error("'" + tokens[0] + "' width, depth and height must be positive, at least 1 mm");
     }
     if ((*v)[4] > 100.0) return context.Error("'" + tokens[0] + "' height must be <= 100 m");
     if (v->size() == 5) v->push_back(0.0);
@@ -293,8 +330,8 @@ class ScenarioParser {
       world.AddWall(a, b, context.line_number);
     } else if (keyword == "box") {
       HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 4, 5, "box cx cy w h [yaw_deg]", context, &v));
-      if (!(v[2] > 0.0 && v[3] > 0.0)) {
-        return context.Error("box width and height must be positive");
+      if (!(v[2] >= kMinSizeMeters && v[3] >= kMinSizeMeters)) {
+        return context.Error("box width and height must be positive, at least 1 mm");
       }
       const double yaw = v.size() == 5 ? v[4] * kDegToRad : 0.0;
       world.AddBox(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]), yaw,
@@ -340,10 +377,10 @@ class ScenarioParser {
       const std::string usage =
           "shelf x1 y1 x2 y2 lower_depth lower_height upper_depth height";
       HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 8, 8, usage, context, &v));
-      if ((Eigen::Vector2d(v[2], v[3]) - Eigen::Vector2d(v[0], v[1])).norm() < 1e-6) {
-        return context.Error("shelf back has zero length");
+      if ((Eigen::Vector2d(v[2], v[3]) - Eigen::Vector2d(v[0], v[1])).norm() < kMinSizeMeters) {
+        return context.Error("shelf back has zero length (under 1 mm)");
       }
-      if (!(v[4] > 0.0 && v[5] > 0.0 && v[6] > 0.0 && v[7] > v[5] && v[7] <= 100.0)) {
+      if (!(v[4] >= kMinSizeMeters && v[5] > 0.0 && v[6] >= kMinSizeMeters && v[7] > v[5] && v[7] <= 100.0)) {
         return context.Error("shelf depths and heights must be positive, height > lower_height");
       }
       world.AddShelf(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]), v[4], v[5], v[6],
@@ -448,7 +485,9 @@ class ScenarioParser {
     } else if (keyword == "duration_limit_s") {
       HETSLAM_RETURN_IF_ERROR(Once(&seen_, keyword, context));
       HETSLAM_RETURN_IF_ERROR(ParseNumbers(tokens, 1, 1, "duration_limit_s seconds", context, &v));
-      if (!(v[0] > 0.0)) return context.Error("duration_limit_s must be positive");
+      if (!(v[0] > 0.0 && v[0] <= kMaxDurationSeconds)) {
+        return context.Error("duration_limit_s must be positive and at most 86400 s");
+      }
       scenario_->duration_limit_seconds = v[0];
     } else {
       return context.Error("unknown keyword '" + keyword + "' (expected " + kTopLevelKeywords +
@@ -676,8 +715,10 @@ Status ParseScenario(const std::string& text, const std::string& source_name,
 }
 
 Status ReadScenarioFile(const std::string& path, Scenario* scenario) {
-  std::ifstream file(path);
-  if (!file) return Status::Error(path + ": cannot open scenario file");
+  std::ifstream file;
+  // Refuses a directory by name (an ifstream opens one and reads nothing from it).
+  const Status opened = robot_log_text::OpenForReading(path, &file);
+  if (!opened.ok()) return Status::Error(opened.message() + " (the scenario file)");
   std::ostringstream contents;
   contents << file.rdbuf();
   if (file.bad()) return Status::Error(path + ": error while reading scenario file");

@@ -63,8 +63,10 @@ Pose2 StepOdometry(const OdometryOptions& options, const Pose2& previous_truth,
 bool SimulatorOptions::IsValid(std::string* error) const {
   std::ostringstream why;
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (!(std::isfinite(start_stamp_seconds) && start_stamp_seconds >= 0.0)) {
-    why << "start stamp must be finite and >= 0, got " << start_stamp_seconds;
+  // At most 1e10 s (year 2286 as a Unix time): beyond, t0 + k / rate rounds to t0 and the
+  // simulated clock would stand still.
+  if (!(std::isfinite(start_stamp_seconds) && start_stamp_seconds >= 0.0 && start_stamp_seconds <= 1e10)) {
+    why << "start stamp must be in [0, 1e10] s, got " << start_stamp_seconds;
   } else if (!(positive(control_rate_hz) && control_rate_hz <= 1000.0)) {
     why << "control rate must be in (0, 1000] Hz, got " << control_rate_hz;
   } else if (!positive(heading_gain_per_second)) {
@@ -249,12 +251,20 @@ Status WriteWorldImage(const std::string& path, const Scenario& scenario,
   constexpr double kMarginMeters = 1.0;
   const Eigen::Vector2d min_corner = bounds.min().array() - kMarginMeters;
   const Eigen::Vector2d extent = bounds.sizes().array() + 2.0 * kMarginMeters;
-  const int cols = static_cast<int>(std::ceil(extent.x() * pixels_per_meter));
-  const int rows = static_cast<int>(std::ceil(extent.y() * pixels_per_meter));
-  if (static_cast<double>(cols) * rows > 1e8) {
-    return Status::Error(path + ": image of " + std::to_string(cols) + " x " +
-                         std::to_string(rows) + " pixels is too large");
+  // Sizes in doubles before any int cast (a long wall used to overflow the cast and slip past
+  // the limit into a cv::Exception); each side at most 32767 pixels, so that the drawing's
+  // 4-bit sub-pixel coordinates stay in int.
+  const double cols_wanted = std::ceil(extent.x() * pixels_per_meter);
+  const double rows_wanted = std::ceil(extent.y() * pixels_per_meter);
+  if (!(cols_wanted * rows_wanted <= 1e8 && cols_wanted <= 32767 && rows_wanted <= 32767)) {
+    std::ostringstream message;
+    message << path << ": image of " << cols_wanted << " x " << rows_wanted
+            << " pixels is too large (at most 32767 a side, 1e8 in all): the world spans " << extent.x() << " x "
+            << extent.y() << " m";
+    return Status::Error(message.str());
   }
+  const int cols = static_cast<int>(cols_wanted);
+  const int rows = static_cast<int>(rows_wanted);
   cv::Mat image(rows, cols, CV_8UC3, cv::Scalar(255, 255, 255));
   // North up: row grows as y falls. Points carry 4 fractional bits (shift) for smooth lines.
   constexpr int kShift = 4;
@@ -299,12 +309,17 @@ Status WriteWorldImage(const std::string& path, const Scenario& scenario,
 }
 
 Status WriteImageFile(const std::string& path, const cv::Mat& image, const std::vector<int>& params) {
+  // Encoded in memory, then written through a temporary file (core/file_io.h): a failed write
+  // leaves no truncated image.
+  std::vector<uchar> bytes;
+  const size_t dot = path.rfind('.');
+  const std::string extension = dot == std::string::npos ? ".png" : path.substr(dot);
   try {
-    if (!cv::imwrite(path, image, params)) return Status::Error(path + ": cannot write image");
+    if (!cv::imencode(extension, image, bytes, params)) return Status::Error(path + ": cannot encode image");
   } catch (const cv::Exception& e) {
-    return Status::Error(path + ": cannot write image: " + e.what());
+    return Status::Error(path + ": cannot encode image: " + e.what());
   }
-  return Status::Ok();
+  return WriteFileBytes(path, bytes.data(), bytes.size());
 }
 
 Status WriteSimulationOutputs(const std::string& directory, const Scenario& scenario,

@@ -59,5 +59,38 @@ TEST(FileIoTest, WriteFileBytesNamesAPathThatCannotBeOpened) {
             status.message());
 }
 
+
+// Issue #16: a failed write leaves no truncated file and keeps an older complete one.
+TEST(FileIoTest, FailedWritesLeaveNoPartialFileAndKeepTheOldOne) {
+  const std::string path = ::testing::TempDir() + "/file_io_test_atomic.txt";
+  ASSERT_TRUE(WriteFileBytes(path, "old\n", 4).ok());
+  std::FILE* file = nullptr;
+  ASSERT_TRUE(OpenForWriting(path, "w", &file).ok());
+  std::fprintf(file, "new, half written\n");
+  EXPECT_EQ("old\n", FileBytes(path));  // readers see the old file until the commit
+  // Simulate a failed write: the stream's error flag is set as a full disk would.
+  std::fclose(file);
+  file = std::fopen(TemporaryPathFor(path).c_str(), "r");  // writing to a read-only stream fails
+  ASSERT_NE(file, nullptr);
+  std::fputc('x', file);
+  const Status status = CommitWrittenFile(file, path);
+  EXPECT_FALSE(status.ok());
+  EXPECT_EQ("old\n", FileBytes(path));
+  std::FILE* gone = std::fopen(TemporaryPathFor(path).c_str(), "r");
+  EXPECT_EQ(gone, nullptr) << "the temporary file was left behind";
+  if (gone != nullptr) std::fclose(gone);
+
+  ASSERT_TRUE(OpenForWriting(path, "w", &file).ok());
+  std::fprintf(file, "new\n");
+  ASSERT_TRUE(CommitWrittenFile(file, path).ok());
+  EXPECT_EQ("new\n", FileBytes(path));
+}
+
+TEST(FileIoTest, AnUnwritableFolderIsAnErrorNamingThePath) {
+  const Status status = WriteFileBytes("/nonexistent_dir/out.txt", "x", 1);
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("cannot open '/nonexistent_dir/out.txt' for writing"));
+}
+
 }  // namespace
 }  // namespace hetslam

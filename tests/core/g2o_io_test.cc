@@ -128,6 +128,11 @@ TEST(G2oIoTest, MalformedLinesAreErrorsNamingFileAndLine) {
       {v01 + "FIX\n", "test.g2o:3: FIX needs at least one vertex id"},
       {v01 + "FIX 0 9\n", "test.g2o:3: FIX refers to vertex 9"},
       {v01 + "VERTEX_SE3:QUAT 2 0 0 0 0 0 0 1\n", "test.g2o:3: unsupported g2o record"},
+      // Issue #16: magnitudes the solve cannot take, and a factor that is not usable.
+      {v01 + "EDGE_SE2 0 1 1 0 0 1e300 0 0 1e300 0 1e300\n", "test.g2o:3: EDGE_SE2 information entry '1e300'"},
+      {v01 + "EDGE_SE2 0 1 1e10 0 0 1 0 0 1 0 1\n", "test.g2o:3: EDGE_SE2 translation is beyond +-1e9 m"},
+      {"VERTEX_SE2 0 -2e9 0 0\n", "test.g2o:1: VERTEX_SE2 position is beyond +-1e9 m"},
+      {v01 + "EDGE_SE2 0 1 1 0 0 1 1 0 1 0 1\n", "test.g2o:3: EDGE_SE2 information matrix is not positive definite"},
   };
   for (const MalformedCase& c : cases) {
     PoseGraph2d graph;
@@ -150,6 +155,14 @@ TEST(G2oIoTest, AcceptsCrlfAndTabs) {
   ASSERT_TRUE(status.ok()) << status.message();
   ASSERT_EQ(2u, graph.vertices.size());
   EXPECT_DOUBLE_EQ(0.5, graph.vertices[0].world_T_vertex.theta());
+}
+
+
+TEST(G2oIoTest, ADirectoryIsAnErrorNamingIt) {
+  PoseGraph2d graph;
+  const Status status = ReadG2oPoseGraph2d(::testing::TempDir(), &graph);
+  EXPECT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("Is a directory"));
 }
 
 }  // namespace

@@ -160,5 +160,48 @@ TEST(ReadTruthTrajectoryTest, ReadsARobotLogsTruthOrATrajectoryFile) {
               HasSubstr("no_such_truth.txt"));
 }
 
+// Issue #16: a LASER stamped 1e20 s after the first COMMAND used to be integrated step by step
+// (a hang); a time gap over max_time_gap_seconds is an error naming file:line, or with lenient
+// the measurement alone is dropped and counted.
+TEST(MeasurementLogTest, TimeGapsOverTheBoundAreErrorsOrDroppedWhenLenient) {
+  const std::string path = WriteText("gap.txt",
+                                     "HSLOG 1\n"
+                                     "COMMAND 0 0 0 0\n"
+                                     "LASER 0.1 3 -0.1 0.1 0.05 5 1 2 3\n"
+                                     "LASER 1e11 3 -0.1 0.1 0.05 5 1 2 3\n"
+                                     "LASER 0.2 3 -0.1 0.1 0.05 5 1 2 3\n");
+  MeasurementLog log;
+  const Status status = ReadMeasurementLog(path, MeasurementLogOptions(), &log);
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr(path + ":4: laser stamp 100000000000 is"));
+  EXPECT_THAT(status.message(), HasSubstr("after the newest earlier stamp 0.1 (line 3)"));
+
+  MeasurementLogOptions lenient;
+  lenient.lenient = true;
+  ASSERT_TRUE(ReadMeasurementLog(path, lenient, &log).ok());
+  EXPECT_EQ(1, log.time_gaps_dropped);
+  EXPECT_EQ(2, log.num_scans);
+  // The robot log reader also warns of the 0.2 s stamp going backwards; the drop comes last.
+  ASSERT_FALSE(log.warnings.empty());
+  EXPECT_THAT(log.warnings.back(), HasSubstr(path + ":4: laser stamp"));
+  EXPECT_THAT(log.warnings.back(), HasSubstr("(measurement dropped)"));
+
+  MeasurementLogOptions unbounded;
+  unbounded.max_time_gap_seconds = 0.0;
+  ASSERT_TRUE(ReadMeasurementLog(path, unbounded, &log).ok());
+  EXPECT_EQ(3, log.num_scans);
+
+  MeasurementLogOptions invalid;
+  invalid.max_time_gap_seconds = -1.0;
+  EXPECT_FALSE(invalid.IsValid(nullptr));
+}
+
+TEST(MeasurementLogTest, ADirectoryIsRefusedByName) {
+  MeasurementLog log;
+  const Status status = ReadMeasurementLog(::testing::TempDir(), MeasurementLogOptions(), &log);
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("is a folder, not a log file"));
+}
+
 }  // namespace
 }  // namespace hetslam

@@ -1,5 +1,6 @@
 #include "core/occupancy_grid.h"
 
+#include <cmath>
 #include <vector>
 
 #include "gtest/gtest.h"
@@ -73,6 +74,31 @@ TEST(OccupancyGridTest, AddCellObservationObservesOneCellAndGrows) {
                   grid.LogOdds(grid.geometry().LinearIndex(grid.geometry().WorldToCell(far))));
   // Its neighbours stay unknown.
   EXPECT_EQ(CellState::kUnknown, grid.State(grid.geometry().WorldToCell(far + Eigen::Vector2d(0.1, 0.0))));
+}
+
+
+// Issue #16: a scan far away (a corrupt pose) or with a non-finite point is refused, not a
+// CHECK failure or an int overflow; the grid stays as it was.
+TEST(OccupancyGridTest, ScansTheGridCannotContainAreRefused) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  std::vector<int> changed;
+  ASSERT_TRUE(grid.InsertScan(Eigen::Vector2d(0, 0), {Eigen::Vector2d(1, 0)}, &changed));
+  const int cells = grid.geometry().num_cells();
+  EXPECT_FALSE(grid.InsertScan(Eigen::Vector2d(0, 0), {Eigen::Vector2d(1e12, 0)}, &changed));
+  EXPECT_FALSE(grid.InsertScan(Eigen::Vector2d(0, 0), {Eigen::Vector2d(3e4, 3e4)}, &changed));
+  EXPECT_FALSE(grid.InsertScan(Eigen::Vector2d(0, 0), {Eigen::Vector2d(std::nan(""), 0)}, &changed));
+  EXPECT_EQ(3, grid.num_scans_refused());
+  EXPECT_EQ(cells, grid.geometry().num_cells());
+  EXPECT_FALSE(grid.CanContain(Eigen::Vector2d(-1e300, 0), Eigen::Vector2d(1e300, 0)));
+  EXPECT_TRUE(grid.CanContain(Eigen::Vector2d(-100, -100), Eigen::Vector2d(100, 100)));
+}
+
+TEST(OccupancyGridTest, ResolutionOutsideItsRangeIsInvalid) {
+  OccupancyGridOptions options;
+  options.resolution_meters = 1e-4;
+  EXPECT_FALSE(options.IsValid(nullptr));
+  options.resolution_meters = 0.05;
+  EXPECT_TRUE(options.IsValid(nullptr));
 }
 
 }  // namespace

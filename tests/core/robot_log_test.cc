@@ -292,6 +292,19 @@ TEST(RobotLogTest, MalformedLinesNameFileAndLineOrAreSkippedWhenLenient) {
       {"LASER 1 1 0 0.1 5 2 1", "LASER needs 0 <= range_min < range_max (got 5, 2)"},
       {"LASER 1 2 0 0.1 0 10 1 two", "LASER range 1 ('two') is not a number"},
       {"HSLOG 1", "HSLOG header repeated"},
+      // Issue #16: ranges of every number (core/robot_log_text.h, CheckBeamAngles).
+      {"LASER 1 3 0 0 0 10 1 2 3", "LASER angle_increment is 0 with 3 beams"},
+      {"LASER 1 3 0 1e300 0 10 1 2 3", "LASER angle_increment 1e+300 rad with 3 beams spans"},
+      {"LASER 1 3 100 0.1 0 10 1 2 3", "LASER angle_min 100 rad is not a finite angle in [-2 pi, 2 pi]"},
+      {"LASER 1e20 1 0 0.1 0 10 1", "LASER stamp 1e+20 is beyond +-"},
+      {"LASER 1 1 0 0.1 0 1e300 1", "LASER range_max 1e+300 is beyond +-"},
+      {"COMMAND 1 1e12 0 0", "COMMAND vx 1e+12 is beyond +-"},
+      {"COMMAND 1 0 0 -5000", "COMMAND yaw_rate -5000 is beyond +-"},
+      {"ODOM 1 0 -1e8 0", "ODOM y -1e+08 is beyond +-"},
+      {"TRUTH 1 1e9 0 0 0 0 0", "TRUTH x 1e+09 is beyond +-"},
+      {"MARG 1 1e6 0 0 0 0 9.8 20 0 -40", "MARG gyro rate 1e+06 is beyond +-"},
+      {"IMAGE 1 ../../../../etc/passwd", "IMAGE path '../../../../etc/passwd' leaves the log's folder"},
+      {"IMAGE 1 /etc/passwd", "IMAGE path '/etc/passwd' leaves the log's folder"},
   };
   for (size_t c = 0; c < cases.size(); ++c) {
     const std::string text = "HSLOG 1\nMARG 0 0 0 0 0 0 9.8 20 0 -40\n" + cases[c].line +

@@ -73,6 +73,10 @@ TEST(TeamManifestTest, ErrorsNameFileAndLine) {
        ":5: tag tag36h11 1 is already placed on line 4"},
       {"camera 1\n", ":4: unknown message 'camera' (robot or tag)"},
       {"HSTEAM 1\n", ":4: HSTEAM header repeated"},
+      // Issue #16: a robot directory must stay inside the dataset.
+      {"robot x uav ../../../../etc\n", ":4: robot x directory '../../../../etc' leaves the dataset"},
+      {"robot x uav /etc\n", ":4: robot x directory '/etc' leaves the dataset"},
+      {"robot x uav a/../../b\n", ":4: robot x directory 'a/../../b' leaves the dataset"},
   };
   for (size_t c = 0; c < cases.size(); ++c) {
     const std::string path =

@@ -135,5 +135,31 @@ TEST(TrajectoryIoTest, ReadsSharedGmappingReferences) {
   }
 }
 
+
+// Issue #16: a duplicated row changed the Intel score (the ambiguity rule keys on poses); an
+// exact repeat is dropped, repeated and backwards stamps are counted with file:line.
+TEST(TrajectoryIoTest, CheckedReadDropsExactRepeatsAndReportsStampDisorder) {
+  const std::string path = WriteText("disorder.txt",
+                                     "# t x y theta\n"
+                                     "1 0 0 0\n"
+                                     "1 0 0 0\n"
+                                     "2 1 0 0\n"
+                                     "2 1.5 0 0\n"
+                                     "1.5 2 0 0\n"
+                                     "3 3 0 0\n");
+  std::vector<StampedPose2> trajectory;
+  TrajectoryStampReport report;
+  const Status status = ReadTrajectoryChecked(path, &trajectory, &report);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(5u, trajectory.size());
+  EXPECT_EQ(1, report.duplicate_rows_dropped);
+  EXPECT_EQ(1, report.repeated_stamps);
+  EXPECT_EQ(1, report.stamps_backwards);
+  ASSERT_EQ(3u, report.warnings.size());
+  EXPECT_THAT(report.warnings[0], ::testing::HasSubstr(path + ":3: repeats line 2 exactly (dropped)"));
+  EXPECT_THAT(report.warnings[1], ::testing::HasSubstr(path + ":5: has the stamp of line 4"));
+  EXPECT_THAT(report.warnings[2], ::testing::HasSubstr(path + ":6: stamp is earlier than line 5's"));
+}
+
 }  // namespace
 }  // namespace hetslam

@@ -106,6 +106,13 @@ TEST(ScenarioTest, MalformedScenariosNameFileAndLine) {
       {"odometry 20 0.1 0\n", "bad.scenario:1:", "takes 4 numbers"},
       {"duration_limit_s 0\n", "bad.scenario:1:", "positive"},
       {"start 0 0\n", "bad.scenario:1:", "takes 3 numbers"},
+      // Issue #16: ranges that keep the world buildable and the run bounded.
+      {"box 1e5 1e5 1e-9 1e-9\n", "bad.scenario:1:", "at least 1 mm"},
+      {"obstacle 0 0 1e-9 1 1\n", "bad.scenario:1:", "at least 1 mm"},
+      {"shelf 0 0 1 0 1e-9 0.5 0.3 1\n", "bad.scenario:1:", "shelf depths"},
+      {"wall 0 0 2e6 0\n", "bad.scenario:1:", "beyond +-1e6"},
+      {"duration_limit_s 1e300\n", "bad.scenario:1:", "beyond +-1e6"},
+      {"duration_limit_s 100000\n", "bad.scenario:1:", "at most 86400 s"},
   };
   for (const BadScenario& c : cases) {
     Scenario scenario;
@@ -129,6 +136,24 @@ TEST(ScenarioTest, ScenarioLevelErrorsNameTheFile) {
   EXPECT_THAT(status.message(), HasSubstr("no walls"));
   status = ParseScenario("", "empty.scenario", &scenario);
   EXPECT_FALSE(status.ok());
+}
+
+TEST(ScenarioTest, BoundsOfTheWholeScenarioAreChecked) {
+  Scenario scenario;
+  Status status = ParseScenario("wall 0 0 2000 0\nwaypoint 1 1\n", "wide.scenario", &scenario);
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("wide.scenario: the world spans 2000 x 0 m"));
+  status = ParseScenario("wall 0 0 10 0\nwaypoint 1 1\nlaser 180 100000 30 0.01 0 1000\nduration_limit_s 86400\n",
+                         "beams.scenario", &scenario);
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("beams.scenario: the lasers would cast"));
+}
+
+TEST(ScenarioTest, ADirectoryIsRefusedByName) {
+  Scenario scenario;
+  const Status status = ReadScenarioFile(testing::TempDir(), &scenario);
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr("Is a directory"));
 }
 
 TEST(ScenarioTest, MissingFileIsAnErrorNamingThePath) {
