@@ -83,10 +83,12 @@ std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& poi
   std::unordered_set<uint64_t> seen;
   std::vector<Eigen::Vector2f> kept;
   for (const Eigen::Vector2f& p : points) {
-    const double fx = std::floor(static_cast<double>(p.x()) / voxel_size_meters);
-    const double fy = std::floor(static_cast<double>(p.y()) / voxel_size_meters);
+    // In float, as the voxels were always computed (a double division moves points that lie
+    // on a voxel border to the next voxel, and changes which point a voxel keeps).
+    const float fx = std::floor(p.x() / voxel_size_meters);
+    const float fy = std::floor(p.y() / voxel_size_meters);
     // A non-finite point, or one whose voxel index does not fit an int64, is no usable point.
-    if (!(std::abs(fx) < 9e18 && std::abs(fy) < 9e18)) continue;
+    if (!(std::abs(fx) < 9e18f && std::abs(fy) < 9e18f)) continue;
     const int64_t ix = static_cast<int64_t>(fx);
     const int64_t iy = static_cast<int64_t>(fy);
     const uint64_t key = (static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffu);

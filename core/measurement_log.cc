@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -52,7 +54,7 @@ Status DetectLogFormat(const std::string& path, LogFormat* format) {
     return Status::Error("'" + path + "' is a folder, not a log file");
   }
   std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::Error("cannot open '" + path + "' for reading");
+  if (!in) return Status::Error("cannot open '" + path + "': " + std::strerror(errno));
   // Binary formats by their magic bytes.
   char magic[16] = {};
   in.read(magic, sizeof(magic));
