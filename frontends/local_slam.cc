@@ -312,11 +312,13 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     // they mean nothing to a later match (loop closure) against another submap.
     points.matching_weights.clear();
     if (result.match.converged) {
+      // Along a flat direction the prediction is kept, when it measures the motion there.
       Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();
-      result.local_pose = target.local_T_submap *
-                          (prediction.external && prediction.measures_translation ? DegeneracyAwarePose(options_, predicted_submap, result.match,
-                                                                     &result.degenerate, &weak_direction)
-                                               : result.match.pose);
+      const Pose2 submap_T_robot =
+          prediction.external && prediction.measures_translation
+              ? DegeneracyAwarePose(options_, predicted_submap, result.match, &result.degenerate, &weak_direction)
+              : result.match.pose;
+      result.local_pose = target.local_T_submap * submap_T_robot;
       result.weak_direction = target.local_T_submap.rotation() * weak_direction;
     }
   }

@@ -6,7 +6,6 @@
 #include <limits>
 #include <sstream>
 
-#include "Eigen/Eigenvalues"
 #include "ceres/ceres.h"
 #include "factors/scan_cost.h"
 #include "glog/logging.h"
