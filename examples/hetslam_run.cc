@@ -141,19 +141,19 @@ DEFINE_double(suspend_floor_fraction, 0.2, "With an attitude: when more than thi
 DEFINE_double(wall_weight, 1.0, "Scan-matching weight of points that land on wall cells (cells hit at heights spanning "
               "--wall_min_height_span: invariant under the 2.5D assumption, paper III-E); other points weigh 1.");
 DEFINE_double(wall_min_height_span, 0.3, "A cell hit at heights spanning at least this much (metres) is a wall.");
-DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a motion source (commands or MARG rates through the "
-              "EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
+DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a source that measures the motion (commands through "
+              "the EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
               "of the larger (a corridor, a tilted head seeing side walls only), keep the prediction along the weak "
               "direction; 0 = off. Scans predicted by the front end's own extrapolation always take the whole match.");
-DEFINE_double(degenerate_drop_ratio, 0.25, "... or when, shifted 0.1-0.3 m along that direction, the scan's score drops "
-              "by less than this fraction of its drop across it (a featureless corridor: the score is flat along it); "
-              "0 = off.");
+DEFINE_double(degenerate_drop_ratio, 0.25, "Like --degenerate_ratio, but from the score: when, shifted 0.1-0.3 m along "
+              "its flattest direction, the scan's score drops by less than this fraction of its steepest drop (a "
+              "featureless corridor), the prediction is kept along that direction; 0 = off.");
 DEFINE_double(degenerate_sigma, 0.1, "Standard deviation (metres) of a degenerate match along its weak direction in the "
               "EKF update: there the EKF's prediction (commands, odometry) carries the pose and its covariance grows.");
 DEFINE_double(line_max_gap, 0.0, "Map surfaces, not dotted hits: neighbouring beams' end points at most this far apart "
               "(metres) that lie on a line make each hit stand for its piece of that line in the likelihood field (a "
-              "wall seen at a grazing angle scores as a wall, not as dots); 0 = hit points only (default: 0.5 improves "
-              "Intel but bends MIT CSAIL's map).");
+              "wall seen at a grazing angle scores as a wall, not as dots); 0 = hit points only, the default (0.5 "
+              "improves Intel but bends MIT CSAIL's map).");
 DEFINE_double(frontier_margin, 0.3, "Leave out of a match the points whose surface, within this distance (metres) of "
               "where the prediction puts them, runs into ground the map never observed (the map's frontier, which "
               "pulls matches back along corridors); 0 = off.");
