@@ -91,12 +91,14 @@ struct LocalSlamOptions {
   // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps
   // the prediction along the weak direction and takes the match's correction only along the
   // strong one (solution remapping; there the score is flat and the matched position is
-  // noise). Applied only to external predictions (odometry, the EKF: see Prediction): the
-  // front end's own extrapolation carries no information of its own. 0 = off.
+  // noise). Applied only to external predictions that measure translation (odometry, the EKF
+  // with live commands: see Prediction): the front end's own extrapolation, or the EKF on MARG
+  // rates alone, carries no position information of its own. 0 = off.
   double degenerate_eigenvalue_ratio = 0.3;
-  // ... or when the score along that direction is flat: shifted 0.1 to 0.3 m along it, the
-  // scan loses less than this fraction of what it loses shifted as far across it
-  // (ScanMatchResult::weak_direction_score_drop, strong_direction_score_drop). The
+  // ... or when the score is flat along its flattest direction (of 16): shifted 0.1 to 0.3 m
+  // along it, the scan loses less than this fraction of what it loses along the steepest
+  // (ScanMatchResult::weak_direction_score_drop, strong_direction_score_drop); that direction
+  // is then the one held. The
   // information matrix of a featureless corridor's match is mostly the noise of the wall
   // hits: its eigenvalue ratio ranges from 0.05 to 0.6 from scan to scan (wheeled_corridor),
   // and so does the score's drop along the corridor (up to 0.04, against 0.3 to 0.5 across).
@@ -110,11 +112,12 @@ struct LocalSlamOptions {
   // where the last scan reached, so a scan's far points on it score less when the scan moves
   // on (they leave the mapped wall) and the same when it moves back: the match is pulled back
   // along corridors. Matching points whose surface (core/laser_map.h EstimateScanLines with
-  // frontier_lines), within
-  // this distance of where the prediction puts them, runs into unobserved ground (an unknown
+  // frontier_lines), within this distance of where the prediction puts them, runs into
+  // unobserved ground (an unknown
   // cell farther than the field's sigma from any mapped surface) carry no information the map
   // can score fairly: they are left out of the match (they are still mapped). Only for
-  // external predictions (see Prediction), which carry the motion along the wall: without one,
+  // external predictions that measure translation (see Prediction), which carry the motion
+  // along the wall: without one,
   // those points are the only evidence of it (Intel: 0.0207 m → 0.0251 m on the relations with
   // the rule applied to every scan). 0 = off.
   double frontier_margin_meters = 0.3;
@@ -239,11 +242,12 @@ struct LocalResult {
 };
 
 // A scan's predicted pose (local frame). `external`: it comes from a motion source (odometry,
-// the EKF with commands or MARG rates): then the narrow first search is always tried and a
-// degenerate match keeps it along the weak direction (see degenerate_eigenvalue_ratio);
-// otherwise it is the front end's own extrapolation. `motion`: the odometry pose at the scan
+// the EKF with commands or MARG rates): then the narrow first search is always tried and, when
+// it measures translation, a degenerate match keeps it along the weak direction (see
+// degenerate_eigenvalue_ratio); otherwise it is the front end's own extrapolation. `motion`: the odometry pose at the scan
 // when the prediction is kOdometry (kept for the next prediction).
-// `covariance`: of (x, y, yaw) in the local frame, when the source knows it (the EKF): the
+// `covariance`: of (x, y, yaw) in the local frame, when the source knows it (the EKF; odometry
+// through odometry_noise_fraction): the
 // search windows are then sized by it (covariance_sigmas standard deviations beyond the
 // matcher's narrow windows, at most the full windows) and there is no wider fallback: a motion
 // source with a gyro does not turn 90° between two scans, and a corridor's corner matched

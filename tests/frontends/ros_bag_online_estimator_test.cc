@@ -32,6 +32,19 @@ Mapped MapLog(const MeasurementLog& log, const OnlineEstimatorOptions& options) 
   return {estimator.Trajectory(), estimator.stats(), estimator.match_scores()};
 }
 
+// Every scan's pose relative to the first against the synthetic bag's true arc: within one grid
+// cell (5 cm) and `yaw_tolerance` radians.
+void ExpectOnTheTrueArc(const Mapped& mapped, int num_scans, double yaw_tolerance) {
+  ASSERT_EQ(num_scans, static_cast<int>(mapped.trajectory.size()));
+  const Pose2 first = mapped.trajectory.front().pose;
+  for (int k = 0; k < num_scans; ++k) {
+    const Pose2 estimated = Between(first, mapped.trajectory[k].pose);
+    const Pose2 truth = TrueBodyPose(k * kScanPeriod);
+    EXPECT_NEAR(0.0, (estimated.translation() - truth.translation()).norm(), 0.05) << "scan " << k;
+    EXPECT_NEAR(0.0, WrapAngle(estimated.theta() - truth.theta()), yaw_tolerance) << "scan " << k;
+  }
+}
+
 // The IMU's samples reach the MARG filter rotated into base_link, so the level robot is seen
 // level: no scan point is taken for the floor, every scan has an attitude, and the trajectory
 // (predicted from the bag's Twist commands through the EKF) follows the true arc.
@@ -55,13 +68,7 @@ TEST(RosBagOnlineEstimatorTest, SyntheticBagWithTiltedImuMapsAlongTheTrueArc) {
   // The estimate starts at the origin: compare motion relative to the first pose. Tolerance:
   // one grid cell (5 cm) and 0.01 rad; the second scan, matched against a map of one scan of a
   // bare room, lands 1.7 cm off and later scans carry that offset (measured: 3.3 cm at the end).
-  const Pose2 first = mapped.trajectory.front().pose;
-  for (int k = 0; k < bag_options.num_scans; ++k) {
-    const Pose2 estimated = Between(first, mapped.trajectory[k].pose);
-    const Pose2 truth = TrueBodyPose(k * kScanPeriod);
-    EXPECT_NEAR(0.0, (estimated.translation() - truth.translation()).norm(), 0.05) << "scan " << k;
-    EXPECT_NEAR(0.0, WrapAngle(estimated.theta() - truth.theta()), 0.01) << "scan " << k;
-  }
+  ExpectOnTheTrueArc(mapped, bag_options.num_scans, 0.01);
 }
 
 // A tilting platform: the body rolled 0.08 rad and pitched -0.1 rad, so its level-mounted laser
@@ -90,13 +97,7 @@ TEST(RosBagOnlineEstimatorTest, TiltedPlatformIsProjectedWithTheImuAttitude) {
   // box room the tilted scans also match without any attitude, 1.4 cm / 0.0074 rad: a tilted
   // cut through vertical walls is still a consistent rectangle. What the IMU changes here is
   // the projection: floor hits dropped, walls at their true distance.)
-  const Pose2 first = mapped.trajectory.front().pose;
-  for (int k = 0; k < bag_options.num_scans; ++k) {
-    const Pose2 estimated = Between(first, mapped.trajectory[k].pose);
-    const Pose2 truth = TrueBodyPose(k * kScanPeriod);
-    EXPECT_NEAR(0.0, (estimated.translation() - truth.translation()).norm(), 0.05) << "scan " << k;
-    EXPECT_NEAR(0.0, WrapAngle(estimated.theta() - truth.theta()), 0.015) << "scan " << k;
-  }
+  ExpectOnTheTrueArc(mapped, bag_options.num_scans, 0.015);
 
   MeasurementLogOptions without_imu;
   without_imu.ros_bag.imu_topic = "none";
