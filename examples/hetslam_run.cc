@@ -120,6 +120,13 @@ DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metre
 DEFINE_double(loop_wide_spacing, 1.0, "Wide loop search: search again only after this much travel (metres) since the "
               "last wide search (see --loop_wide_search).");
 DEFINE_double(loop_wide_min_score, 0.6, "Wide loop search: minimum mean likelihood of a match (see --loop_wide_search).");
+DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score drops, shifted 0.1-0.3 m along its "
+              "flattest direction, by less than this fraction of its drop along the steepest (a corridor's walls) "
+              "places the scan poorly along that direction: the closure's information along it is scaled by (drop "
+              "ratio / this), its standard deviation there capped by --loop_weak_sigma, and a wide-search result is "
+              "dropped. 0 = off.");
+DEFINE_double(loop_weak_sigma, 2.0, "Largest standard deviation (metres) of a degenerate loop closure along its weak "
+              "direction (see --loop_degenerate_drop_ratio); the consistency check ignores that direction.");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
@@ -211,6 +218,8 @@ std::string FlagsNamedIn(const std::string& message) {
       {"scans_per_submap", "--scans_per_submap"},
       {"degenerate_sigma_meters", "--degenerate_sigma"},
       {"degenerate_max_drop_ratio", "--degenerate_drop_ratio"},
+      {"loop: degenerate_max_drop_ratio", "--loop_degenerate_drop_ratio"},
+      {"loop_weak_translation_sigma_meters", "--loop_weak_sigma"},
       {"degenerate_eigenvalue_ratio", "--degenerate_ratio"},
       {"frontier_margin_meters", "--frontier_margin"},
       {"covariance_sigmas", "--covariance_sigmas"},
@@ -305,6 +314,8 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->wide_window_meters = FLAGS_loop_wide_window;
   loop->wide_min_score = FLAGS_loop_wide_min_score;
   loop->wide_search_spacing_meters = FLAGS_loop_wide_spacing;
+  loop->degenerate_max_drop_ratio = FLAGS_loop_degenerate_drop_ratio;
+  estimator->graph.loop_weak_translation_sigma_meters = FLAGS_loop_weak_sigma;
   loop->min_node_separation = FLAGS_loop_min_node_separation;
   loop->search_min_travel_meters = FLAGS_loop_search_min_travel;
   loop->search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;
@@ -331,7 +342,8 @@ Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureR
     const Pose2& m = loop.measured_submap_T_node;
     const Pose2& f = loop.estimated_submap_T_node;
     out << loop.submap.index << ' ' << loop.node.index << ' ' << loop.score << ' ' << m.x() << ' ' << m.y() << ' '
-        << m.theta() << ' ' << f.x() << ' ' << f.y() << ' ' << f.theta() << ' ' << (loop.removed ? 1 : 0) << '\n';
+        << m.theta() << ' ' << f.x() << ' ' << f.y() << ' ' << f.theta() << ' ' << (loop.removed ? 1 : 0) << ' ' << loop.weak_direction.x() << ' '
+        << loop.weak_direction.y() << '\n';
   }
   const std::string text = out.str();
   return WriteFileBytes(path, text.data(), text.size());
@@ -367,19 +379,19 @@ std::string Summary(const OnlineEstimator& estimator) {
   std::snprintf(line, sizeof(line),
                 "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d removed "
                 "as inconsistent, %d solves (%d iterations, %.2f s, %d failed), loop search %.2f s\n"
-                "wide loop search: %d matches, %d candidates, %d closures accepted\n",
+                "wide loop search: %d matches, %d candidates, %d closures accepted; %d results flat along a direction "
+                "(held across it only; wide ones dropped)\n",
                 g.nodes, g.submaps, l.searches, g.loop_closures_accepted, l.rejected_by_gate,
                 g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds, g.failed_solves,
-                l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted);
+                l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate);
   out += line;
   // Loop-closure precision as Cartographer reports it: the share of kept closures that the
-  // final graph agrees with to 20 cm and 1°.
+  // final graph agrees with to 20 cm and 1° (a degenerate closure: across its weak direction).
   int kept = 0, agree = 0;
   for (const LoopClosureReport& loop : estimator.graph().LoopClosures()) {
     if (loop.removed) continue;
     ++kept;
-    const Pose2 error = Between(loop.measured_submap_T_node, loop.estimated_submap_T_node);
-    if (error.translation().norm() <= 0.2 && std::abs(error.theta()) <= M_PI / 180.0) ++agree;
+    agree += ClosureAgrees(loop, 0.2, M_PI / 180.0);
   }
   std::snprintf(line, sizeof(line),
                 "loop closure precision: %d of %d kept closures (%.1f%%) agree with the final graph to 20 cm / 1 deg\n",

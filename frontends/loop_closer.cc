@@ -40,6 +40,8 @@ bool LoopCloserOptions::IsValid(std::string* error) const {
     msg << "wide search windows and agreement bounds must be > 0, its spacing >= 0; ";
   if (!(wide_min_score >= 0 && wide_min_score < 1)) msg << "wide_min_score must be in [0, 1); ";
   if (!(min_score >= 0 && min_score < 1)) msg << "min_score must be in [0, 1); ";
+  if (!(degenerate_max_drop_ratio >= 0 && degenerate_max_drop_ratio < 1))
+    msg << "degenerate_max_drop_ratio must be in [0, 1); ";
   if (!(search_min_travel_meters >= 0 && search_min_turn_radians >= 0))
     msg << "search travel/turn thresholds must be >= 0; ";
   if (min_node_separation < 0) msg << "min_node_separation must be >= 0; ";
@@ -159,11 +161,23 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
       ++stats_.rejected_by_gate;
       continue;
     }
+    const bool degenerate = match.strong_direction_score_drop > 0 &&
+                            match.weak_direction_score_drop <
+                                options_.degenerate_max_drop_ratio * match.strong_direction_score_drop;
     ConstraintCandidate closure;
     closure.submap = submap;
     closure.node = node;
     closure.submap_T_node = match.pose;
     closure.score = match.score;
+    if (degenerate) {
+      ++stats_.degenerate;
+      if (wide_best != nullptr) continue;
+      closure.weak_direction = match.weak_direction;
+      // Continuous at the threshold: a result just flat enough to be degenerate keeps nearly
+      // the full information.
+      closure.weak_information_fraction = match.weak_direction_score_drop /
+                                          (options_.degenerate_max_drop_ratio * match.strong_direction_score_drop);
+    }
     if (wide_best != nullptr) {
       if (!wide_best->has_value() || match.score > (*wide_best)->closure.score) {
         const Pose2 matched = robot_T_submap * match.pose;

@@ -17,7 +17,35 @@ constexpr int kSubmapGroup = 1;
 // Floor-obstacle points this close (cells) to mapped structure are left out of the obstacle layers.
 constexpr int kStructureClearanceCells = 2;
 
+// Square-root information of a loop closure submap_T_node (residual in the measured node's
+// frame, factors/relative_pose_cost.h): the loop sigmas, and along a weak direction w (submap
+// frame, zero: none) sigma_w = sigma / sqrt(fraction), capped:
+// S = (I - w w^T) / sigma + w w^T / sigma_w for the translation.
+Eigen::Matrix3d LoopSqrtInformation(const SubmapGraphOptions& options, const Pose2& submap_T_node,
+                                    const Eigen::Vector2d& weak_direction_submap, double weak_information_fraction) {
+  const double sigma = options.loop_translation_sigma_meters;
+  Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(sigma, sigma, options.loop_rotation_sigma_radians);
+  if (weak_direction_submap.squaredNorm() == 0) return sqrt_information;
+  const double weak_sigma =
+      weak_information_fraction > 0
+          ? std::min(options.loop_weak_translation_sigma_meters, sigma / std::sqrt(weak_information_fraction))
+          : options.loop_weak_translation_sigma_meters;
+  const Eigen::Vector2d w = (submap_T_node.rotation().transpose() * weak_direction_submap).normalized();
+  const Eigen::Matrix2d along = w * w.transpose();
+  sqrt_information.topLeftCorner<2, 2>() = (Eigen::Matrix2d::Identity() - along) / sigma + along / std::max(sigma, weak_sigma);
+  return sqrt_information;
+}
+
 }  // namespace
+
+bool ClosureAgrees(const LoopClosureReport& loop, double meters, double radians) {
+  const Pose2 error = Between(loop.measured_submap_T_node, loop.estimated_submap_T_node);
+  // The error's frame is the measured node's; along a weak direction the closure measured
+  // nothing to disagree with.
+  const Eigen::Vector2d weak = loop.measured_submap_T_node.rotation().transpose() * loop.weak_direction;
+  const Eigen::Vector2d across = error.translation() - weak.dot(error.translation()) * weak;
+  return across.norm() <= meters && std::abs(error.theta()) <= radians;
+}
 
 bool SubmapGraphOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
@@ -30,6 +58,8 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
   }
   if (!(loop_consistency_translation_meters > 0 && loop_consistency_rotation_radians > 0))
     msg << "loop consistency bounds must be > 0; ";
+  if (!(loop_weak_translation_sigma_meters > 0 && loop_weak_translation_sigma_meters <= 1e3))
+    msg << "loop_weak_translation_sigma_meters must be in (0, 1000]; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -107,9 +137,9 @@ bool SubmapGraph::AddConstraint(const ConstraintCandidate& candidate) {
   if (candidate.node.index < 0 || candidate.node.index >= static_cast<int>(node_robot->second.nodes.size())) {
     return false;
   }
-  const Eigen::Matrix3d sqrt_information = SqrtInformationFromStddev(
-      options_.loop_translation_sigma_meters, options_.loop_translation_sigma_meters,
-      options_.loop_rotation_sigma_radians);
+  const Eigen::Matrix3d sqrt_information =
+      LoopSqrtInformation(options_, candidate.submap_T_node, candidate.weak_direction,
+                          candidate.weak_information_fraction);
   const double loss = candidate.robust ? options_.loop_loss_scale : 0.0;
   const int node_pose = node_robot->second.nodes[candidate.node.index].pose;
   Constraint c;
@@ -118,6 +148,8 @@ bool SubmapGraph::AddConstraint(const ConstraintCandidate& candidate) {
   c.submap_T_node = candidate.submap_T_node;
   c.score = candidate.score;
   c.exempt_from_next_check = candidate.exempt_from_next_check;
+  c.weak_direction = candidate.weak_direction;
+  c.weak_information_fraction = candidate.weak_information_fraction;
   if (candidate.submap.robot == candidate.node.robot) {
     c.kind = EdgeKind::kLoopClosure;
     c.edge = problem_.AddEdge(EdgeKind::kLoopClosure, submap->second.pose, node_pose, c.submap_T_node,
@@ -154,9 +186,11 @@ Status SubmapGraph::Solve(int max_iterations) {
     int removed = 0;
     for (Constraint& c : constraints_) {
       if (c.kind == EdgeKind::kSequential || problem_.edge_removed(c.edge) || c.exempt_from_next_check) continue;
-      const Pose2 error = Between(c.submap_T_node, problem_.EdgeEstimate(c.edge));
-      if (error.translation().norm() > options_.loop_consistency_translation_meters ||
-          std::abs(error.theta()) > options_.loop_consistency_rotation_radians) {
+      const LoopClosureReport report{c.submap, c.node, c.kind, c.score, c.submap_T_node,
+                                     problem_.EdgeEstimate(c.edge), false, c.weak_direction,
+                                     c.weak_information_fraction};
+      if (!ClosureAgrees(report, options_.loop_consistency_translation_meters,
+                         options_.loop_consistency_rotation_radians)) {
         problem_.RemoveEdge(c.edge);
         ++removed;
         ++stats_.loop_closures_rejected_after_solve;
@@ -344,9 +378,11 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
     edge.from_T_to_measured = c.submap_T_node;
     edge.kind = c.kind;
     const bool loop = c.kind == EdgeKind::kLoopClosure;
-    const double st = loop ? options_.loop_translation_sigma_meters : options_.intra_translation_sigma_meters;
-    const double sr = loop ? options_.loop_rotation_sigma_radians : options_.intra_rotation_sigma_radians;
-    edge.information = Eigen::Vector3d(1 / (st * st), 1 / (st * st), 1 / (sr * sr)).asDiagonal();
+    const double st = options_.intra_translation_sigma_meters, sr = options_.intra_rotation_sigma_radians;
+    const Eigen::Matrix3d sqrt_information =
+        loop ? LoopSqrtInformation(options_, c.submap_T_node, c.weak_direction, c.weak_information_fraction)
+             : Eigen::Matrix3d(Eigen::Vector3d(1 / st, 1 / st, 1 / sr).asDiagonal());
+    edge.information = sqrt_information.transpose() * sqrt_information;
     graph.edges.push_back(edge);
   }
   if (!robot.submaps.empty()) graph.fixed_vertex_ids.push_back(0);
@@ -358,7 +394,8 @@ std::vector<LoopClosureReport> SubmapGraph::LoopClosures() const {
   for (const Constraint& c : constraints_) {
     if (c.kind == EdgeKind::kSequential) continue;
     reports.push_back({c.submap, c.node, c.kind, c.score, c.submap_T_node, problem_.EdgeEstimate(c.edge),
-                       problem_.edge_removed(c.edge)});
+                       problem_.edge_removed(c.edge), c.weak_direction,
+                       c.weak_information_fraction});
   }
   return reports;
 }

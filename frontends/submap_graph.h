@@ -63,6 +63,10 @@ struct SubmapGraphOptions {
   // After a solve, a loop closure the graph disagrees with by more than this is removed.
   double loop_consistency_translation_meters = 0.3;
   double loop_consistency_rotation_radians = 0.06;
+  // The largest standard deviation of a degenerate closure along its weak direction
+  // (ConstraintCandidate::weak_direction: a corridor, where the match cannot place the node
+  // along the walls); the consistency check looks only across that direction.
+  double loop_weak_translation_sigma_meters = 2.0;
 
   bool IsValid(std::string* error) const;
 };
@@ -78,6 +82,14 @@ struct ConstraintCandidate {
   // Not checked for consistency by the solve that first includes it (see LoopCloser's wide
   // search); checked from the next solve on.
   bool exempt_from_next_check = false;
+  // Unit, in the submap's frame, when the match placed the node poorly along it (its score's
+  // profile is flat there: ScanMatchResult::weak_direction); zero otherwise. Along it the
+  // constraint's information is `weak_information_fraction` of the loop closure's (the ratio
+  // of the score's drops along the weak and the strong direction: its curvatures), so its
+  // standard deviation is loop_translation_sigma_meters / sqrt(fraction), at most
+  // SubmapGraphOptions::loop_weak_translation_sigma_meters.
+  Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();
+  double weak_information_fraction = 1.0;
 };
 
 // One accepted loop-closure or inter-robot constraint, for precision reports: the measured
@@ -90,7 +102,14 @@ struct LoopClosureReport {
   Pose2 measured_submap_T_node;
   Pose2 estimated_submap_T_node;
   bool removed = false;
+  Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();  // submap frame; see ConstraintCandidate
+  double weak_information_fraction = 1.0;
 };
+
+// Whether the graph agrees with a closure to `meters` and `radians` (Cartographer's loop
+// closure precision uses 0.2 m and 1°): the measured and estimated submap_T_node, compared
+// only across the weak direction of a degenerate closure.
+bool ClosureAgrees(const LoopClosureReport& loop, double meters, double radians);
 
 struct SubmapGraphStats {
   int nodes = 0;
@@ -197,6 +216,8 @@ class SubmapGraph {
     EdgeKind kind = EdgeKind::kSequential;
     double score = 0.0;
     bool exempt_from_next_check = false;
+    Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();  // submap frame; zero: none
+    double weak_information_fraction = 1.0;
     int edge = -1;
   };
   int EnsureAnchor(int robot);

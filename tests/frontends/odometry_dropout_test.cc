@@ -79,8 +79,7 @@ DropoutRun MapCorridorWithFrozenOdometry(double odometry_noise_fraction) {
       continue;
     }
     ++run.kept_closures;
-    const Pose2 error = Between(loop.measured_submap_T_node, loop.estimated_submap_T_node);
-    run.agreeing_closures += error.translation().norm() <= 0.2 && std::abs(error.theta()) <= M_PI / 180.0;
+    run.agreeing_closures += ClosureAgrees(loop, 0.2, M_PI / 180.0);
   }
   return run;
 }

@@ -104,8 +104,7 @@ TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
   for (const LoopClosureReport& loop : run.loops) {
     if (loop.removed) continue;
     ++kept;
-    const Pose2 error = Between(loop.measured_submap_T_node, loop.estimated_submap_T_node);
-    precise += error.translation().norm() < 0.2 && std::abs(error.theta()) < M_PI / 180;
+    precise += ClosureAgrees(loop, 0.2, M_PI / 180);
   }
   ASSERT_GT(kept, 0);
   EXPECT_GE(static_cast<double>(precise) / kept, 0.95);
