@@ -1,0 +1,108 @@
+// Degenerate loop closures (the ambiguity issue): a closure matched in a corridor says little
+// along it (ConstraintCandidate::weak_direction), so its error there neither pulls the graph
+// nor gets it removed; across the corridor it is a closure like any other.
+#include <cmath>
+#include <algorithm>
+#include <memory>
+#include <vector>
+
+#include "frontends/submap_graph.h"
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+// A straight run along x, 0.5 m a scan; as the front end does, a submap starts every 10 scans
+// and takes 20, so each node is in two submaps (one at the start) and they chain up.
+std::unique_ptr<SubmapGraph> StraightRun(int nodes) {
+  auto graph = std::make_unique<SubmapGraph>(SubmapGraphOptions());
+  std::vector<Pose2> submap_origins;
+  for (int i = 0; i < nodes; ++i) {
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.local_pose = Pose2(0.5 * i, 0.0, 0.0);
+    if (i % 10 == 0) {
+      submap_origins.push_back(result.local_pose);
+      result.new_submaps.push_back({i / 10, result.local_pose});
+    }
+    for (int submap = std::max(0, i / 10 - 1); submap <= i / 10; ++submap) {
+      result.insertions.push_back({submap, submap_origins[submap].inverse() * result.local_pose});
+    }
+    graph->AddNode(0, std::move(result));
+  }
+  return graph;
+}
+
+ConstraintCandidate Closure(const NodeId& node, const Pose2& submap_T_node, const Eigen::Vector2d& weak) {
+  ConstraintCandidate closure;
+  closure.submap = {0, 0};
+  closure.node = node;
+  closure.submap_T_node = submap_T_node;
+  closure.score = 0.8;
+  closure.weak_direction = weak;
+  closure.weak_information_fraction = 0.0;
+  return closure;
+}
+
+TEST(SubmapGraphTest, ClosureAgreesIgnoresTheWeakDirection) {
+  LoopClosureReport loop;
+  loop.measured_submap_T_node = Pose2(5.0, 0.0, 0.5);
+  loop.estimated_submap_T_node = loop.measured_submap_T_node * Pose2(1.0, 0.05, 0.0);  // node frame
+  EXPECT_FALSE(ClosureAgrees(loop, 0.2, M_PI / 180));
+  // The weak direction is given in the submap frame: the node's x axis rotated by 0.5 rad.
+  loop.weak_direction = Eigen::Vector2d(std::cos(0.5), std::sin(0.5));
+  EXPECT_TRUE(ClosureAgrees(loop, 0.2, M_PI / 180));
+  loop.estimated_submap_T_node = loop.measured_submap_T_node * Pose2(0.05, 1.0, 0.0);
+  EXPECT_FALSE(ClosureAgrees(loop, 0.2, M_PI / 180));
+  loop.estimated_submap_T_node = loop.measured_submap_T_node * Pose2(1.0, 0.0, 0.1);
+  EXPECT_FALSE(ClosureAgrees(loop, 0.2, M_PI / 180));
+}
+
+TEST(SubmapGraphTest, DegenerateClosureDoesNotPullAlongItsWeakDirection) {
+  const NodeId last{0, 29};
+  const Pose2 truth(14.5, 0.0, 0.0);  // submap 0 sits at the origin
+  // 1 m off along the run (x), right across it.
+  const Pose2 measured(truth.x() + 1.0, truth.y(), truth.theta());
+
+  const std::unique_ptr<SubmapGraph> isotropic = StraightRun(30);
+  ASSERT_TRUE(isotropic->AddConstraint(Closure(last, measured, Eigen::Vector2d::Zero())));
+  ASSERT_TRUE(isotropic->Solve(50).ok());
+  ASSERT_EQ(1u, isotropic->LoopClosures().size());
+  EXPECT_TRUE(isotropic->LoopClosures()[0].removed) << "a 1 m disagreement is inconsistent";
+
+  const std::unique_ptr<SubmapGraph> degenerate = StraightRun(30);
+  ASSERT_TRUE(degenerate->AddConstraint(Closure(last, measured, Eigen::Vector2d::UnitX())));
+  ASSERT_TRUE(degenerate->Solve(50).ok());
+  ASSERT_EQ(1u, degenerate->LoopClosures().size());
+  EXPECT_FALSE(degenerate->LoopClosures()[0].removed) << "it measured nothing along x to disagree with";
+  EXPECT_NEAR(truth.x(), degenerate->NodePose(last).x(), 0.05);
+
+  // Off across the corridor: inconsistent whatever the weak direction.
+  const std::unique_ptr<SubmapGraph> across = StraightRun(30);
+  ASSERT_TRUE(across->AddConstraint(Closure(last, Pose2(truth.x(), 1.0, 0.0), Eigen::Vector2d::UnitX())));
+  ASSERT_TRUE(across->Solve(50).ok());
+  EXPECT_TRUE(across->LoopClosures()[0].removed);
+}
+
+// Along the weak direction the closure still pulls in proportion to its information.
+TEST(SubmapGraphTest, WeakInformationFractionScalesThePull) {
+  const NodeId last{0, 29};
+  const Pose2 measured(14.5 + 0.2, 0.0, 0.0);
+  double previous_pull = 0.0;
+  for (double fraction : {0.0, 0.1, 1.0}) {
+    const std::unique_ptr<SubmapGraph> graph = StraightRun(30);
+    ConstraintCandidate closure = Closure(last, measured, Eigen::Vector2d::UnitX());
+    closure.weak_information_fraction = fraction;
+    closure.robust = false;
+    ASSERT_TRUE(graph->AddConstraint(closure));
+    ASSERT_TRUE(graph->Solve(50).ok());
+    const double pull = graph->NodePose(last).x() - 14.5;
+    EXPECT_GE(pull, previous_pull) << "fraction " << fraction;
+    previous_pull = pull;
+  }
+  EXPECT_GT(previous_pull, 0.02);
+}
+
+}  // namespace
+}  // namespace hetslam
