@@ -96,4 +96,9 @@ bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
   return true;
 }
 
+size_t LaserMap::MemoryBytes() const {
+  return grid_.MemoryBytes() + field_.MemoryBytes() + changed_cells_.capacity() * sizeof(int) +
+         points_world_.capacity() * sizeof(Eigen::Vector2d) + labels_.capacity() + lines_.capacity() * sizeof(ScanLine);
+}
+
 }  // namespace hetslam

@@ -52,6 +52,8 @@ class LaserMap {
   const OccupancyGrid& grid() const { return grid_; }
   const LikelihoodField& field() const { return field_; }
   int num_scans_inserted() const { return num_scans_inserted_; }
+  // Heap bytes of the grid, the field and the scratch buffers.
+  size_t MemoryBytes() const;
 
  private:
   OccupancyGrid grid_;

@@ -174,4 +174,9 @@ void LikelihoodField::RebuildFrom(const OccupancyGrid& grid) {
   RebuildAll();
 }
 
+size_t LikelihoodField::MemoryBytes() const {
+  return (values_.capacity() + squared_distances_.capacity()) * sizeof(float) + stale_cells_.capacity() * sizeof(int) +
+         published_.capacity() * sizeof(Segment);
+}
+
 }  // namespace hetslam

@@ -88,6 +88,8 @@ class LikelihoodField {
   }
   float Value(int linear_index) const { return values_[linear_index]; }
   const std::vector<float>& values() const { return values_; }
+  // Heap bytes held (vector capacities).
+  size_t MemoryBytes() const;
 
  private:
   // A published surface piece: hit point relative to the cell's minimum corner (metres; NaN

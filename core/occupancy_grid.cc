@@ -308,4 +308,11 @@ float OccupancyGrid::Probability(int i) const {
   return 1.f - 1.f / (1.f + std::exp(log_odds_[i]));
 }
 
+size_t OccupancyGrid::MemoryBytes() const {
+  return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_sum_.capacity() * sizeof(Eigen::Vector2f) +
+         hit_count_.capacity() * sizeof(uint32_t) + line_sum_.capacity() * sizeof(Eigen::Vector3f) +
+         last_update_.capacity() * sizeof(uint32_t) + labels_.capacity() + height_min_.capacity() +
+         height_max_.capacity();
+}
+
 }  // namespace hetslam

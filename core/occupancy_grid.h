@@ -154,6 +154,8 @@ class OccupancyGrid {
   // CHECK-fail. For finished submaps that are only matched against.
   void Freeze();
   bool frozen() const { return frozen_; }
+  // Heap bytes held (vector capacities): what the grid costs in memory.
+  size_t MemoryBytes() const;
   int num_scans_refused() const { return num_scans_refused_; }
 
  private:

@@ -56,7 +56,7 @@ DEFINE_string(laser_mount, "", "ROS bags: the laser mount in the body frame as x
               "overrides /tf_static. Empty = from /tf_static.");
 DEFINE_string(trajectory_bag, "", "Also write the trajectory as a ROS 1 bag at this path: geometry_msgs/PoseStamped on "
               "/hetslam/pose and one nav_msgs/Path on /hetslam/path at the end, frame_id map (plays in RViz).");
-DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png (a readable picture: walls, other structure, floor obstacles, the trajectory, a scale bar and a legend), planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
+DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png (a readable picture: walls, other structure, floor obstacles, the trajectory, a scale bar and a legend), planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final), frontend_trajectory.txt (the uncorrected front-end poses) and particles.txt (the particle count over time). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
@@ -157,6 +157,19 @@ DEFINE_double(degenerate_drop_ratio, 0.25, "Like --degenerate_ratio, but from th
               "featureless corridor), the prediction is kept along that direction; 0 = off.");
 DEFINE_double(degenerate_sigma, 0.1, "Standard deviation (metres) of a degenerate match along its weak direction in the "
               "EKF update: there the EKF's prediction (commands, odometry) carries the pose and its covariance grows.");
+DEFINE_int32(max_particles, 6, "Rao-Blackwellized particle filter (paper §III-A): particles spawned under ambiguity (the "
+             "first match after suspended matching failed, or with --spawn_on_degenerate a degenerate match under an "
+             "uncertain prediction), drawn from the prediction's covariance, weighted by their scans against the "
+             "submaps as they were at the spawn and the earlier map, resampled, collapsed when the ambiguity is gone. "
+             "1 = the single-particle pipeline. Counts over time go to particles.txt.");
+DEFINE_uint64(particle_seed, 1, "Seed of the particle filter's draws (same log, flags and seed: same output bytes).");
+DEFINE_double(spawn_min_sigma, 0.05, "Spawn particles only when the prediction's standard deviation (metres; along the "
+              "weak direction of a degenerate match, else its largest) is at least this (see --max_particles).");
+DEFINE_bool(spawn_on_degenerate, false, "Also spawn particles along the weak direction of a degenerate match (a "
+            "corridor) when the prediction is uncertain there (see --spawn_min_sigma). Off: particles spawn only when "
+            "the first match after suspended matching failed or scored below 0.5.");
+DEFINE_int32(max_ambiguous_scans, 60, "Collapse to the best particle after this many scans at the latest (see "
+             "--max_particles); its deferred scans then enter the graph.");
 DEFINE_double(line_max_gap, 0.0, "Map surfaces, not dotted hits: neighbouring beams' end points at most this far apart "
               "(metres) that lie on a line make each hit stand for its piece of that line in the likelihood field (a "
               "wall seen at a grazing angle scores as a wall, not as dots); 0 = hit points only, the default (0.5 "
@@ -225,6 +238,9 @@ std::string FlagsNamedIn(const std::string& message) {
       {"covariance_sigmas", "--covariance_sigmas"},
       {"odometry_noise_fraction", "--odometry_noise_fraction"},
       {"lines: max_gap_meters", "--line_max_gap"},
+      {"max_particles", "--max_particles"},
+      {"spawn_min_sigma_meters", "--spawn_min_sigma"},
+      {"max_ambiguous_scans", "--max_ambiguous_scans"},
   };
   std::string flags;
   for (const auto& [field, flag] : kFlagOf) {
@@ -298,6 +314,11 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
     return false;
   }
   estimator->degenerate_sigma_meters = FLAGS_degenerate_sigma;
+  estimator->particles.max_particles = FLAGS_max_particles;
+  estimator->particles.seed = FLAGS_particle_seed;
+  estimator->particles.spawn_min_sigma_meters = FLAGS_spawn_min_sigma;
+  estimator->particles.max_ambiguous_scans = FLAGS_max_ambiguous_scans;
+  estimator->particles.spawn_on_degenerate = FLAGS_spawn_on_degenerate;
   estimator->use_odometry = FLAGS_use_odometry;
   estimator->use_commands = FLAGS_use_commands && !FLAGS_use_odometry;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &estimator->attitude_source) ||
@@ -331,12 +352,25 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   return true;
 }
 
+// The particle filter's count over time (a line at the first scan and at every change).
+Status WriteParticleCounts(const std::string& path, const std::vector<OnlineEstimator::ParticleCount>& counts) {
+  std::ostringstream out;
+  out << "# timestamp particles\n"
+         "# the particle filter's particle count from this scan on (a line at the first scan and at every change)\n";
+  out.precision(6);
+  out << std::fixed;
+  for (const OnlineEstimator::ParticleCount& c : counts) out << c.stamp_seconds << ' ' << c.particles << '\n';
+  const std::string text = out.str();
+  return WriteFileBytes(path, text.data(), text.size());
+}
+
 // Every accepted loop closure as measured and as in the final graph.
 Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureReport>& closures) {
   std::ostringstream out;  // written through a temporary file: no truncated output
-  out << "# submap node score measured_x measured_y measured_theta final_x final_y final_theta removed\n"
+  out << "# submap node score measured_x measured_y measured_theta final_x final_y final_theta removed weak_x weak_y\n"
          "# submap_T_node as matched and as in the final graph (metres, radians); removed = 1 when the\n"
-         "# consistency check took the closure out\n";
+         "# consistency check took the closure out; weak = the direction (submap frame) along which a\n"
+         "# degenerate closure (a corridor) measured little, 0 0 when it measured both\n";
   out.precision(9);
   for (const LoopClosureReport& loop : closures) {
     const Pose2& m = loop.measured_submap_T_node;
@@ -375,6 +409,14 @@ std::string Summary(const OnlineEstimator& estimator) {
                   s.marg_samples, s.marg_errors, s.ekf_errors, static_cast<long long>(estimator.ekf().num_replayed()));
     out += line;
   }
+  const ParticleFilterStats& p = estimator.particle_filter().stats();
+  std::snprintf(line, sizeof(line),
+                "particles: mean %.3f per scan, at most %d; %d spawns, %d collapses, %d resamples, %d scans weighted "
+                "against the earlier map; one extra particle at most %.2f MiB (the finished submaps: %.1f MiB)\n",
+                p.mean_particles(), p.max_particles, p.spawns, p.collapses, p.resamples, p.global_scorings,
+                p.max_extra_particle_bytes / 1048576.0,
+                estimator.graph().FinishedSubmapBytes(estimator.options().robot) / 1048576.0);
+  out += line;
   if (!estimator.options().loop_closure) return out;
   std::snprintf(line, sizeof(line),
                 "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d removed "
@@ -508,6 +550,7 @@ int Run() {
   if (options.loop_closure) {
     written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator->graph().LoopClosures()));
     written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator->LocalTrajectory()));
+    written.push_back(WriteParticleCounts((out / "particles.txt").string(), estimator->particle_counts()));
   }
   if (!FLAGS_trajectory_bag.empty()) {
     written.push_back(WriteTrajectoryBag(FLAGS_trajectory_bag, trajectory, TrajectoryBagOptions()));

@@ -160,6 +160,11 @@ Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicte
   return Pose2(predicted.translation() + strong.dot(correction) * strong, match.pose.theta());
 }
 
+bool FacesFloor(const LocalSlamOptions& options, const ScanPoints& points) {
+  return points.valid_points > 0 && options.suspend_floor_fraction < 1.0 &&
+         points.floor_points > options.suspend_floor_fraction * points.valid_points;
+}
+
 ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
                              const std::optional<BodyAttitude>& attitude) {
   ScanPoints points;
@@ -256,8 +261,7 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   result.local_pose = prediction.pose;
   // Paper §III-A/E: while the laser faces the floor, matching and map updates stop; the caller's
   // prediction (the EKF) carries the pose until walls come back.
-  if (points.valid_points > 0 && options_.suspend_floor_fraction < 1.0 &&
-      points.floor_points > options_.suspend_floor_fraction * points.valid_points) {
+  if (FacesFloor(options_, points)) {
     result.suspended = true;
     result.points = std::move(points);
     return result;
@@ -272,12 +276,12 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     // Only with a motion source (see frontier_margin_meters): without one, the frontier points
     // are the only evidence of the motion along a wall.
     if (prediction.external && prediction.measures_translation) {
-      result.frontier_points = LeaveOutFrontierPoints(options_, target.map, predicted_submap, &points);
+      result.frontier_points = LeaveOutFrontierPoints(options_, *target.map, predicted_submap, &points);
     }
-    if (options_.wall_weight != 1.0 && target.map.grid().has_labels()) {
+    if (options_.wall_weight != 1.0 && target.map->grid().has_labels()) {
       // Paper §III-E: points that land on wall cells (hit at several heights: invariant under
       // the 2.5D assumption) weigh more; where the prediction puts them.
-      const OccupancyGrid& grid = target.map.grid();
+      const OccupancyGrid& grid = target.map->grid();
       points.matching_weights.assign(points.matching.size(), 1.0f);
       bool any_wall = false;
       for (size_t k = 0; k < points.matching.size(); ++k) {
@@ -302,10 +306,10 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
                                      m.narrow_linear_search_window_meters + options_.covariance_sigmas * translation_sigma);
       const double angular = std::min(m.angular_search_window_radians,
                                       m.narrow_angular_search_window_radians + options_.covariance_sigmas * yaw_sigma);
-      result.match = matcher_.MatchWithinWindow(target.map, predicted_submap, points.matching, linear, angular,
+      result.match = matcher_.MatchWithinWindow(*target.map, predicted_submap, points.matching, linear, angular,
                                                 points.matching_weights);
     } else {
-      result.match = matcher_.Match(target.map, predicted_submap, points.matching, points.matching_weights,
+      result.match = matcher_.Match(*target.map, predicted_submap, points.matching, points.matching_weights,
                                     prediction.external || NarrowSearchTrusted(options_, state.recent));
     }
     // The wall weights were looked up where this prediction puts the points in this submap:
@@ -330,7 +334,8 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   // Submap bookkeeping: a new submap every scans_per_submap / 2 scans (one, ever, for 0).
   const int half = options_.scans_per_submap > 0 ? std::max(1, options_.scans_per_submap / 2) : 0;
   if (state.active.empty() || (half > 0 && state.active.back().num_scans >= half)) {
-    ActiveSubmap submap{state.next_submap_index++, result.local_pose, LaserMap(options_.grid, options_.field), 0};
+    ActiveSubmap submap{state.next_submap_index++, result.local_pose,
+                        std::make_shared<LaserMap>(options_.grid, options_.field), 0};
     result.new_submaps.push_back({submap.index, submap.local_T_submap});
     state.active.push_back(std::move(submap));
   }
@@ -338,15 +343,18 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     const Pose2 submap_T_node = submap.local_T_submap.inverse() * result.local_pose;
     // Labels and heights (the label layer, walls) only for 2.5D-projected scans: a level
     // scan's points are all structure at one height.
-    submap.map.InsertScan(submap_T_node, points.sensor_robot, points.all, points.projected ? &points.labels : nullptr,
+    // Copy on write: another particle's state shares this map.
+    if (submap.map.use_count() > 1) submap.map = std::make_shared<LaserMap>(*submap.map);
+    submap.map->InsertScan(submap_T_node, points.sensor_robot, points.all, points.projected ? &points.labels : nullptr,
                           points.projected ? &points.heights_meters : nullptr);
     ++submap.num_scans;
     result.insertions.push_back({submap.index, submap_T_node});
   }
   if (options_.scans_per_submap > 0 && state.active.front().num_scans >= options_.scans_per_submap) {
     ActiveSubmap& done = state.active.front();
-    done.map.Freeze();  // matched against only from now on
-    result.finished = LocalResult::FinishedSubmap{done.index, std::make_shared<const LaserMap>(std::move(done.map))};
+    // Matched against only from now on. (Unshared: it just took this scan.)
+    done.map->Freeze();
+    result.finished = LocalResult::FinishedSubmap{done.index, std::move(done.map)};
     state.active.erase(state.active.begin());
   }
   result.inserted = true;

@@ -159,6 +159,10 @@ struct ScanPoints {
 ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
                              const std::optional<BodyAttitude>& attitude = std::nullopt);
 
+// Paper §III-A/E: whether the laser faces the floor (more than suspend_floor_fraction of the
+// scan's valid beams hit it): then matching and map updates stop (LocalResult::suspended).
+bool FacesFloor(const LocalSlamOptions& options, const ScanPoints& points);
+
 // The next pose predicted from the trajectory so far (and, for kOdometry, the odometry
 // increment from `last_motion` at the last pose to `motion` now; without both, the last pose).
 // Identity for an empty trajectory.
@@ -193,15 +197,17 @@ int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map,
 Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
                           bool* degenerate = nullptr, Eigen::Vector2d* weak_direction = nullptr);
 
-// An active submap: its map (owned: copying the state copies it) and where it sits.
+// An active submap: its map and where it sits. The map is shared copy-on-write: copying the
+// state (a particle of frontends/particle_filter.h) shares it, and AddScan copies it before
+// the first insertion that would change a shared map.
 struct ActiveSubmap {
   int index = 0;          // this robot's submap number, in creation order
   Pose2 local_T_submap;   // front end frame
-  LaserMap map;           // in the submap frame
+  std::shared_ptr<LaserMap> map;  // in the submap frame; never null
   int num_scans = 0;
 };
 
-// Everything AddScan changes: one copyable value.
+// Everything AddScan changes: one value, cheap to copy (the maps are shared until written).
 struct LocalSlamState {
   std::vector<ActiveSubmap> active;           // oldest first
   std::vector<StampedPose2> recent;           // the last (up to) two inserted local poses
@@ -276,6 +282,8 @@ class LocalSlam {
 
   const LocalSlamState& state() const { return state_; }
   void set_state(LocalSlamState state) { state_ = std::move(state); }
+  // For a particle filter that swaps its particles' states through one LocalSlam.
+  LocalSlamState* mutable_state() { return &state_; }
   const LocalSlamOptions& options() const { return options_; }
 
  private:

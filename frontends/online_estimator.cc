@@ -53,6 +53,7 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
   if (!graph.IsValid(&sub)) msg << "graph: " << sub;
   if (!marg.IsValid(&sub)) msg << "marg: " << sub << "; ";
   if (!ekf.IsValid(&sub)) msg << "ekf: " << sub << "; ";
+  if (!particles.IsValid(&sub)) msg << "particles: " << sub;
   if (loop_closure && local.scans_per_submap < 2)
     msg << "loop closure needs local.scans_per_submap >= 2 (got " << local.scans_per_submap << "); ";
   if (solve_every_n_loop_closures < 1) msg << "solve_every_n_loop_closures must be >= 1; ";
@@ -73,7 +74,7 @@ OnlineEstimator::OnlineEstimator(const OnlineEstimatorOptions& options)
 
 OnlineEstimator::OnlineEstimator(const OnlineEstimatorOptions& options, SubmapGraph* team_graph)
     : options_(options),
-      local_(options.local),
+      local_(options.local, options.particles),
       owned_graph_(team_graph == nullptr ? std::make_unique<SubmapGraph>(options.graph) : nullptr),
       graph_(team_graph == nullptr ? owned_graph_.get() : team_graph),
       loop_(options.loop),
@@ -285,9 +286,36 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
                          " m from the last pose, over max_scan_jump_meters (refused)");
   }
   const long long floor_obstacle_points = static_cast<long long>(points.floor_obstacles.size());
-  LocalResult result = local_.AddScan(stamp, std::move(points), prediction);
-  if (result.inserted || result.suspended) stats_.floor_obstacle_points += floor_obstacle_points;
-  if (result.suspended) {
+  ParticleStep step = local_.AddScan(stamp, std::move(points), prediction, odometry, *graph_, options_.robot);
+  const LocalResult& current = step.Current();
+  const bool suspended = current.suspended;
+  const bool inserted = current.inserted;
+  if (inserted || suspended) stats_.floor_obstacle_points += floor_obstacle_points;
+  if (inserted) {
+    if (current.matched && !current.match.converged) ++stats_.match_failures;
+    if (current.match.converged) match_scores_.push_back(current.match.score);
+    stats_.degenerate_matches += current.degenerate;
+    stats_.frontier_scans += current.frontier_points > 0;
+    stats_.frontier_points += current.frontier_points;
+    // The match updates the EKF (the best particle's, while there are several).
+    ScanMatchPose update;
+    update.stamp_seconds = stamp;
+    update.world_T_robot = current.local_pose;
+    const double st = options_.scan_match_translation_sigma_meters, sr = options_.scan_match_rotation_sigma_radians;
+    update.covariance = Eigen::Vector3d(st * st, st * st, sr * sr).asDiagonal();
+    if (current.degenerate) {
+      const Eigen::Vector2d& v = current.weak_direction;
+      const double free = options_.degenerate_sigma_meters;
+      update.covariance.topLeftCorner<2, 2>() += (free * free - st * st) * v * v.transpose();
+    }
+    if (!ekf_.AddScanMatchPose(update).ok()) ++stats_.ekf_errors;
+  } else if (!suspended) {
+    ++stats_.skipped_too_few_points;
+  }
+  std::optional<LocalResult> this_scan = std::move(step.current);  // `current` may refer to it: not used below
+  for (LocalResult& result : step.committed) AddNode(std::move(result));
+  RecordParticleCount(stamp, step.particles);
+  if (suspended) {
     // The EKF carries the pose; floor obstacles seen meanwhile stay in the planner map, tied to
     // the last node so that the graph's corrections move them too.
     ++stats_.suspended_scans;
@@ -296,53 +324,40 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
       const NodeId last{options_.robot, nodes - 1};
       const Pose2 node_T_scan = graph_->NodeLocalPose(last).inverse() * prediction.pose;
       suspended_poses_.push_back({stamp, last, node_T_scan});
-      if (!result.points.floor_obstacles.empty()) {
+      if (this_scan.has_value() && !this_scan->points.floor_obstacles.empty()) {
         suspended_obstacles_.push_back(
-            {last, node_T_scan, result.points.sensor_robot, std::move(result.points.floor_obstacles)});
+            {last, node_T_scan, this_scan->points.sensor_robot, std::move(this_scan->points.floor_obstacles)});
       }
-    }
-    return Status::Ok();
-  }
-  if (!result.inserted) {
-    ++stats_.skipped_too_few_points;
-    return Status::Ok();
-  }
-  if (result.matched && !result.match.converged) ++stats_.match_failures;
-  if (result.match.converged) match_scores_.push_back(result.match.score);
-  stats_.degenerate_matches += result.degenerate;
-  stats_.frontier_scans += result.frontier_points > 0;
-  stats_.frontier_points += result.frontier_points;
-  const Pose2 local_pose = result.local_pose;
-  const std::vector<StampedPose2>& recent = local_.state().recent;
-  const double step = recent.size() >= 2 ? (recent[1].pose.translation() - recent[0].pose.translation()).norm() : 0.0;
-
-  ScanMatchPose update;
-  update.stamp_seconds = stamp;
-  update.world_T_robot = local_pose;
-  const double st = options_.scan_match_translation_sigma_meters, sr = options_.scan_match_rotation_sigma_radians;
-  update.covariance = Eigen::Vector3d(st * st, st * st, sr * sr).asDiagonal();
-  if (result.degenerate) {
-    const Eigen::Vector2d& v = result.weak_direction;
-    const double free = options_.degenerate_sigma_meters;
-    update.covariance.topLeftCorner<2, 2>() += (free * free - st * st) * v * v.transpose();
-  }
-  if (!ekf_.AddScanMatchPose(update).ok()) ++stats_.ekf_errors;
-
-  const NodeId node = graph_->AddNode(options_.robot, std::move(result));
-  if (options_.loop_closure) {
-    loop_.AddTravel(step);
-    const LoopSearchResult found = loop_.Search(*graph_, node);
-    for (const ConstraintCandidate& closure : found.closures) {
-      if (graph_->AddConstraint(closure)) ++loop_closures_since_solve_;
-    }
-    if (found.solve_now) Solve(options_.max_iterations_final);
-    ++nodes_since_solve_;
-    if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures &&
-        nodes_since_solve_ >= options_.solve_min_new_nodes) {
-      Solve(options_.max_iterations_per_solve);
     }
   }
   return Status::Ok();
+}
+
+void OnlineEstimator::RecordParticleCount(double stamp_seconds, int particles) {
+  if (particle_counts_.empty() || particle_counts_.back().particles != particles) {
+    particle_counts_.push_back({stamp_seconds, particles});
+  }
+}
+
+void OnlineEstimator::AddNode(LocalResult result) {
+  // Travel since the previous node (its local pose), for the loop closer's drift bound.
+  const int nodes = graph_->num_nodes(options_.robot);
+  const double step =
+      nodes > 0 ? (result.local_pose.translation() - graph_->NodeLocalPose({options_.robot, nodes - 1}).translation()).norm()
+                : 0.0;
+  const NodeId node = graph_->AddNode(options_.robot, std::move(result));
+  if (!options_.loop_closure) return;
+  loop_.AddTravel(step);
+  const LoopSearchResult found = loop_.Search(*graph_, node);
+  for (const ConstraintCandidate& closure : found.closures) {
+    if (graph_->AddConstraint(closure)) ++loop_closures_since_solve_;
+  }
+  if (found.solve_now) Solve(options_.max_iterations_final);
+  ++nodes_since_solve_;
+  if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures &&
+      nodes_since_solve_ >= options_.solve_min_new_nodes) {
+    Solve(options_.max_iterations_per_solve);
+  }
 }
 
 void OnlineEstimator::Solve(int max_iterations) {
@@ -357,6 +372,8 @@ void OnlineEstimator::Solve(int max_iterations) {
 void OnlineEstimator::Finish() {
   if (finished_) return;
   finished_ = true;
+  // Particles still alive: the best one's deferred scans become nodes.
+  for (LocalResult& result : local_.Collapse()) AddNode(std::move(result));
   if (options_.loop_closure && graph_->num_nodes(options_.robot) > 0) Solve(options_.max_iterations_final);
 }
 
@@ -404,6 +421,10 @@ std::vector<StampedPose2> OnlineEstimator::AdvanceTo(double stamp_seconds) {
 
 std::vector<StampedPose2> OnlineEstimator::Trajectory() const {
   std::vector<StampedPose2> trajectory = graph_->Trajectory(options_.robot);
+  // Scans the particle filter still defers: the best particle's poses.
+  for (const StampedPose2& p : local_.DeferredPoses()) {
+    trajectory.push_back({p.stamp_seconds, graph_->LocalToRobot(options_.robot) * p.pose});
+  }
   if (suspended_poses_.empty()) return trajectory;
   // Scans whose matching was suspended, at the EKF's pose relative to the node before them.
   for (const SuspendedPose& p : suspended_poses_) {
@@ -422,6 +443,8 @@ std::vector<StampedPose2> OnlineEstimator::LocalTrajectory() const {
     const NodeId id{options_.robot, i};
     trajectory.push_back({graph_->NodeStamp(id), graph_->NodeLocalPose(id)});
   }
+  const std::vector<StampedPose2> deferred = local_.DeferredPoses();
+  trajectory.insert(trajectory.end(), deferred.begin(), deferred.end());
   return trajectory;
 }
 

@@ -11,10 +11,12 @@
 //   command      -> the EKF's prediction (paper eq. 3);
 //   odometry     -> kept for the front end's odometry prediction (use_odometry);
 //   laser scan   -> prepared (2.5D projection with the attitude at the scan's stamp, floor hits
-//                   dropped), predicted, matched by local SLAM (frontends/local_slam.h), its
-//                   node added to the submap graph (frontends/submap_graph.h), loop closures
-//                   searched (frontends/loop_closer.h) and the graph solved now and then; the
-//                   match then updates the EKF.
+//                   dropped), predicted, matched by local SLAM (frontends/local_slam.h) inside
+//                   the particle filter (frontends/particle_filter.h: one particle, more under
+//                   ambiguity), the best particle's match updates the EKF; final results (at
+//                   once with one particle, the kept particle's deferred ones at a collapse)
+//                   become nodes of the submap graph (frontends/submap_graph.h), loop closures
+//                   are searched (frontends/loop_closer.h) and the graph solved now and then.
 //
 // The EKF state updater (frontends/ekf_state_updater.h) runs in the front end's local frame.
 // It predicts each scan's pose when the stream carries commands or MARG samples (else the
@@ -48,6 +50,7 @@
 #include "frontends/local_slam.h"
 #include "frontends/loop_closer.h"
 #include "frontends/marg_filter.h"
+#include "frontends/particle_filter.h"
 #include "frontends/submap_graph.h"
 
 namespace hetslam {
@@ -63,6 +66,10 @@ bool ParseAttitudeSource(const std::string& name, AttitudeSource* source);
 struct OnlineEstimatorOptions {
   int robot = 0;  // this robot's id in the submap graph
   LocalSlamOptions local;
+  // The front end's particle filter (frontends/particle_filter.h): one particle, more under
+  // ambiguity; scans it defers while several particles live enter the graph when they
+  // collapse (Trajectory() shows the best particle's poses meanwhile).
+  ParticleFilterOptions particles;
   bool loop_closure = true;  // false: the front end alone against one global map
   LoopCloserOptions loop;
   SubmapGraphOptions graph;
@@ -167,7 +174,14 @@ class OnlineEstimator {
   // The EKF's constant-rate output (every ekf.output_period_seconds) since the previous call, up
   // to `stamp_seconds`, in the robot frame: for a live node that publishes at a fixed rate.
   std::vector<StampedPose2> AdvanceTo(double stamp_seconds);
-  const LocalSlam& local_slam() const { return local_; }
+  const LocalSlam& local_slam() const { return local_.local_slam(); }
+  const ParticleLocalSlam& particle_filter() const { return local_; }
+  // The particle count over time: an entry at the first scan and whenever the count changed.
+  struct ParticleCount {
+    double stamp_seconds;
+    int particles;
+  };
+  const std::vector<ParticleCount>& particle_counts() const { return particle_counts_; }
   const LoopCloser& loop_closer() const { return loop_; }
   const EkfStateUpdater& ekf() const { return ekf_; }
   const OnlineEstimatorStats& stats() const { return stats_; }
@@ -179,11 +193,14 @@ class OnlineEstimator {
   Status AddScan(const LaserReading& reading);
   Status AddMarg(const MargSample& sample);
   std::optional<BodyAttitude> AttitudeAt(double stamp_seconds) const;
+  // Adds a final front-end result to the graph, searches loop closures, solves now and then.
+  void AddNode(LocalResult result);
+  void RecordParticleCount(double stamp_seconds, int particles);
   void Solve(int max_iterations);
   void Prune(double newest_stamp_seconds);
 
   OnlineEstimatorOptions options_;
-  LocalSlam local_;
+  ParticleLocalSlam local_;
   std::unique_ptr<SubmapGraph> owned_graph_;
   SubmapGraph* graph_;  // owned_graph_, or a team's
   LoopCloser loop_;
@@ -203,6 +220,7 @@ class OnlineEstimator {
   int nodes_since_solve_ = 0;
   bool finished_ = false;
   std::vector<double> match_scores_;
+  std::vector<ParticleCount> particle_counts_;
   std::vector<SubmapGraph::AnchoredPoints> suspended_obstacles_;
   struct SuspendedPose {
     double stamp_seconds;

@@ -253,6 +253,11 @@ SearchContext MakeContext(const ScanMatcherOptions& options, const LaserMap& map
 
 }  // namespace
 
+double ScoreAt(const LaserMap& map, const Pose2& pose, const std::vector<Eigen::Vector2f>& points_robot,
+               const std::vector<float>& weights) {
+  return BilinearScore(map.field(), pose, points_robot, weights);
+}
+
 bool ScanMatcherOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
   // Windows up to 50 m: the search visits (2 window / cell)^2 offsets per angle (hostile-input rule).

@@ -86,6 +86,11 @@ struct ScanMatchResult {
   std::string message;           // why it did not converge
 };
 
+// The weighted mean likelihood-field value (bilinear) of `points_robot` placed by `pose` in the
+// map: ScanMatchResult::score without a search. `weights` empty or one per point.
+double ScoreAt(const LaserMap& map, const Pose2& pose, const std::vector<Eigen::Vector2f>& points_robot,
+               const std::vector<float>& weights = {});
+
 // Not thread-safe: searches reuse internal buffers, so use one ScanMatcher per thread.
 class ScanMatcher {
  public:

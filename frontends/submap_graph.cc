@@ -255,6 +255,16 @@ const LaserMap* SubmapGraph::FinishedSubmapMap(const SubmapId& submap) const {
   return robots_.at(submap.robot).submaps.at(submap.index).map.get();
 }
 
+size_t SubmapGraph::FinishedSubmapBytes(int robot) const {
+  const auto it = robots_.find(robot);
+  if (it == robots_.end()) return 0;
+  size_t bytes = 0;
+  for (const auto& [index, submap] : it->second.submaps) {
+    if (submap.map != nullptr) bytes += submap.map->MemoryBytes();
+  }
+  return bytes;
+}
+
 bool SubmapGraph::SubmapBox(const SubmapId& id, Eigen::Vector2d* min, Eigen::Vector2d* max) const {
   const auto robot = robots_.find(id.robot);
   if (robot == robots_.end()) return false;

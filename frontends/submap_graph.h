@@ -160,6 +160,8 @@ class SubmapGraph {
   // A finished submap's map (null while it is active) and the box of its nodes' positions in
   // its own frame; the index of the last node inserted into it.
   const LaserMap* FinishedSubmapMap(const SubmapId& submap) const;
+  // Heap bytes of `robot`'s finished submaps' maps (LaserMap::MemoryBytes); 0 for an unknown robot.
+  size_t FinishedSubmapBytes(int robot) const;
   bool SubmapBox(const SubmapId& submap, Eigen::Vector2d* min, Eigen::Vector2d* max) const;
   int SubmapLastNode(const SubmapId& submap) const;
 

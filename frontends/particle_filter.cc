@@ -1,0 +1,397 @@
+#include "frontends/particle_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <utility>
+
+#include "Eigen/Eigenvalues"
+#include "frontends/scan_matcher.h"
+#include "glog/logging.h"
+
+namespace hetslam {
+namespace {
+
+// Heap bytes of a scan's points.
+size_t PointsBytes(const ScanPoints& points) {
+  return (points.all.capacity() + points.matching.capacity() + points.floor_obstacles.capacity()) *
+             sizeof(Eigen::Vector2f) +
+         points.labels.capacity() * sizeof(PointLabel) +
+         (points.heights_meters.capacity() + points.matching_weights.capacity()) * sizeof(float);
+}
+
+// Log-likelihood of a scan whose mean likelihood-field value is `score` (see
+// ParticleFilterOptions::effective_points).
+double ScanLogLikelihood(const ParticleFilterOptions& options, double score) {
+  const double p = options.likelihood_floor + (1.0 - options.likelihood_floor) * std::clamp(score, 0.0, 1.0);
+  return options.effective_points * std::log(p);
+}
+
+// The translation of `a` relative to `b` and their yaw difference, for the collapse spread.
+bool WithinSpread(const ParticleFilterOptions& options, const Pose2& a, const Pose2& b) {
+  return (a.translation() - b.translation()).norm() <= options.collapse_spread_meters &&
+         std::abs(Between(a, b).theta()) <= options.collapse_spread_radians;
+}
+
+}  // namespace
+
+std::vector<double> NormalizedWeights(const std::vector<double>& log_weights) {
+  std::vector<double> weights(log_weights.size(), 0.0);
+  if (log_weights.empty()) return weights;
+  double max_log = -std::numeric_limits<double>::infinity();
+  for (double l : log_weights) {
+    if (l == l) max_log = std::max(max_log, l);  // NaN compares false: skipped
+  }
+  if (!std::isfinite(max_log)) {
+    std::fill(weights.begin(), weights.end(), 1.0 / log_weights.size());
+    return weights;
+  }
+  double sum = 0.0;
+  for (size_t i = 0; i < log_weights.size(); ++i) {
+    const double l = log_weights[i];
+    weights[i] = l == l ? std::exp(l - max_log) : 0.0;  // in [0, 1]: no overflow
+    sum += weights[i];
+  }
+  for (double& w : weights) w /= sum;  // sum >= 1: the maximum contributes exp(0)
+  return weights;
+}
+
+double EffectiveSampleSize(const std::vector<double>& weights) {
+  double sum_squares = 0.0;
+  for (double w : weights) sum_squares += w * w;
+  return sum_squares > 0 ? 1.0 / sum_squares : 0.0;
+}
+
+double UniformDraw(std::mt19937_64* rng) { return static_cast<double>((*rng)() >> 11) * 0x1.0p-53; }
+
+double NormalDraw(std::mt19937_64* rng) {
+  // Box-Muller; 1 - u is in (0, 1], so the logarithm is finite.
+  const double u1 = 1.0 - UniformDraw(rng);
+  const double u2 = UniformDraw(rng);
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
+}
+
+std::vector<int> LowVarianceResample(const std::vector<double>& weights, int count, std::mt19937_64* rng) {
+  CHECK(!weights.empty()) << "LowVarianceResample: no weights";
+  CHECK_GT(count, 0) << "LowVarianceResample: count " << count;
+  std::vector<int> picked;
+  picked.reserve(count);
+  const double step = 1.0 / count;
+  const double offset = UniformDraw(rng) * step;
+  int i = 0;
+  double cumulative = weights[0];
+  for (int m = 0; m < count; ++m) {
+    const double tooth = offset + m * step;
+    while (tooth > cumulative && i + 1 < static_cast<int>(weights.size())) cumulative += weights[++i];
+    picked.push_back(i);
+  }
+  return picked;
+}
+
+bool ParticleFilterOptions::IsValid(std::string* error) const {
+  std::ostringstream msg;
+  if (!(max_particles >= 1 && max_particles <= 1000)) msg << "max_particles must be in [1, 1000]; ";
+  if (!(spawn_min_sigma_meters >= 0 && std::isfinite(spawn_min_sigma_meters)))
+    msg << "spawn_min_sigma_meters must be >= 0; ";
+  if (!(effective_points > 0 && effective_points <= 1e4)) msg << "effective_points must be in (0, 10000]; ";
+  if (!(likelihood_floor > 0 && likelihood_floor < 1)) msg << "likelihood_floor must be in (0, 1); ";
+  if (!(resample_ess_fraction >= 0 && resample_ess_fraction <= 1)) msg << "resample_ess_fraction must be in [0, 1]; ";
+  if (!(collapse_weight > 0 && collapse_weight <= 1)) msg << "collapse_weight must be in (0, 1]; ";
+  if (!(settled_min_score >= 0 && settled_min_score <= 1)) msg << "settled_min_score must be in [0, 1]; ";
+  if (!(decisive_weight_ratio >= 1 && std::isfinite(decisive_weight_ratio)))
+    msg << "decisive_weight_ratio must be >= 1; ";
+  if (!(collapse_spread_meters >= 0 && collapse_spread_radians >= 0))
+    msg << "collapse spreads must be >= 0; ";
+  if (max_ambiguous_scans < 1) msg << "max_ambiguous_scans must be >= 1; ";
+  if (!(global_margin_meters >= 0 && std::isfinite(global_margin_meters))) msg << "global_margin_meters must be >= 0; ";
+  if (error != nullptr) *error = msg.str();
+  return msg.str().empty();
+}
+
+ParticleLocalSlam::ParticleLocalSlam(const LocalSlamOptions& local_options, const ParticleFilterOptions& options)
+    : options_(options), slam_(local_options), particles_(1), rng_(options.seed) {
+  std::string error;
+  CHECK(options_.IsValid(&error)) << "invalid ParticleFilterOptions: " << error;
+}
+
+Prediction ParticleLocalSlam::Predict(const std::optional<Pose2>& odometry) const {
+  // LocalSlam::Predict reads its own state: a const LocalSlam holding the best particle's.
+  LocalSlam& slam = const_cast<LocalSlam&>(slam_);
+  std::swap(*slam.mutable_state(), const_cast<LocalSlamState&>(particles_[best_].state));
+  const Prediction prediction = slam.Predict(odometry);
+  std::swap(*slam.mutable_state(), const_cast<LocalSlamState&>(particles_[best_].state));
+  return prediction;
+}
+
+void ParticleLocalSlam::Spawn(const Eigen::Matrix3d& covariance, const Prediction& prediction,
+                              std::vector<Prediction>* predictions) {
+  // covariance = V diag(λ) V^T; a draw is V sqrt(λ) n with n standard normal (λ < 0 from
+  // rounding taken as 0): valid for the rank-one spread along a weak direction too.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (covariance + covariance.transpose()));
+  const Eigen::Matrix3d root = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  particles_[0].undisturbed = true;
+  Particle parent = particles_[0];
+  parent.undisturbed = false;
+  spawn_submaps_ = parent.state.active;  // shared: the particles copy what they change
+  for (int k = 1; k < options_.max_particles; ++k) {
+    Eigen::Vector3d n;
+    for (int j = 0; j < 3; ++j) n(j) = NormalDraw(&rng_);
+    const Eigen::Vector3d delta = root * n;
+    Prediction p = prediction;
+    p.pose = Pose2(prediction.pose.translation() + delta.head<2>(), prediction.pose.theta() + delta(2));
+    particles_.push_back(parent);
+    predictions->push_back(p);
+  }
+  ++stats_.spawns;
+}
+
+ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction,
+                                        const std::optional<Pose2>& odometry, const SubmapGraph& graph, int robot) {
+  ++stats_.scans;
+  ParticleStep step;
+  // Per-particle predictions: the best particle's is the caller's.
+  const bool relative = prediction.external && !prediction.motion.has_value() && reference_pose_.has_value();
+  std::vector<Prediction> predictions;
+  for (int i = 0; i < num_particles(); ++i) {
+    if (i == best_) {
+      predictions.push_back(prediction);
+    } else if (relative) {
+      Prediction p = prediction;
+      const std::vector<StampedPose2>& recent = particles_[i].state.recent;
+      const Pose2 last = recent.empty() ? *reference_pose_ : recent.back().pose;
+      p.pose = last * Between(*reference_pose_, prediction.pose);
+      predictions.push_back(p);
+    } else {
+      std::swap(*slam_.mutable_state(), particles_[i].state);
+      Prediction p = slam_.Predict(odometry);
+      std::swap(*slam_.mutable_state(), particles_[i].state);
+      // The caller's source flags (and covariance) hold for every particle.
+      p.external = prediction.external;
+      p.measures_translation = prediction.measures_translation;
+      if (!p.covariance.has_value()) p.covariance = prediction.covariance;
+      predictions.push_back(p);
+    }
+  }
+  // A trigger spawns at the first scan that will be matched (not facing the floor, enough points).
+  const bool usable = !FacesFloor(slam_.options(), points) &&
+                      static_cast<int>(points.all.size()) >= slam_.options().min_points;
+  if (usable && num_particles() == 1 && spawn_covariance_.has_value()) {
+    Spawn(*spawn_covariance_, prediction, &predictions);
+    step.spawned = true;
+    ambiguous_scans_ = 0;
+    spawn_covariance_.reset();
+  }
+
+  const int n = num_particles();
+  std::vector<LocalResult> results(n);
+  for (int i = 0; i < n; ++i) {
+    std::swap(*slam_.mutable_state(), particles_[i].state);
+    results[i] = slam_.AddScan(stamp_seconds, n == 1 ? std::move(points) : points, predictions[i]);
+    std::swap(*slam_.mutable_state(), particles_[i].state);
+  }
+  stats_.particle_scans += n;
+  stats_.max_particles = std::max(stats_.max_particles, n);
+
+  if (n == 1) {
+    LocalResult& result = results[0];
+    if (result.suspended) after_suspension_ = true;
+    if (result.inserted) {
+      reference_pose_ = result.local_pose;
+      // The first match after suspended matching: when it cannot settle the pose (it failed,
+      // or its score is flat along a direction) and the prediction that carried the pose is
+      // uncertain, spread particles from its covariance.
+      const bool settled = result.match.converged && result.match.score >= options_.settled_min_score;
+      if (after_suspension_ && result.matched && !settled && options_.spawn_after_suspension &&
+          options_.max_particles > 1 && prediction.covariance.has_value()) {
+        const double sigma = std::sqrt(std::max(
+            0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(prediction.covariance->topLeftCorner<2, 2>())
+                     .eigenvalues()(1)));
+        if (sigma >= options_.spawn_min_sigma_meters) spawn_covariance_ = *prediction.covariance;
+      }
+      after_suspension_ = false;
+      // A degenerate match under an uncertain prediction: spread along the weak direction.
+      if (result.degenerate && options_.spawn_on_degenerate && options_.max_particles > 1 &&
+          prediction.covariance.has_value()) {
+        const Eigen::Vector2d& w = result.weak_direction;
+        const double variance = w.dot(prediction.covariance->topLeftCorner<2, 2>() * w);
+        if (variance >= options_.spawn_min_sigma_meters * options_.spawn_min_sigma_meters) {
+          Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
+          spread.topLeftCorner<2, 2>() = variance * w * w.transpose();
+          spawn_covariance_ = spread;
+        }
+      }
+      step.committed.push_back(std::move(result));
+    } else {
+      step.current = std::move(result);
+    }
+    return step;
+  }
+
+  // Several particles: weights from the scan against each particle's own submaps and against
+  // the graph's map from before the ambiguity.
+  ++ambiguous_scans_;
+  if (results[0].inserted) {
+    // Against the submaps as they were at the spawn (shared by all particles, so the
+    // comparison is fair: a particle's own submaps agree with its own later scans whatever
+    // its pose), and against the graph's finished submaps.
+    for (int i = 0; i < n; ++i) {
+      double score = 0.0;
+      for (const ActiveSubmap& submap : spawn_submaps_) {
+        if (submap.num_scans == 0) continue;
+        score = std::max(score, ScoreAt(*submap.map, submap.local_T_submap.inverse() * results[i].local_pose,
+                                        points.matching));
+      }
+      particles_[i].log_weight += ScanLogLikelihood(options_, score);
+    }
+    ScoreAgainstGraph(points, results, graph, robot);
+  }
+  const std::vector<double> weights = Weights();
+  best_ = static_cast<int>(std::max_element(weights.begin(), weights.end()) - weights.begin());
+  // Every particle matched the same points: all were inserted, or none (suspended, too few).
+  const bool inserted = results[best_].inserted;
+  if (inserted) reference_pose_ = results[best_].local_pose;
+  LocalResult not_inserted = inserted ? LocalResult() : std::move(results[best_]);
+  for (int i = 0; i < n; ++i) {
+    if (results[i].inserted) particles_[i].deferred.push_back(std::make_shared<const LocalResult>(std::move(results[i])));
+  }
+  for (int i = 0; i < n; ++i) {
+    if (i != best_) {
+      stats_.max_extra_particle_bytes = std::max(stats_.max_extra_particle_bytes, ExtraParticleBytes(particles_[i]));
+    }
+  }
+
+  bool agree = true;
+  const Pose2 best_pose = particles_[best_].state.recent.empty() ? prediction.pose : particles_[best_].state.recent.back().pose;
+  for (const Particle& p : particles_) {
+    if (!p.state.recent.empty() && !WithinSpread(options_, p.state.recent.back().pose, best_pose)) agree = false;
+  }
+  if (weights[best_] >= options_.collapse_weight || agree || ambiguous_scans_ >= options_.max_ambiguous_scans) {
+    step.committed = Collapse();
+    step.collapsed = true;
+    if (!inserted) step.current = std::move(not_inserted);
+  } else {
+    if (EffectiveSampleSize(weights) < options_.resample_ess_fraction * n) Resample();
+    step.current = inserted ? *particles_[best_].deferred.back() : std::move(not_inserted);
+  }
+  step.particles = n;
+  return step;
+}
+
+void ParticleLocalSlam::ScoreAgainstGraph(const ScanPoints& points, const std::vector<LocalResult>& results,
+                                          const SubmapGraph& graph, int robot) {
+  if (!graph.HasRobot(robot)) return;
+  const Pose2 robot_T_local = graph.LocalToRobot(robot);
+  const int n = static_cast<int>(results.size());
+  std::vector<double> best_score(n, 0.0);
+  bool any = false;
+  for (int s = 0; s < graph.num_submaps(robot); ++s) {
+    const SubmapId submap{robot, s};
+    const LaserMap* map = graph.FinishedSubmapMap(submap);
+    if (map == nullptr) continue;
+    Eigen::Vector2d box_min, box_max;
+    graph.SubmapBox(submap, &box_min, &box_max);
+    const Pose2 submap_T_robot = graph.SubmapPose(submap).inverse() * robot_T_local;
+    bool near = false;
+    for (const LocalResult& r : results) {
+      const Eigen::Vector2d p = (submap_T_robot * r.local_pose).translation();
+      near |= (p.array() >= box_min.array() - options_.global_margin_meters).all() &&
+              (p.array() <= box_max.array() + options_.global_margin_meters).all();
+    }
+    if (!near) continue;
+    any = true;
+    for (int i = 0; i < n; ++i) {
+      best_score[i] = std::max(best_score[i], ScoreAt(*map, submap_T_robot * results[i].local_pose, points.matching));
+    }
+  }
+  if (!any) return;
+  ++stats_.global_scorings;
+  for (int i = 0; i < n; ++i) particles_[i].log_weight += ScanLogLikelihood(options_, best_score[i]);
+}
+
+void ParticleLocalSlam::Resample() {
+  std::vector<double> logs;
+  for (const Particle& p : particles_) logs.push_back(p.log_weight);
+  const std::vector<int> picked = LowVarianceResample(NormalizedWeights(logs), num_particles(), &rng_);
+  std::vector<Particle> resampled;
+  resampled.reserve(picked.size());
+  int new_best = -1;
+  for (size_t k = 0; k < picked.size(); ++k) {
+    resampled.push_back(particles_[picked[k]]);
+    resampled.back().log_weight = 0.0;
+    if (picked[k] == best_ && new_best < 0) new_best = static_cast<int>(k);
+  }
+  particles_ = std::move(resampled);
+  best_ = std::max(0, new_best);
+  ++stats_.resamples;
+}
+
+int ParticleLocalSlam::CollapseChoice() const {
+  // Without decisive evidence against it, the descendant of the undisturbed prediction (what
+  // one particle would have done) is kept: a draw that merely scores a little better along a
+  // flat direction is noise.
+  const std::vector<double> weights = Weights();
+  int undisturbed = -1;
+  for (int i = 0; i < num_particles(); ++i) {
+    if (particles_[i].undisturbed && (undisturbed < 0 || weights[i] > weights[undisturbed])) undisturbed = i;
+  }
+  if (undisturbed < 0 || weights[best_] > options_.decisive_weight_ratio * weights[undisturbed]) return best_;
+  return undisturbed;
+}
+
+std::vector<LocalResult> ParticleLocalSlam::Collapse() {
+  Particle kept = std::move(particles_[CollapseChoice()]);
+  kept.undisturbed = false;
+  std::vector<LocalResult> committed;
+  committed.reserve(kept.deferred.size());
+  for (const std::shared_ptr<const LocalResult>& r : kept.deferred) committed.push_back(*r);
+  if (particles_.size() > 1) ++stats_.collapses;
+  kept.deferred.clear();
+  kept.log_weight = 0.0;
+  particles_.clear();
+  particles_.push_back(std::move(kept));
+  spawn_submaps_.clear();
+  best_ = 0;
+  ambiguous_scans_ = 0;
+  if (!committed.empty()) reference_pose_ = committed.back().local_pose;
+  return committed;
+}
+
+std::vector<StampedPose2> ParticleLocalSlam::DeferredPoses() const {
+  std::vector<StampedPose2> poses;
+  for (const std::shared_ptr<const LocalResult>& r : particles_[best_].deferred) {
+    poses.push_back({r->stamp_seconds, r->local_pose});
+  }
+  return poses;
+}
+
+std::vector<double> ParticleLocalSlam::Weights() const {
+  std::vector<double> logs;
+  for (const Particle& p : particles_) logs.push_back(p.log_weight);
+  return NormalizedWeights(logs);
+}
+
+std::vector<Pose2> ParticleLocalSlam::Poses() const {
+  std::vector<Pose2> poses;
+  for (const Particle& p : particles_) poses.push_back(p.state.recent.empty() ? Pose2() : p.state.recent.back().pose);
+  return poses;
+}
+
+size_t ParticleLocalSlam::ExtraParticleBytes(const Particle& particle) const {
+  const Particle& best = particles_[best_];
+  size_t bytes = 0;
+  for (const ActiveSubmap& submap : particle.state.active) {
+    const bool shared = std::any_of(best.state.active.begin(), best.state.active.end(),
+                                    [&](const ActiveSubmap& b) { return b.map == submap.map; });
+    if (!shared) bytes += submap.map->MemoryBytes();
+  }
+  for (const std::shared_ptr<const LocalResult>& r : particle.deferred) {
+    const bool shared = std::find(best.deferred.begin(), best.deferred.end(), r) != best.deferred.end();
+    if (shared) continue;
+    bytes += sizeof(LocalResult) + PointsBytes(r->points);
+    if (r->finished.has_value()) bytes += r->finished->map->MemoryBytes();
+  }
+  return bytes;
+}
+
+}  // namespace hetslam

@@ -1,0 +1,287 @@
+// The particle filter's arithmetic (log-space weights, effective sample size, low-variance
+// resampling, seeded draws) and its life cycle on simulated scans: spawn after suspended
+// matching, collapse, deferred results committed, determinism.
+#include "frontends/particle_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "datasets/sim/scenario.h"
+#include "datasets/sim/simulator.h"
+#include "glog/logging.h"
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+TEST(NormalizedWeightsTest, SumsToOneWithoutOverflow) {
+  // exp(1000) overflows a double; the log-sum-exp does not.
+  const std::vector<double> weights = NormalizedWeights({1000.0, 1000.0 + std::log(3.0), -1e300});
+  ASSERT_EQ(3u, weights.size());
+  EXPECT_NEAR(0.25, weights[0], 1e-12);
+  EXPECT_NEAR(0.75, weights[1], 1e-12);
+  EXPECT_EQ(0.0, weights[2]);
+  const std::vector<double> small = NormalizedWeights({-2000.0, -2000.0 - std::log(4.0)});
+  EXPECT_NEAR(0.8, small[0], 1e-12);
+  EXPECT_NEAR(0.2, small[1], 1e-12);
+}
+
+TEST(NormalizedWeightsTest, InfiniteAndNanEntries) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::vector<double> some = NormalizedWeights({-inf, 0.0, std::nan("")});
+  EXPECT_EQ(0.0, some[0]);
+  EXPECT_EQ(1.0, some[1]);
+  EXPECT_EQ(0.0, some[2]);
+  const std::vector<double> none = NormalizedWeights({-inf, -inf});
+  EXPECT_EQ(0.5, none[0]);
+  EXPECT_EQ(0.5, none[1]);
+  EXPECT_TRUE(NormalizedWeights({}).empty());
+}
+
+TEST(EffectiveSampleSizeTest, UniformAndDegenerate) {
+  EXPECT_NEAR(4.0, EffectiveSampleSize({0.25, 0.25, 0.25, 0.25}), 1e-12);
+  EXPECT_NEAR(1.0, EffectiveSampleSize({1.0, 0.0, 0.0}), 1e-12);
+  EXPECT_NEAR(1.0 / (0.5 * 0.5 + 2 * 0.25 * 0.25), EffectiveSampleSize({0.5, 0.25, 0.25}), 1e-12);
+}
+
+// Against the brute-force expectation: over many seeded draws each index is picked
+// count·w_i times on average, and every single draw picks it floor or ceil of that.
+TEST(LowVarianceResampleTest, MatchesTheExpectationAndNeverStrays) {
+  const std::vector<double> weights = {0.05, 0.4, 0.0, 0.3, 0.25};
+  const int count = 7;
+  std::mt19937_64 rng(42);
+  std::vector<double> mean(weights.size(), 0.0);
+  const int draws = 20000;
+  for (int d = 0; d < draws; ++d) {
+    const std::vector<int> picked = LowVarianceResample(weights, count, &rng);
+    ASSERT_EQ(count, static_cast<int>(picked.size()));
+    std::vector<int> times(weights.size(), 0);
+    for (size_t k = 0; k < picked.size(); ++k) {
+      ++times[picked[k]];
+      if (k > 0) {
+        ASSERT_LE(picked[k - 1], picked[k]) << "ascending";
+      }
+    }
+    for (size_t i = 0; i < weights.size(); ++i) {
+      const double expected = count * weights[i];
+      ASSERT_GE(times[i], std::floor(expected) - 1e-9) << i;
+      ASSERT_LE(times[i], std::ceil(expected) + 1e-9) << i;
+      mean[i] += times[i];
+    }
+  }
+  for (size_t i = 0; i < weights.size(); ++i) EXPECT_NEAR(count * weights[i], mean[i] / draws, 0.02) << i;
+}
+
+TEST(LowVarianceResampleTest, SameSeedSameIndices) {
+  const std::vector<double> weights = {0.1, 0.2, 0.3, 0.4};
+  std::mt19937_64 a(7), b(7);
+  for (int d = 0; d < 100; ++d) EXPECT_EQ(LowVarianceResample(weights, 9, &a), LowVarianceResample(weights, 9, &b));
+}
+
+TEST(DrawTest, UniformAndNormalMoments) {
+  std::mt19937_64 rng(3);
+  double sum = 0, sum_sq = 0, uniform_sum = 0;
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) {
+    const double u = UniformDraw(&rng);
+    ASSERT_GE(u, 0.0);
+    ASSERT_LT(u, 1.0);
+    uniform_sum += u;
+    const double x = NormalDraw(&rng);
+    ASSERT_TRUE(std::isfinite(x));
+    sum += x;
+    sum_sq += x * x;
+  }
+  EXPECT_NEAR(0.5, uniform_sum / n, 0.005);
+  EXPECT_NEAR(0.0, sum / n, 0.01);
+  EXPECT_NEAR(1.0, sum_sq / n, 0.02);
+}
+
+TEST(ParticleFilterOptionsTest, RejectsBadValues) {
+  ParticleFilterOptions options;
+  std::string error;
+  EXPECT_TRUE(options.IsValid(&error)) << error;
+  options.max_particles = 0;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("max_particles"));
+  options = ParticleFilterOptions();
+  options.likelihood_floor = 0.0;
+  EXPECT_FALSE(options.IsValid(&error));
+  options = ParticleFilterOptions();
+  options.collapse_weight = 1.5;
+  EXPECT_FALSE(options.IsValid(&error));
+}
+
+// A simulated ring of rooms (tests/frontends/online_estimator_test.cc's), fed as scans with the
+// true motion as an "external" prediction with a covariance (as the EKF gives it); some scans
+// are marked as facing the floor.
+constexpr char kRingScenario[] = R"(
+wall 0 0 14 0
+wall 14 0 14 10
+wall 14 10 0 10
+wall 0 10 0 0
+box 7 5 6 2
+box 0.4 5 0.6 0.8
+box 13.6 3 0.5 0.9 30
+box 7 9.6 1.0 0.4
+box 5 0.4 0.6 0.6
+box 10.5 6.5 0.8 0.5
+waypoint 1.5 1.5
+waypoint 12.5 1.5
+waypoint 12.5 8.5
+laser 180 181 12 0.01 0.002 4
+robot 0.6 45
+)";
+
+struct Feed {
+  sim::SimulationResult simulation;
+};
+
+Feed OfficeScans() {
+  sim::Scenario scenario;
+  const Status parsed = sim::ParseScenario(kRingScenario, "ring", &scenario);
+  CHECK(parsed.ok()) << parsed.message();
+  std::mt19937_64 rng(11);
+  Feed feed;
+  const Status simulated = sim::Simulate(scenario, sim::SimulatorOptions(), &rng, &feed.simulation);
+  CHECK(simulated.ok()) << simulated.message();
+  return feed;
+}
+
+struct FilterRun {
+  std::vector<ParticleStep> steps;
+  std::vector<LocalResult> committed;
+  ParticleFilterStats stats;
+  std::vector<StampedPose2> deferred_at_end;
+};
+
+// Scans [first_suspended, first_suspended + suspended) face the floor: their points are
+// marked as mostly floor hits, so LocalSlam suspends them. The first scan after them keeps only
+// its beams within ±12° of straight ahead (one wall: its match cannot settle the pose), so the
+// filter spawns at the scan after it.
+FilterRun RunFilter(const sim::SimulationResult& simulation, const ParticleFilterOptions& options, int scans,
+              int first_suspended, int suspended, double prediction_sigma_meters) {
+  LocalSlamOptions local;
+  ParticleLocalSlam filter(local, options);
+  SubmapGraph graph{SubmapGraphOptions()};
+  FilterRun run;
+  Pose2 last_truth;
+  Pose2 last_fed;
+  for (int k = 0; k < scans && k < static_cast<int>(simulation.log.lasers.size()); ++k) {
+    LaserScan scan = simulation.log.lasers[k].scan;
+    if (k == first_suspended + suspended) {
+      for (size_t b = 0; b < scan.ranges_meters.size(); ++b) {
+        if (std::abs(scan.angles_radians[b]) > 12.0 * M_PI / 180.0) scan.ranges_meters[b] = scan.range_max_meters;
+      }
+    }
+    ScanPoints points = PrepareScanPoints(local, scan);
+    if (k >= first_suspended && k < first_suspended + suspended) {
+      points.floor_points = points.valid_points;  // the laser faces the floor
+    }
+    const Pose2 truth = simulation.truth[k].pose;
+    Prediction prediction;
+    if (k == 0) {
+      prediction.pose = Pose2();
+    } else {
+      // The true motion from the pose the caller last fed its EKF, as the EKF would predict.
+      prediction.pose = last_fed * Between(last_truth, truth);
+      prediction.external = true;
+      const double s = prediction_sigma_meters;
+      prediction.covariance = Eigen::Vector3d(s * s, s * s, 0.02 * 0.02).asDiagonal();
+    }
+    ParticleStep step = filter.AddScan(scan.stamp_seconds, std::move(points), prediction, std::nullopt,
+                                       graph, 0);
+    const LocalResult& current = step.Current();
+    if (current.inserted) {
+      last_fed = current.local_pose;
+      last_truth = truth;
+    }
+    for (LocalResult& r : step.committed) run.committed.push_back(r);
+    run.steps.push_back(std::move(step));
+  }
+  run.deferred_at_end = filter.DeferredPoses();
+  for (LocalResult& r : filter.Collapse()) run.committed.push_back(std::move(r));
+  run.stats = filter.stats();
+  return run;
+}
+
+TEST(ParticleLocalSlamTest, OneParticleCommitsEveryScanAtOnce) {
+  const Feed feed = OfficeScans();
+  ParticleFilterOptions options;
+  options.max_particles = 1;
+  const FilterRun run = RunFilter(feed.simulation, options, 120, 40, 10, 0.2);
+  EXPECT_EQ(0, run.stats.spawns);
+  EXPECT_EQ(1, run.stats.max_particles);
+  EXPECT_EQ(110u, run.committed.size());  // every scan but the suspended ones
+  for (const ParticleStep& step : run.steps) {
+    EXPECT_EQ(1, step.particles);
+    EXPECT_TRUE(step.Current().inserted || step.Current().suspended);
+  }
+}
+
+TEST(ParticleLocalSlamTest, SpawnsAfterSuspensionDefersAndCollapses) {
+  const Feed feed = OfficeScans();
+  ParticleFilterOptions options;
+  options.max_particles = 5;
+  options.max_ambiguous_scans = 15;
+  const FilterRun run = RunFilter(feed.simulation, options, 120, 40, 10, 0.2);
+  EXPECT_GE(run.stats.spawns, 1);
+  EXPECT_EQ(5, run.stats.max_particles);
+  EXPECT_GE(run.stats.collapses, 1);
+  // The first scan after the suspension (scan 50) sees one wall: spawned at scan 51.
+  EXPECT_EQ(1, run.steps[50].particles);
+  EXPECT_TRUE(run.steps[51].spawned);
+  EXPECT_EQ(5, run.steps[51].particles);
+  // While deferred, nothing is committed; every inserted scan is committed exactly once.
+  EXPECT_TRUE(run.steps[51].committed.empty() || run.steps[51].collapsed);
+  EXPECT_EQ(110u, run.committed.size());
+  std::map<double, int> committed_stamps;
+  for (const LocalResult& r : run.committed) ++committed_stamps[r.stamp_seconds];
+  for (const auto& [stamp, times] : committed_stamps) EXPECT_EQ(1, times) << stamp;
+  for (size_t i = 1; i < run.committed.size(); ++i) {
+    EXPECT_LT(run.committed[i - 1].stamp_seconds, run.committed[i].stamp_seconds);
+  }
+  // The committed trajectory stays on the truth: the best particle won.
+  for (const LocalResult& r : run.committed) {
+    const auto it = std::find_if(feed.simulation.truth.begin(), feed.simulation.truth.end(),
+                                 [&](const StampedPose2& t) { return t.stamp_seconds == r.stamp_seconds; });
+    ASSERT_NE(feed.simulation.truth.end(), it);
+    const Pose2 start = feed.simulation.truth.front().pose;
+    const Pose2 truth = Between(start, it->pose);
+    EXPECT_LT((r.local_pose.translation() - truth.translation()).norm(), 0.15) << r.stamp_seconds;
+  }
+  // One extra particle costs at most its two active submaps and deferred scans.
+  EXPECT_GT(run.stats.max_extra_particle_bytes, 0u);
+}
+
+TEST(ParticleLocalSlamTest, NoSpawnWhenThePredictionIsCertain) {
+  const Feed feed = OfficeScans();
+  ParticleFilterOptions options;
+  options.max_particles = 5;
+  options.spawn_min_sigma_meters = 0.5;
+  const FilterRun run = RunFilter(feed.simulation, options, 80, 40, 10, 0.2);
+  EXPECT_EQ(0, run.stats.spawns);
+}
+
+TEST(ParticleLocalSlamTest, SameSeedSameBytes) {
+  const Feed feed = OfficeScans();
+  ParticleFilterOptions options;
+  options.max_particles = 5;
+  options.max_ambiguous_scans = 15;
+  const FilterRun a = RunFilter(feed.simulation, options, 100, 40, 10, 0.2);
+  const FilterRun b = RunFilter(feed.simulation, options, 100, 40, 10, 0.2);
+  ASSERT_EQ(a.committed.size(), b.committed.size());
+  for (size_t i = 0; i < a.committed.size(); ++i) {
+    ASSERT_EQ(a.committed[i].local_pose.x(), b.committed[i].local_pose.x()) << i;
+    ASSERT_EQ(a.committed[i].local_pose.y(), b.committed[i].local_pose.y()) << i;
+    ASSERT_EQ(a.committed[i].local_pose.theta(), b.committed[i].local_pose.theta()) << i;
+  }
+  EXPECT_EQ(a.stats.resamples, b.stats.resamples);
+}
+
+}  // namespace
+}  // namespace hetslam
