@@ -179,6 +179,9 @@ DEFINE_double(frontier_margin, 0.3, "Leave out of a match the points whose surfa
               "pulls matches back along corridors); 0 = off.");
 DEFINE_double(covariance_sigmas, 3.0, "With the EKF's prediction: search windows of the narrow windows plus this many "
               "standard deviations of its covariance (at most the full windows), no wider fallback.");
+DEFINE_double(outlier_max_score, 0.5, "With a prediction's covariance (the EKF, odometry): a match scoring below this "
+              "(mean likelihood) whose correction lies beyond --covariance_sigmas of the prediction is a failed match, "
+              "and the scan goes in at the prediction; 0 = off.");
 DEFINE_double(odometry_noise_fraction, 0.1, "With --use_odometry: the prediction's standard deviations are this fraction of "
               "the odometry increment, and the search windows follow them (no wide fallback); 0 = narrow, full and "
               "fallback windows as without odometry.");
@@ -236,6 +239,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"degenerate_eigenvalue_ratio", "--degenerate_ratio"},
       {"frontier_margin_meters", "--frontier_margin"},
       {"covariance_sigmas", "--covariance_sigmas"},
+      {"outlier_max_score", "--outlier_max_score"},
       {"odometry_noise_fraction", "--odometry_noise_fraction"},
       {"lines: max_gap_meters", "--line_max_gap"},
       {"max_particles", "--max_particles"},
@@ -300,6 +304,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->field.lines.max_gap_meters = FLAGS_line_max_gap;
   options->frontier_margin_meters = FLAGS_frontier_margin;
   options->covariance_sigmas = FLAGS_covariance_sigmas;
+  options->outlier_max_score = FLAGS_outlier_max_score;
   options->odometry_noise_fraction = FLAGS_odometry_noise_fraction;
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;

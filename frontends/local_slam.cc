@@ -58,6 +58,7 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
   if (!(suspend_floor_fraction > 0 && suspend_floor_fraction <= 1)) msg << "suspend_floor_fraction must be in (0, 1]; ";
   if (!(degenerate_eigenvalue_ratio >= 0 && degenerate_eigenvalue_ratio < 1))
     msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
+  if (!(outlier_max_score >= 0 && outlier_max_score <= 1)) msg << "outlier_max_score must be in [0, 1]; ";
   if (!(degenerate_max_drop_ratio >= 0 && degenerate_max_drop_ratio < 1))
     msg << "degenerate_max_drop_ratio must be in [0, 1); ";
   if (!(matching_voxel_meters == 0 || (matching_voxel_meters >= 1e-3 && matching_voxel_meters <= 10)))
@@ -308,6 +309,23 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
                                       m.narrow_angular_search_window_radians + options_.covariance_sigmas * yaw_sigma);
       result.match = matcher_.MatchWithinWindow(*target.map, predicted_submap, points.matching, linear, angular,
                                                 points.matching_weights);
+      if (result.match.converged && result.match.score < options_.outlier_max_score) {
+        // A poor fit far outside the prediction's own uncertainty: the motion source (a gyro,
+        // odometry) is the better estimate. Mahalanobis distance of the correction, the
+        // prediction's covariance widened by the matcher's resolution.
+        const Pose2 correction = Between(predicted_submap, result.match.pose);
+        Eigen::Vector3d c;
+        c << target.local_T_submap.rotation() * predicted_submap.rotation() * correction.translation(), correction.theta();
+        const double r = options_.grid.resolution_meters;
+        const Eigen::Matrix3d widened =
+            covariance +
+            Eigen::Matrix3d(Eigen::Vector3d(r * r, r * r, m.max_angular_step_radians * m.max_angular_step_radians).asDiagonal());
+        if (c.dot(widened.ldlt().solve(c)) > options_.covariance_sigmas * options_.covariance_sigmas) {
+          result.match.converged = false;
+          result.match.message = "a poor fit (score " + std::to_string(result.match.score) +
+                                 ") outside the prediction's covariance";
+        }
+      }
     } else {
       result.match = matcher_.Match(*target.map, predicted_submap, points.matching, points.matching_weights,
                                     prediction.external || NarrowSearchTrusted(options_, state.recent));
