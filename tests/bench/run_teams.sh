@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# End-to-end benchmark of hetslam_team on the simulator's team scenarios. NOT a ctest test: it
+# renders every team dataset with camera images and maps it (about half a minute per team and
+# seed), so it is run by hand, e.g. before quoting figures.
+#
+#   tests/bench/run_teams.sh [BUILD_DIR] [-- extra hetslam_team flags...]
+#
+#   BUILD_DIR   build folder holding examples/hetslam_sim and examples/hetslam_team
+#               (default: <repo>/build).
+#   -- ...      everything after `--` is passed to every hetslam_team call
+#               (e.g. `-- --wrong_tag_id_rate=0.2`).
+#
+# Environment:
+#   HETSLAM_SEEDS      the simulator seeds, separated by spaces or commas (default: 1).
+#   HETSLAM_TEAMS      the team scenarios (default: "team_two team_three").
+#   HETSLAM_BENCH_OUT  output folder (default: <repo>/out/teams): <team>/seed-<seed>/{sim,run},
+#                      run.log = hetslam_team's output.
+#
+# One row per team, seed and pair of robots, from the "truth:" lines hetslam_team prints on
+# simulated data: the error of the pair's relative pose against the truth after the first link,
+# after the second constraint and at the end (each robot's frame = its body at its first TRUTH),
+# and at the end against the frames as the maps were built (each robot's trajectory aligned to
+# its truth: what the merger itself got wrong). "-" where the pair never got that far (a pair
+# linked through a third robot has no link of its own). Then the worst of each column per
+# team and pair over the seeds.
+# Exit status: 0 when every run finished, 1 otherwise, 2 on a usage error.
+set -uo pipefail
+
+usage() { sed -n '2,/^# Exit status/p' "$0" | sed 's/^# \{0,1\}//'; }
+
+root=$(cd "$(dirname "$0")/../.." && pwd)
+build=""
+extra=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    -h|--help) usage; exit 0 ;;
+    --) shift; extra=("$@"); break ;;
+    -*) echo "run_teams.sh: unknown option '$1' (hetslam_team flags go after --; see --help)" >&2; exit 2 ;;
+    *)
+      if [ -n "$build" ]; then echo "run_teams.sh: more than one build folder given ('$build', '$1')" >&2; exit 2; fi
+      build=$1 ;;
+  esac
+  shift
+done
+build=${build:-$root/build}
+out_root=${HETSLAM_BENCH_OUT:-$root/out/teams}
+seed_list=${HETSLAM_SEEDS:-1}
+read -r -a seeds <<<"${seed_list//,/ }"
+read -r -a teams <<<"${HETSLAM_TEAMS:-team_two team_three}"
+for seed in "${seeds[@]}"; do
+  if ! [[ $seed =~ ^[0-9]{1,19}$ ]]; then
+    echo "run_teams.sh: seed '$seed' in HETSLAM_SEEDS is not a non-negative integer" >&2
+    exit 2
+  fi
+done
+for tool in hetslam_sim hetslam_team; do
+  if [ ! -x "$build/examples/$tool" ]; then
+    echo "run_teams.sh: $build/examples/$tool not found; build first (scripts/build.sh)" >&2
+    exit 2
+  fi
+done
+
+status=0
+rows=$(mktemp)
+trap 'rm -f "$rows"' EXIT
+for team in "${teams[@]}"; do
+  scenario="$root/datasets/scenarios/$team.scenario"
+  if [ ! -f "$scenario" ]; then
+    echo "run_teams.sh: no scenario $scenario" >&2
+    status=1
+    continue
+  fi
+  for seed in "${seeds[@]}"; do
+    dir="$out_root/$team/seed-$seed"
+    rm -rf "$dir"
+    mkdir -p "$dir"
+    echo "== $team seed $seed" >&2
+    if ! "$build/examples/hetslam_sim" --scenario="$scenario" --seed="$seed" --out="$dir/sim" >"$dir/sim.log" 2>&1; then
+      echo "run_teams.sh: hetslam_sim failed, see $dir/sim.log" >&2
+      status=1
+      continue
+    fi
+    if ! "$build/examples/hetslam_team" --manifest="$dir/sim/team.txt" --out="$dir/run" "${extra[@]}" >"$dir/run.log" 2>&1; then
+      echo "run_teams.sh: hetslam_team failed, see $dir/run.log" >&2
+      status=1
+      continue
+    fi
+    # Pairs: every "final A-B" line. First link / second constraint: the last such line for the pair.
+    grep -o 'truth: final [A-Za-z0-9_]*-[A-Za-z0-9_]*: .*' "$dir/run.log" | while read -r line; do
+      pair=$(sed 's/truth: final \([^:]*\):.*/\1/' <<<"$line")
+      final=$(sed -n 's/.*: error \([0-9.]*\) m \/ \([0-9.]*\) deg (estimate.*/\1 \2/p' <<<"$line")
+      built=$(sed -n 's/.*against the frames as built (alignment): error \([0-9.]*\) m \/ \([0-9.]*\) deg.*/\1 \2/p' <<<"$line")
+      first=$(grep "truth: after first link .*: $pair after error" "$dir/run.log" | tail -1 |
+              sed -n "s/.*: $pair after error \([0-9.]*\) m \/ \([0-9.]*\) deg.*/\1 \2/p")
+      second=$(grep "truth: after second constraint .*: $pair before" "$dir/run.log" | tail -1 |
+               sed -n 's/.*after error \([0-9.]*\) m \/ \([0-9.]*\) deg.*/\1 \2/p')
+      echo "$team $seed $pair ${first:-- -} ${second:-- -} ${final:-- -} ${built:-- -}" >>"$rows"
+    done
+  done
+done
+
+fmt() { if [ "$1" = "-" ]; then printf '%-16s' "-"; else printf '%-16s' "$(printf '%.3f m %.2f°' "$1" "$2")"; fi; }
+printf '%-11s %4s %-12s %-16s %-16s %-16s %-16s\n' team seed pair first_link second_constraint final final_as_built
+while read -r team seed pair f1 f2 s1 s2 e1 e2 b1 b2; do
+  printf '%-11s %4s %-12s %s %s %s %s\n' "$team" "$seed" "$pair" "$(fmt "$f1" "$f2")" "$(fmt "$s1" "$s2")" \
+    "$(fmt "$e1" "$e2")" "$(fmt "$b1" "$b2")"
+done <"$rows"
+if [ "${#seeds[@]}" -gt 1 ]; then
+  echo
+  echo "worst over seeds ${seeds[*]} (metres and degrees each the worst, not necessarily of one seed):"
+  awk '
+    function upd(key, m, d) { if (m == "-") return; if (!(key in wm) || m + 0 > wm[key]) wm[key] = m + 0;
+                              if (!(key in wd) || d + 0 > wd[key]) wd[key] = d + 0; seen[key] = 1 }
+    { id = $1 " " $3; ids[id] = 1; upd(id " 1", $4, $5); upd(id " 2", $6, $7); upd(id " 3", $8, $9); upd(id " 4", $10, $11) }
+    END { for (id in ids) { line = sprintf("%-24s", id);
+            for (c = 1; c <= 4; ++c) { k = id " " c; line = line sprintf(" %-16s", (k in seen) ? sprintf("%.3f m %.2f°", wm[k], wd[k]) : "-") }
+            print line } }' "$rows" | sort
+fi
+exit $status
