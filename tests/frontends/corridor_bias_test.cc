@@ -15,6 +15,7 @@
 #include "frontends/scan_matcher.h"
 #include "glog/logging.h"
 #include "gtest/gtest.h"
+#include "tests/frontends/sim_fixtures.h"
 
 namespace hetslam {
 namespace {
@@ -42,17 +43,8 @@ struct BiasFigures {
 // The first leg of wheeled_corridor (seed `seed`): the map is built at the true poses; every
 // 5th scan on the featureless middle of the leg (the laser sees neither end) is matched first.
 BiasFigures MeasureCorridorBias(uint64_t seed, const LocalSlamOptions& options) {
-  sim::Scenario scenario;
-  const Status read = sim::ReadScenarioFile(
-      std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/wheeled_corridor.scenario", &scenario);
-  CHECK(read.ok()) << read.message();
-  sim::TeamSimulatorOptions sim_options;
-  sim_options.max_duration_seconds = 32.0;  // the first long leg, x from 3 to 21 m
-  sim_options.render_images = false;
-  std::mt19937_64 rng(seed);
-  sim::TeamSimulationResult result;
-  const Status simulated = sim::SimulateTeam(scenario, sim_options, &rng, &result);
-  CHECK(simulated.ok()) << simulated.message();
+  // The first long leg, x from 3 to 21 m.
+  const sim::TeamSimulationResult result = testing_sim::SimulateShippedScenario("wheeled_corridor", seed, 32.0);
   const RobotLog& log = result.robots.front().log;
   CHECK_EQ(log.truth.size(), log.lasers.size());
 

@@ -19,6 +19,7 @@
 #include "frontends/online_estimator.h"
 #include "glog/logging.h"
 #include "gtest/gtest.h"
+#include "tests/frontends/sim_fixtures.h"
 
 namespace hetslam {
 namespace {
@@ -31,16 +32,7 @@ struct DropoutRun {
 };
 
 DropoutRun MapCorridorWithFrozenOdometry(double odometry_noise_fraction) {
-  sim::Scenario scenario;
-  const Status read = sim::ReadScenarioFile(
-      std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/wheeled_corridor.scenario", &scenario);
-  CHECK(read.ok()) << read.message();
-  sim::TeamSimulatorOptions sim_options;
-  sim_options.render_images = false;
-  std::mt19937_64 rng(1);
-  sim::TeamSimulationResult result;
-  const Status simulated = sim::SimulateTeam(scenario, sim_options, &rng, &result);
-  CHECK(simulated.ok()) << simulated.message();
+  sim::TeamSimulationResult result = testing_sim::SimulateShippedScenario("wheeled_corridor", 1);
   RobotLog log = std::move(result.robots.front().log);
   // The first corner: from t = 31 s the robot turns at about 30°/s. Readings in (31, 31.5] s
   // repeat the one at 31 s.
@@ -54,11 +46,7 @@ DropoutRun MapCorridorWithFrozenOdometry(double odometry_noise_fraction) {
     }
   }
   CHECK_EQ(10, frozen_readings);
-  std::vector<StampedPose2> truth;
-  for (const StampedPose3& t : log.truth) {
-    const Eigen::Matrix3d r = t.pose.linear();
-    truth.push_back({t.stamp_seconds, Pose2(t.pose.translation().x(), t.pose.translation().y(), std::atan2(r(1, 0), r(0, 0)))});
-  }
+  const std::vector<StampedPose2> truth = testing_sim::PlanarTruth(log);
 
   OnlineEstimatorOptions options;
   options.use_odometry = true;

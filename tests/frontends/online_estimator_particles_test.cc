@@ -4,16 +4,13 @@
 // collapse, the trajectory always has one pose per scan (deferred scans at the best particle's
 // pose), every scan becomes one node once the estimator finishes, and the same seed gives the
 // same bytes. With one particle nothing spawns.
-#include <cmath>
-#include <random>
 
 #include "core/measurement_log.h"
 #include "core/trajectory_metrics.h"
-#include "datasets/sim/scenario.h"
-#include "datasets/sim/team_simulator.h"
 #include "frontends/online_estimator.h"
 #include "glog/logging.h"
 #include "gtest/gtest.h"
+#include "tests/frontends/sim_fixtures.h"
 
 namespace hetslam {
 namespace {
@@ -29,31 +26,15 @@ struct ParticleRun {
   AbsoluteTrajectoryError ate;
 };
 
-const RobotLog& HumanoidLog(std::vector<StampedPose2>* truth) {
-  static const RobotLog* log = [] {
-    sim::Scenario scenario;
-    const Status read = sim::ReadScenarioFile(
-        std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/humanoid_explore.scenario", &scenario);
-    CHECK(read.ok()) << read.message();
-    sim::TeamSimulatorOptions options;
-    options.render_images = false;
-    std::mt19937_64 rng(1);
-    sim::TeamSimulationResult result;
-    const Status simulated = sim::SimulateTeam(scenario, options, &rng, &result);
-    CHECK(simulated.ok()) << simulated.message();
-    return new RobotLog(std::move(result.robots.front().log));
-  }();
-  for (const StampedPose3& t : log->truth) {
-    const Eigen::Matrix3d r = t.pose.linear();
-    truth->push_back(
-        {t.stamp_seconds, Pose2(t.pose.translation().x(), t.pose.translation().y(), std::atan2(r(1, 0), r(0, 0)))});
-  }
+const RobotLog& HumanoidLog() {
+  static const RobotLog* log =
+      new RobotLog(std::move(testing_sim::SimulateShippedScenario("humanoid_explore", 1).robots.front().log));
   return *log;
 }
 
 ParticleRun RunHumanoid(int max_particles, bool spawn_on_degenerate) {
-  std::vector<StampedPose2> truth;
-  RobotLog log = HumanoidLog(&truth);
+  RobotLog log = HumanoidLog();
+  const std::vector<StampedPose2> truth = testing_sim::PlanarTruth(log);
   OnlineEstimatorOptions options;
   options.particles.max_particles = max_particles;
   options.particles.spawn_on_degenerate = spawn_on_degenerate;

@@ -10,34 +10,11 @@
 #include "datasets/sim/world.h"
 #include "glog/logging.h"
 #include "gtest/gtest.h"
+#include "tests/frontends/sim_fixtures.h"
 #include "tests/test_data.h"
 
 namespace hetslam {
 namespace {
-
-// A 14 m x 10 m floor with a 6 m x 2 m inner block: a ring corridor 3–4 m wide with a few
-// boxes along its walls, driven once around and a quarter again, so the end revisits the start (a loop whose
-// answer the simulator knows). No odometry is used.
-constexpr char kRingScenario[] = R"(
-wall 0 0 14 0
-wall 14 0 14 10
-wall 14 10 0 10
-wall 0 10 0 0
-box 7 5 6 2
-box 0.4 5 0.6 0.8
-box 13.6 3 0.5 0.9 30
-box 7 9.6 1.0 0.4
-box 5 0.4 0.6 0.6
-box 10.5 6.5 0.8 0.5
-waypoint 1.5 1.5
-waypoint 12.5 1.5
-waypoint 12.5 8.5
-waypoint 1.5 8.5
-waypoint 1.5 1.5
-waypoint 10 1.5
-laser 180 181 12 0.01 0.002 4
-robot 0.6 45
-)";
 
 struct PipelineRun {
   sim::SimulationResult simulation;
@@ -48,16 +25,10 @@ struct PipelineRun {
   LoopCloserStats loop;
 };
 
-sim::SimulationResult Simulate(uint64_t seed) {
-  sim::Scenario scenario;
-  const Status parsed = sim::ParseScenario(kRingScenario, "ring", &scenario);
-  CHECK(parsed.ok()) << parsed.message();
-  std::mt19937_64 rng(seed);
-  sim::SimulationResult simulation;
-  const Status simulated = sim::Simulate(scenario, sim::SimulatorOptions(), &rng, &simulation);
-  CHECK(simulated.ok()) << simulated.message();
-  return simulation;
-}
+// A 14 m x 10 m floor with a 6 m x 2 m inner block: a ring corridor 3–4 m wide with a few
+// boxes along its walls, driven once around and a quarter again, so the end revisits the start
+// (a loop whose answer the simulator knows). No odometry is used.
+sim::SimulationResult Simulate(uint64_t seed) { return testing_sim::SimulateRing(seed); }
 
 OnlineEstimatorOptions TestOptions() {
   OnlineEstimatorOptions options;
@@ -242,18 +213,7 @@ TEST(OnlineEstimatorOptionsTest, RejectsBadValues) {
 // The first `seconds` of the shipped humanoid_explore scenario (seed 1) as a measurement stream:
 // a walking humanoid whose head pitches, with MARG samples at 100 Hz, commands and scans at 10 Hz.
 MeasurementLog HumanoidStream(double seconds, const std::string& name = "humanoid_explore") {
-  sim::Scenario scenario;
-  const Status read = sim::ReadScenarioFile(
-      std::string(HETSLAM_SOURCE_DIR) + "/datasets/scenarios/" + name + ".scenario", &scenario);
-  CHECK(read.ok()) << read.message();
-  sim::TeamSimulatorOptions options;
-  options.max_duration_seconds = seconds;
-  options.render_images = false;
-  std::mt19937_64 rng(1);
-  sim::TeamSimulationResult result;
-  const Status simulated = sim::SimulateTeam(scenario, options, &rng, &result);
-  CHECK(simulated.ok()) << simulated.message();
-  CHECK(!result.robots.empty());
+  sim::TeamSimulationResult result = testing_sim::SimulateShippedScenario(name, 1, seconds);
   return MeasurementLogFromRobotLog(std::move(result.robots.front().log));
 }
 

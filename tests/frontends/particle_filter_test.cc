@@ -10,10 +10,8 @@
 #include <random>
 #include <vector>
 
-#include "datasets/sim/scenario.h"
-#include "datasets/sim/simulator.h"
-#include "glog/logging.h"
 #include "gtest/gtest.h"
+#include "tests/frontends/sim_fixtures.h"
 
 namespace hetslam {
 namespace {
@@ -116,41 +114,14 @@ TEST(ParticleFilterOptionsTest, RejectsBadValues) {
   EXPECT_FALSE(options.IsValid(&error));
 }
 
-// A simulated ring of rooms (tests/frontends/online_estimator_test.cc's), fed as scans with the
-// true motion as an "external" prediction with a covariance (as the EKF gives it); some scans
-// are marked as facing the floor.
-constexpr char kRingScenario[] = R"(
-wall 0 0 14 0
-wall 14 0 14 10
-wall 14 10 0 10
-wall 0 10 0 0
-box 7 5 6 2
-box 0.4 5 0.6 0.8
-box 13.6 3 0.5 0.9 30
-box 7 9.6 1.0 0.4
-box 5 0.4 0.6 0.6
-box 10.5 6.5 0.8 0.5
-waypoint 1.5 1.5
-waypoint 12.5 1.5
-waypoint 12.5 8.5
-laser 180 181 12 0.01 0.002 4
-robot 0.6 45
-)";
-
+// The ring of rooms (tests/frontends/sim_fixtures.h), fed as scans with the true motion as an
+// "external" prediction with a covariance (as the EKF gives it); some scans are marked as facing
+// the floor.
 struct Feed {
   sim::SimulationResult simulation;
 };
 
-Feed OfficeScans() {
-  sim::Scenario scenario;
-  const Status parsed = sim::ParseScenario(kRingScenario, "ring", &scenario);
-  CHECK(parsed.ok()) << parsed.message();
-  std::mt19937_64 rng(11);
-  Feed feed;
-  const Status simulated = sim::Simulate(scenario, sim::SimulatorOptions(), &rng, &feed.simulation);
-  CHECK(simulated.ok()) << simulated.message();
-  return feed;
-}
+Feed OfficeScans() { return Feed{testing_sim::SimulateRing(11)}; }
 
 struct FilterRun {
   std::vector<ParticleStep> steps;
