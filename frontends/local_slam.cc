@@ -236,16 +236,18 @@ LocalSlam::LocalSlam(const LocalSlamOptions& options) : options_(options), match
   CHECK(options_.IsValid(&error)) << "invalid LocalSlamOptions: " << error;
 }
 
-Prediction LocalSlam::Predict(const std::optional<Pose2>& odometry) const {
+Prediction LocalSlam::Predict(const std::optional<Pose2>& odometry) const { return PredictFrom(state_, odometry); }
+
+Prediction LocalSlam::PredictFrom(const LocalSlamState& state, const std::optional<Pose2>& odometry) const {
   Prediction prediction;
-  prediction.pose = PredictNextPose(options_, state_.recent, state_.last_odometry, odometry);
+  prediction.pose = PredictNextPose(options_, state.recent, state.last_odometry, odometry);
   if (options_.prediction == MotionPrediction::kOdometry && odometry.has_value()) {
     prediction.external = true;
     prediction.motion = odometry;
-    if (state_.last_odometry.has_value() && options_.odometry_noise_fraction > 0) {
+    if (state.last_odometry.has_value() && options_.odometry_noise_fraction > 0) {
       // The increment's own size bounds its error (a wheel odometry's few per cent, ten here):
       // the search windows follow it (Prediction::covariance).
-      const Pose2 increment = Between(*state_.last_odometry, *odometry);
+      const Pose2 increment = Between(*state.last_odometry, *odometry);
       const double f = options_.odometry_noise_fraction;
       const double translation = f * increment.translation().norm();
       const double yaw = f * std::abs(increment.theta()) + 0.5 * f * increment.translation().norm();

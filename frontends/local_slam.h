@@ -284,6 +284,8 @@ class LocalSlam {
   // The front end's own prediction for a scan now (options.prediction), given the odometry
   // pose at the scan for kOdometry (without one: the last pose).
   Prediction Predict(const std::optional<Pose2>& odometry) const;
+  // The same from another state (a particle's).
+  Prediction PredictFrom(const LocalSlamState& state, const std::optional<Pose2>& odometry) const;
   // Matches and inserts one prepared scan.
   LocalResult AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction);
 

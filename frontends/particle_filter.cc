@@ -116,12 +116,7 @@ ParticleLocalSlam::ParticleLocalSlam(const LocalSlamOptions& local_options, cons
 }
 
 Prediction ParticleLocalSlam::Predict(const std::optional<Pose2>& odometry) const {
-  // LocalSlam::Predict reads its own state: a const LocalSlam holding the best particle's.
-  LocalSlam& slam = const_cast<LocalSlam&>(slam_);
-  std::swap(*slam.mutable_state(), const_cast<LocalSlamState&>(particles_[best_].state));
-  const Prediction prediction = slam.Predict(odometry);
-  std::swap(*slam.mutable_state(), const_cast<LocalSlamState&>(particles_[best_].state));
-  return prediction;
+  return slam_.PredictFrom(particles_[best_].state, odometry);
 }
 
 void ParticleLocalSlam::Spawn(const Eigen::Matrix3d& covariance, const Prediction& prediction,
@@ -163,9 +158,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
       p.pose = last * Between(*reference_pose_, prediction.pose);
       predictions.push_back(p);
     } else {
-      std::swap(*slam_.mutable_state(), particles_[i].state);
-      Prediction p = slam_.Predict(odometry);
-      std::swap(*slam_.mutable_state(), particles_[i].state);
+      Prediction p = slam_.PredictFrom(particles_[i].state, odometry);
       // The caller's source flags (and covariance) hold for every particle.
       p.external = prediction.external;
       p.measures_translation = prediction.measures_translation;
@@ -228,8 +221,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     return step;
   }
 
-  // Several particles: weights from the scan against each particle's own submaps and against
-  // the graph's map from before the ambiguity.
+  // Several particles: weights from the scan at each particle's matched pose.
   ++ambiguous_scans_;
   if (results[0].inserted) {
     // Against the submaps as they were at the spawn (shared by all particles, so the
