@@ -56,7 +56,7 @@ DEFINE_string(laser_mount, "", "ROS bags: the laser mount in the body frame as x
               "overrides /tf_static. Empty = from /tf_static.");
 DEFINE_string(trajectory_bag, "", "Also write the trajectory as a ROS 1 bag at this path: geometry_msgs/PoseStamped on "
               "/hetslam/pose and one nav_msgs/Path on /hetslam/path at the end, frame_id map (plays in RViz).");
-DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png (a readable picture: walls, other structure, floor obstacles, the trajectory, a scale bar and a legend), planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt and, with loop closure, loop_closures.txt (every accepted closure, measured and final), frontend_trajectory.txt (the uncorrected front-end poses) and particles.txt (the particle count over time). Required.");
+DEFINE_string(out, "", "Output folder; created if missing. Receives map.pgm/.yaml (the structure localisation uses), map.png (a readable picture: walls, other structure, floor obstacles, the trajectory, a scale bar and a legend), planner.pgm/.yaml (structure and floor obstacles: what a planner must avoid), floor_obstacles.pgm/.yaml and walls.pgm/.yaml (when any were seen), trajectory.txt, particles.txt (the particle filter's count over time) and, with loop closure, loop_closures.txt (every accepted closure, measured and final) and frontend_trajectory.txt (the uncorrected front-end poses). Required.");
 DEFINE_string(truth, "", "Optional ground-truth trajectory (`t x y theta` per line, e.g. a simulator's truth.txt): "
               "prints the absolute trajectory error after SE(2) alignment.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
@@ -555,8 +555,8 @@ int Run() {
   if (options.loop_closure) {
     written.push_back(WriteLoopClosures((out / "loop_closures.txt").string(), estimator->graph().LoopClosures()));
     written.push_back(WriteTrajectory((out / "frontend_trajectory.txt").string(), estimator->LocalTrajectory()));
-    written.push_back(WriteParticleCounts((out / "particles.txt").string(), estimator->particle_counts()));
   }
+  written.push_back(WriteParticleCounts((out / "particles.txt").string(), estimator->particle_counts()));
   if (!FLAGS_trajectory_bag.empty()) {
     written.push_back(WriteTrajectoryBag(FLAGS_trajectory_bag, trajectory, TrajectoryBagOptions()));
   }
