@@ -161,7 +161,7 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
       ++stats_.rejected_by_gate;
       continue;
     }
-    const bool degenerate = match.strong_direction_score_drop > 0 &&
+    const bool degenerate = options_.degenerate_max_drop_ratio > 0 && match.strong_direction_score_drop > 0 &&
                             match.weak_direction_score_drop <
                                 options_.degenerate_max_drop_ratio * match.strong_direction_score_drop;
     ConstraintCandidate closure;

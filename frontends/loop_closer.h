@@ -56,9 +56,9 @@ struct LoopCloserOptions {
   // continuous here), and a wide result is not a candidate at all (its correction is along
   // the corridor). Measured (seeds 1-5, worst ATE): wheeled_corridor 0.309 m off (closures at
   // the ends of a 22 m leg were 0.3-0.7 m off along it and tore the graph; the front end
-  // alone: 0.07 m), 0.075 m at 0.1, 0.074 m at 0.25; uav_flight (a 20 m corridor whose
-  // closures are 0.05-0.6 m off along it but right on average) 0.071 m off, 0.074 m at 0.1,
-  // 0.079 m at 0.25. 0 = off.
+  // alone: 0.07 m), 0.076 m at 0.05, 0.075 m at 0.1, 0.074 m at 0.25; uav_flight (a 20 m
+  // corridor whose closures are 0.05-0.6 m off along it but right on average) 0.067 m off,
+  // 0.072, 0.074 and 0.079 m. 0 = off.
   double degenerate_max_drop_ratio = 0.1;
 
   // ±2 m / ±45° (paper §III-A), no wider retry.
