@@ -1,5 +1,6 @@
 #include "core/likelihood_field.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -44,10 +45,39 @@ LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options) : option
   CHECK(options_.IsValid(&error)) << "invalid LikelihoodFieldOptions: " << error;
 }
 
-void LikelihoodField::Freeze() {
+void LikelihoodField::Freeze(const GridGeometry& kept) {
+  if (frozen_) return;
+  const double r = geometry_.resolution_meters();
+  CHECK_EQ(kept.resolution_meters(), r) << "Freeze: resolution changed";
+  // Offset of the kept box in the current grid, in whole cells.
+  const int x0 = static_cast<int>(std::lround((kept.origin().x() - geometry_.origin().x()) / r));
+  const int y0 = static_cast<int>(std::lround((kept.origin().y() - geometry_.origin().y()) / r));
+  CHECK(kept.num_cells() == 0 || (x0 >= 0 && y0 >= 0 && x0 + kept.width() <= geometry_.width() &&
+                                  y0 + kept.height() <= geometry_.height()))
+      << "Freeze: the kept box is not inside the field";
+  std::vector<uint16_t> quantized(kept.num_cells());
+  for (int y = 0; y < kept.height(); ++y) {
+    const float* from = values_.data() + static_cast<size_t>(y + y0) * geometry_.width() + x0;
+    uint16_t* to = quantized.data() + static_cast<size_t>(y) * kept.width();
+    for (int x = 0; x < kept.width(); ++x) {
+      const float v = std::clamp(from[x], 0.f, 1.f);
+      // Round to nearest, but never a positive value to 0 (see Freeze in the header).
+      to[x] = v > 0.f ? static_cast<uint16_t>(std::max(1L, std::lround(v / kQuantizationStep))) : 0;
+    }
+  }
+  quantized_values_.swap(quantized);
+  std::vector<float>().swap(values_);
+  geometry_ = kept;
   frozen_ = true;
   std::vector<Segment>().swap(published_);
   std::vector<float>().swap(squared_distances_);
+  std::vector<int>().swap(stale_cells_);
+}
+
+size_t LikelihoodField::MemoryBytes() const {
+  return values_.capacity() * sizeof(float) + quantized_values_.capacity() * sizeof(uint16_t) +
+         squared_distances_.capacity() * sizeof(float) +
+         stale_cells_.capacity() * sizeof(int) + published_.capacity() * sizeof(Segment);
 }
 
 void LikelihoodField::Resize(const GridGeometry& g) {

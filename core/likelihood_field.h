@@ -29,6 +29,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -78,16 +79,29 @@ class LikelihoodField {
   // Publishes every occupied cell's current hit point and rebuilds.
   void RebuildFrom(const OccupancyGrid& grid);
 
-  // Frees the published hit points and squared distances (two thirds of the memory); values
-  // stay readable, ApplyChanges, Resize and the rebuilds CHECK-fail afterwards.
-  void Freeze();
+  // For a finished submap: frees the published hit points and squared distances and keeps the
+  // values over `kept`, a box of the current geometry on the same lattice (the frozen grid's,
+  // OccupancyGrid::Freeze), quantised to 16 bits (kQuantizationStep; 2 bytes a cell instead of
+  // 32). Every value left out must be 0, which holds when the box covers the window radius
+  // around every occupied cell. A value that is not 0 stays not 0 (it rounds up to at least
+  // one step), so "no surface in the window" keeps its meaning for the free-space penalty.
+  // Values stay readable through Value (0 outside, as before) and quantized_values();
+  // values() is then empty; ApplyChanges, Resize and the rebuilds CHECK-fail. Idempotent.
+  void Freeze(const GridGeometry& kept);
+  bool frozen() const { return frozen_; }
+  static constexpr float kQuantizationStep = 1.f / 65535.f;
+  // Bytes held by the per-cell arrays (capacity).
+  size_t MemoryBytes() const;
 
   // Value at a cell (0 outside the grid).
-  float Value(const CellIndex& c) const {
-    return geometry_.Contains(c) ? values_[geometry_.LinearIndex(c)] : 0.f;
+  float Value(const CellIndex& c) const { return geometry_.Contains(c) ? Value(geometry_.LinearIndex(c)) : 0.f; }
+  float Value(int linear_index) const {
+    return frozen_ ? kQuantizationStep * quantized_values_[linear_index] : values_[linear_index];
   }
-  float Value(int linear_index) const { return values_[linear_index]; }
+  // All values, linear index order: before Freeze in values() (quantized_values() empty),
+  // afterwards in quantized_values(), value = kQuantizationStep * q (values() empty).
   const std::vector<float>& values() const { return values_; }
+  const std::vector<uint16_t>& quantized_values() const { return quantized_values_; }
 
  private:
   // A published surface piece: hit point relative to the cell's minimum corner (metres; NaN
@@ -123,7 +137,8 @@ class LikelihoodField {
   GridGeometry geometry_;
   int radius_cells_ = 0;
   bool frozen_ = false;
-  std::vector<float> values_;
+  std::vector<float> values_;             // empty once frozen
+  std::vector<uint16_t> quantized_values_;  // empty until frozen
   // values_[i] = ValueFromSquaredDistance(squared_distances_[i]); freed by Freeze. Within
   // ApplyChanges, kStale marks a cell queued in stale_cells_ for one recompute at the end.
   std::vector<float> squared_distances_;

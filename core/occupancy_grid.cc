@@ -180,6 +180,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
                                const std::vector<Eigen::Vector2d>& points_world,
                                std::vector<int>* changed_cells, const std::vector<uint8_t>* labels,
                                const std::vector<float>* heights, const std::vector<ScanLine>* lines) {
+  CHECK(!frozen_) << "InsertScan on a frozen grid";
   CHECK(labels == nullptr || labels->size() == points_world.size())
       << "InsertScan: " << labels->size() << " labels for " << points_world.size() << " points";
   Eigen::Vector2d lo = sensor_world, hi = sensor_world;
@@ -270,18 +271,64 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
 }
 
 void OccupancyGrid::AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds) {
+  CHECK(!frozen_) << "AddCellObservation on a frozen grid";
   CHECK(p_world.allFinite()) << "AddCellObservation at a non-finite point";
   CHECK(std::isfinite(delta_log_odds)) << "AddCellObservation with a non-finite log-odds change";
   EnsureContains(p_world, p_world);
   UpdateCell(geometry_.LinearIndex(geometry_.WorldToCell(p_world)), delta_log_odds, nullptr);
 }
 
-void OccupancyGrid::Freeze() {
+void OccupancyGrid::Freeze(int margin_cells) {
+  if (frozen_) return;
+  CHECK_GE(margin_cells, 0) << "Freeze: negative margin";
+  // The kept box: observed cells plus the margin, clipped to the grid (empty grid: no cells).
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+  if (observed_max_.x >= observed_min_.x) {
+    x0 = std::max(0, observed_min_.x - margin_cells);
+    y0 = std::max(0, observed_min_.y - margin_cells);
+    x1 = std::min(geometry_.width() - 1, observed_max_.x + margin_cells);
+    y1 = std::min(geometry_.height() - 1, observed_max_.y + margin_cells);
+  }
+  const int width = x1 - x0 + 1, height = y1 - y0 + 1;
+  std::vector<uint8_t> states(static_cast<size_t>(width) * height);
+  std::vector<uint8_t> labels(labels_.empty() ? 0 : states.size());
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const int from = (y + y0) * geometry_.width() + (x + x0);
+      const int to = y * width + x;
+      states[to] = static_cast<uint8_t>(State(from));
+      if (!labels.empty()) labels[to] = labels_[from];
+    }
+  }
+  frozen_states_.swap(states);
+  labels_.swap(labels);
+  // The crop keeps the lattice: the new origin is the old grid's corner of cell (x0, y0).
+  geometry_ = GridGeometry(geometry_.CellMinCorner({x0, y0}), geometry_.resolution_meters(), width, height);
+  if (observed_max_.x >= observed_min_.x) {
+    observed_min_ = {observed_min_.x - x0, observed_min_.y - y0};
+    observed_max_ = {observed_max_.x - x0, observed_max_.y - y0};
+  }
   frozen_ = true;
+  std::vector<float>().swap(log_odds_);
+  std::vector<uint8_t>().swap(observed_);
   std::vector<Eigen::Vector2f>().swap(hit_sum_);
   std::vector<uint32_t>().swap(hit_count_);
   std::vector<Eigen::Vector3f>().swap(line_sum_);
   std::vector<uint32_t>().swap(last_update_);
+  std::vector<uint8_t>().swap(height_min_);
+  std::vector<uint8_t>().swap(height_max_);
+}
+
+size_t OccupancyGrid::MemoryBytes() const {
+  return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_sum_.capacity() * sizeof(Eigen::Vector2f) +
+         hit_count_.capacity() * sizeof(uint32_t) + line_sum_.capacity() * sizeof(Eigen::Vector3f) +
+         last_update_.capacity() * sizeof(uint32_t) + labels_.capacity() + height_min_.capacity() +
+         height_max_.capacity() + frozen_states_.capacity();
+}
+
+float OccupancyGrid::LogOdds(int i) const {
+  CHECK(!frozen_) << "LogOdds on a frozen grid";
+  return log_odds_[i];
 }
 
 Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
@@ -304,6 +351,7 @@ ScanLine OccupancyGrid::Line(int i) const {
 }
 
 float OccupancyGrid::Probability(int i) const {
+  CHECK(!frozen_) << "Probability on a frozen grid";
   if (!observed_[i]) return 0.5f;
   return 1.f - 1.f / (1.f + std::exp(log_odds_[i]));
 }

@@ -112,18 +112,29 @@ class OccupancyGrid {
   void AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds);
 
   CellState State(int linear_index) const {
+    if (frozen_) return static_cast<CellState>(frozen_states_[linear_index]);
     if (!observed_[linear_index]) return CellState::kUnknown;
     return IsOccupied(linear_index) ? CellState::kOccupied : CellState::kFree;
   }
   CellState State(const CellIndex& c) const { return State(geometry_.LinearIndex(c)); }
-  float LogOdds(int linear_index) const { return log_odds_[linear_index]; }
+  // The state of the cell holding `p_world`; unknown outside the grid.
+  CellState StateAt(const Eigen::Vector2d& p_world) const {
+    const CellIndex c = geometry_.WorldToCell(p_world);
+    return geometry_.Contains(c) ? State(c) : CellState::kUnknown;
+  }
+  // Not kept by a frozen grid (CHECK-fails there): a finished submap is read by state.
+  float LogOdds(int linear_index) const;
   bool IsOccupied(int linear_index) const {
+    if (frozen_) return frozen_states_[linear_index] == static_cast<uint8_t>(CellState::kOccupied);
     return log_odds_[linear_index] > options_.occupied_threshold_log_odds;
   }
-  // Raw per-cell arrays (linear index order) for vectorised readers: a cell is free when
-  // observed() != 0 and log_odds() <= occupied_threshold_log_odds().
+  // Raw per-cell arrays (linear index order) for vectorised readers of a grid that is not
+  // frozen: a cell is free when observed() != 0 and log_odds() <= occupied_threshold_log_odds().
+  // Both are empty once frozen; read frozen_states() then.
   const std::vector<float>& log_odds() const { return log_odds_; }
   const std::vector<uint8_t>& observed() const { return observed_; }
+  // A frozen grid's cell states (CellState values, linear index order); empty before Freeze.
+  const std::vector<uint8_t>& frozen_states() const { return frozen_states_; }
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
@@ -146,14 +157,21 @@ class OccupancyGrid {
   // by a labelled point (and everywhere before the first labelled insertion: no memory).
   uint8_t LabelMask(int linear_index) const { return labels_.empty() ? 0 : labels_[linear_index]; }
   bool has_labels() const { return !labels_.empty(); }
-  // Occupancy probability in [0, 1], 0.5 for unknown.
+  // Occupancy probability in [0, 1], 0.5 for unknown. CHECK-fails on a frozen grid.
   float Probability(int linear_index) const;
 
-  // Frees what only insertion needs (hit points, per-scan stamps): about 60% of the memory.
-  // Afterwards State/LogOdds/Probability still work; InsertScan, EnsureContains and HitPoint
-  // CHECK-fail. For finished submaps that are only matched against.
-  void Freeze();
+  // For finished submaps that are only matched against: keeps the cell states (one byte a
+  // cell instead of log-odds, observed flag, hit points, per-scan stamps and heights: 24 bytes)
+  // and the label layer, over the observed box grown by `margin_cells` (clipped to the grid)
+  // instead of the grid, whose growth slack and border margin hold only unknown cells. The
+  // geometry becomes that box (same lattice, origin moved by whole cells), so linear indices
+  // change; world positions, states and labels do not (every cell left out was unknown, and
+  // StateAt still says so). Idempotent. Afterwards State, StateAt, IsOccupied and LabelMask work; InsertScan, EnsureContains, AddCellObservation, HitPoint, Line, LogOdds
+  // and Probability CHECK-fail.
+  void Freeze(int margin_cells = 0);
   bool frozen() const { return frozen_; }
+  // Bytes held by the cell arrays (capacity, not size: what the process holds).
+  size_t MemoryBytes() const;
   int num_scans_refused() const { return num_scans_refused_; }
 
  private:
@@ -181,6 +199,9 @@ class OccupancyGrid {
   // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); empty
   // until the first insertion with heights.
   std::vector<uint8_t> height_min_, height_max_;
+  // Once frozen, the only per-cell state (CellState values); every array above but labels_
+  // is then empty.
+  std::vector<uint8_t> frozen_states_;
   uint32_t scan_counter_ = 0;
   bool frozen_ = false;
   int num_scans_refused_ = 0;  // see InsertScan

@@ -9,12 +9,17 @@
 namespace hetslam {
 namespace {
 
+// `Value` is the field's storage: float while it is built, uint16_t once frozen (quantised,
+// value = value_scale * stored; interpolation is linear in the samples, so scaling the
+// interpolated sample is scaling the samples).
+template <typename Value>
 class ScanToLikelihoodFieldFunctor {
  public:
-  ScanToLikelihoodFieldFunctor(const LikelihoodField& field, const std::vector<Eigen::Vector2f>& points_robot,
-                               const std::vector<float>& weights)
-      : geometry_(field.geometry()),
-        grid_(field.values().data(), 0, field.geometry().height(), 0, field.geometry().width()),
+  ScanToLikelihoodFieldFunctor(const Value* values, double value_scale, const GridGeometry& geometry,
+                               const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights)
+      : geometry_(geometry),
+        value_scale_(value_scale),
+        grid_(values, 0, geometry.height(), 0, geometry.width()),
         interpolator_(grid_),
         points_robot_(points_robot),
         scaled_weights_(Scale(weights, points_robot.size())) {}
@@ -34,7 +39,7 @@ class ScanToLikelihoodFieldFunctor {
       const T row = (wy - geometry_.origin().y()) * inv_r - 0.5;
       T likelihood;
       interpolator_.Evaluate(row, col, &likelihood);
-      residuals[i] = scaled_weights_[i] * (1.0 - likelihood);
+      residuals[i] = scaled_weights_[i] * (1.0 - value_scale_ * likelihood);
     }
     return true;
   }
@@ -50,8 +55,9 @@ class ScanToLikelihoodFieldFunctor {
   }
 
   const GridGeometry geometry_;                            // map frame, metres
-  const ceres::Grid2D<float, 1> grid_;                     // field values, row = y, col = x
-  const ceres::BiCubicInterpolator<ceres::Grid2D<float, 1>> interpolator_;
+  const double value_scale_;                               // field value per stored unit
+  const ceres::Grid2D<Value, 1> grid_;                     // field values, row = y, col = x
+  const ceres::BiCubicInterpolator<ceres::Grid2D<Value, 1>> interpolator_;
   const std::vector<Eigen::Vector2f> points_robot_;        // robot frame, metres
   const std::vector<double> scaled_weights_;               // w_i / sqrt(N)
 };
@@ -62,8 +68,17 @@ ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& fiel
                                                      const std::vector<Eigen::Vector2f>& points_robot,
                                                      const std::vector<float>& weights) {
   CHECK_GT(field.geometry().num_cells(), 0) << "the likelihood field is empty";
-  return new ceres::AutoDiffCostFunction<ScanToLikelihoodFieldFunctor, ceres::DYNAMIC, 3>(
-      new ScanToLikelihoodFieldFunctor(field, points_robot, weights), static_cast<int>(points_robot.size()));
+  const int n = static_cast<int>(points_robot.size());
+  if (field.frozen()) {
+    using Functor = ScanToLikelihoodFieldFunctor<uint16_t>;
+    return new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, 3>(
+        new Functor(field.quantized_values().data(), LikelihoodField::kQuantizationStep, field.geometry(),
+                    points_robot, weights),
+        n);
+  }
+  using Functor = ScanToLikelihoodFieldFunctor<float>;
+  return new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, 3>(
+      new Functor(field.values().data(), 1.0, field.geometry(), points_robot, weights), n);
 }
 
 }  // namespace hetslam

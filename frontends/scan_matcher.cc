@@ -111,9 +111,18 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
+  // A frozen field (a finished submap) holds its values quantised.
+  const bool frozen_field = field.frozen();
   const float* values = field.values().data();
+  const uint16_t* quantized_values = field.quantized_values().data();
+  constexpr float kStep = LikelihoodField::kQuantizationStep;
+  // A frozen grid (a finished submap) keeps only cell states; one that is being built keeps
+  // log-odds and observed flags.
+  const bool frozen = grid.frozen();
   const float* log_odds = grid.log_odds().data();
   const uint8_t* observed = grid.observed().data();
+  const uint8_t* states = grid.frozen_states().data();
+  constexpr uint8_t kFree = static_cast<uint8_t>(CellState::kFree);
   const float occupied_threshold = grid.occupied_threshold_log_odds();
   const int n = std::max(0, x_end - x_begin);
   for (int y = 0; y < h; ++y) {
@@ -128,7 +137,21 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
     const int row = gy * g.width() + s.region_min.x + x_begin;
     const float* value = values + row;
     float* out = dst + x_begin;
-    if (free_space_penalty > 0.f) {
+    if (frozen_field) {
+      const uint16_t* q = quantized_values + row;
+      const uint8_t* state = states + row;
+      CHECK(frozen) << "a frozen likelihood field over a grid that is not frozen";
+      for (int x = 0; x < n; ++x) {
+        const bool free_space = (free_space_penalty > 0.f) & (q[x] == 0) & (state[x] == kFree);
+        out[x] = free_space ? -free_space_penalty : kStep * q[x];
+      }
+    } else if (free_space_penalty > 0.f && frozen) {
+      const uint8_t* state = states + row;
+      for (int x = 0; x < n; ++x) {
+        const bool free_space = (value[x] == 0.f) & (state[x] == kFree);
+        out[x] = free_space ? -free_space_penalty : value[x];
+      }
+    } else if (free_space_penalty > 0.f) {
       // A point in known free space (observed, not occupied), away from any hit, is evidence
       // against the pose. (A plain loop: the equivalent Eigen select over a mixed-type boolean
       // expression was evaluated element by element, ~1.5x slower at -O2.)
