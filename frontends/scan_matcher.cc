@@ -305,6 +305,12 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   return msg.str().empty();
 }
 
+size_t ScanMatcher::ScratchBytes() const {
+  size_t bytes = 0;
+  for (const std::vector<float>& level : levels_scratch_) bytes += level.capacity() * sizeof(float);
+  return bytes;
+}
+
 ScanMatcher::ScanMatcher(const ScanMatcherOptions& options) : options_(options) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid ScanMatcherOptions: " << error;
