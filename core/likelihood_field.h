@@ -82,8 +82,8 @@ class LikelihoodField {
   // For a finished submap: frees the published hit points and squared distances and keeps the
   // values over `kept`, a box of the current geometry on the same lattice (the frozen grid's,
   // OccupancyGrid::Freeze), quantised to 16 bits (kQuantizationStep; 2 bytes a cell instead of
-  // 32). Every value left out must be 0, which holds when the box covers the window radius
-  // around every occupied cell. A value that is not 0 stays not 0 (it rounds up to at least
+  // 12 and the pooled segments). Every value left out must be 0, which holds when the box
+  // covers the window radius around every occupied cell. A value that is not 0 stays not 0 (it rounds up to at least
   // one step), so "no surface in the window" keeps its meaning for the free-space penalty.
   // Values stay readable through Value (0 outside, as before) and quantized_values();
   // values() is then empty; ApplyChanges, Resize and the rebuilds CHECK-fail. Idempotent.
@@ -128,7 +128,10 @@ class LikelihoodField {
   float ValueFromSquaredDistance(float squared_distance) const;
   // Min d^2 over the published points in c's window (+inf when there is none).
   float RecomputeSquaredDistance(const CellIndex& c) const;
-  bool HasPublished(int i) const { return published_[i].point.x() == published_[i].point.x(); }
+  bool HasPublished(int i) const { return published_index_[i] >= 0; }
+  const Segment& Published(int i) const { return HasPublished(i) ? segments_[published_index_[i]] : kUnpublished; }
+  // Publishes `s` for cell i (kUnpublished, NaN point: withdraws it).
+  void SetPublished(int i, const Segment& s);
   static const Segment kUnpublished;
   // The segment occupied cell i of `grid` stands for, relative to the cell's minimum corner.
   Segment SegmentOf(const OccupancyGrid& grid, int i) const;
@@ -143,9 +146,12 @@ class LikelihoodField {
   // ApplyChanges, kStale marks a cell queued in stale_cells_ for one recompute at the end.
   std::vector<float> squared_distances_;
   std::vector<int> stale_cells_;  // scratch of ApplyChanges
-  // Published segment per cell, its point relative to the cell's own minimum corner (NaN when
-  // the cell does not contribute). Relative storage makes values independent of growth.
-  std::vector<Segment> published_;
+  // Published segment per cell, its point relative to the cell's own minimum corner; relative
+  // storage makes values independent of growth. Only occupied cells publish, a few percent:
+  // the segments sit in a pool, indexed per cell (-1: none; 4 bytes a cell instead of 20).
+  std::vector<int32_t> published_index_;
+  std::vector<Segment> segments_;
+  std::vector<int32_t> free_segments_;  // released entries of segments_, reused first
 };
 
 }  // namespace hetslam

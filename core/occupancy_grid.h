@@ -138,7 +138,10 @@ class OccupancyGrid {
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
-  int HitCount(int linear_index) const { return frozen_ ? 0 : hit_count_[linear_index]; }
+  int HitCount(int linear_index) const {
+    if (frozen_ || hit_index_[linear_index] < 0) return 0;
+    return static_cast<int>(hits_[hit_index_[linear_index]].count);
+  }
   // The surface through an occupied cell's hit point: its hits' lines averaged (directions as
   // axes, doubled angles, weighted by half length), with half_length 0 when the cell has no
   // line evidence or its lines disagree (their mean axis is shorter than kMinLineCoherence of
@@ -146,7 +149,7 @@ class OccupancyGrid {
   // those without a line counting 0: a cell seen as a point as often as on a line stands for
   // a shorter piece.
   ScanLine Line(int linear_index) const;
-  bool has_lines() const { return !line_sum_.empty(); }
+  bool has_lines() const { return has_lines_; }
   static constexpr float kMinLineCoherence = 0.8f;
 
   // Bounding box (cells) of all observed cells; empty (max < min) before any insertion.
@@ -161,7 +164,7 @@ class OccupancyGrid {
   float Probability(int linear_index) const;
 
   // For finished submaps that are only matched against: keeps the cell states (one byte a
-  // cell instead of log-odds, observed flag, hit points, per-scan stamps and heights: 24 bytes)
+  // cell instead of log-odds, observed flag, hit index, per-scan stamp: 11 bytes, and heights)
   // and the label layer, over the observed box grown by `margin_cells` (clipped to the grid)
   // instead of the grid, whose growth slack and border margin hold only unknown cells. The
   // geometry becomes that box (same lattice, origin moved by whole cells), so linear indices
@@ -185,16 +188,25 @@ class OccupancyGrid {
   GridGeometry geometry_;
   std::vector<float> log_odds_;
   std::vector<uint8_t> observed_;
-  // Hit point sums relative to the cell's minimum corner (metres); relative storage keeps
-  // float precision and survives growth unchanged.
-  std::vector<Eigen::Vector2f> hit_sum_;
-  std::vector<uint32_t> hit_count_;
-  // Per cell, summed over the hits counted in hit_count_: half_length · (cos 2θ, sin 2θ, 1) of
-  // each hit's line (θ its direction), nothing for a hit without one.
-  // Empty until the first insertion with lines.
-  std::vector<Eigen::Vector3f> line_sum_;
-  // Scan counter stamps so that a cell is updated at most once per scan.
-  std::vector<uint32_t> last_update_;
+  // What an occupied cell accumulates from its hits. Only occupied cells accumulate (a cell
+  // turning free forgets), a few percent of the cells: they are kept in a pool, indexed per
+  // cell (4 bytes a cell instead of 24).
+  struct HitAccumulator {
+    // Hit point sum relative to the cell's minimum corner (metres); relative storage keeps
+    // float precision and survives growth unchanged.
+    Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+    uint32_t count = 0;
+    // Summed over the counted hits: half_length · (cos 2θ, sin 2θ, 1) of each hit's line (θ its
+    // direction), nothing for a hit without one.
+    Eigen::Vector3f line_sum = Eigen::Vector3f::Zero();
+  };
+  std::vector<int32_t> hit_index_;      // per cell: index into hits_, -1 for none
+  std::vector<HitAccumulator> hits_;
+  std::vector<int32_t> free_hits_;      // released entries of hits_, reused first
+  bool has_lines_ = false;              // an insertion with lines happened
+  // Scan counter stamps so that a cell is updated at most once per scan (16 bits: the stamps
+  // restart when the counter wraps, see InsertScan).
+  std::vector<uint16_t> last_update_;
   std::vector<uint8_t> labels_;  // label layer; empty until the first labelled insertion
   // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); empty
   // until the first insertion with heights.
@@ -202,7 +214,7 @@ class OccupancyGrid {
   // Once frozen, the only per-cell state (CellState values); every array above but labels_
   // is then empty.
   std::vector<uint8_t> frozen_states_;
-  uint32_t scan_counter_ = 0;
+  uint16_t scan_counter_ = 0;
   bool frozen_ = false;
   int num_scans_refused_ = 0;  // see InsertScan
   CellIndex observed_min_{1, 1};
