@@ -16,6 +16,9 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#ifdef __GLIBC__
+#include <malloc.h>  // mallopt, see main()
+#endif
 
 #include "core/euler.h"
 #include "core/file_io.h"
@@ -166,6 +169,9 @@ DEFINE_double(densify_max_gap, 0.0, "Join the end points of neighbouring beams c
               "the grid resolution before matching and mapping (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
 DEFINE_int32(progress_every, 100, "Print progress every N scans (0 = never).");
+DEFINE_int32(malloc_mmap_threshold_kib, 256,
+             "glibc: allocations of at least this many KiB get their own pages, returned when freed "
+             "(0 = glibc's own threshold, which grows after a large block is freed).");
 
 namespace hetslam {
 namespace {
@@ -558,6 +564,17 @@ int main(int argc, char** argv) {
   gflags::ParseCommandLineFlags(&argc, &argv, true);
   google::InitGoogleLogging(argv[0]);
   FLAGS_logtostderr = true;
+#ifdef __GLIBC__
+  // glibc raises its mmap threshold (up to 32 MiB) whenever a large mmapped block is freed;
+  // from then on the grids' growth copies and the scan matchers' tables come from the brk heap,
+  // where the freed ones stay as fragments. A fixed threshold returns them: Intel's peak RSS
+  // 165 -> 115 MiB at 256 KiB for ~0.3 s of page faults (128 KiB: the same; 1 MiB: 140 MiB).
+  if (FLAGS_malloc_mmap_threshold_kib < 0) {
+    std::cerr << "hetslam_run: --malloc_mmap_threshold_kib must be >= 0\n";
+    return 2;
+  }
+  if (FLAGS_malloc_mmap_threshold_kib > 0) mallopt(M_MMAP_THRESHOLD, FLAGS_malloc_mmap_threshold_kib * 1024);
+#endif
   if (argc > 1) {
     std::cerr << "hetslam_run: unexpected argument '" << argv[1] << "' (flags are --name=value; see --help)\n";
     return 2;
