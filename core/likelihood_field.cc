@@ -86,7 +86,7 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
       to[x] = v > 0.f ? static_cast<uint16_t>(std::max(1L, std::lround(v / kQuantizationStep))) : 0;
     }
   }
-  quantized_values_.swap(quantized);
+  frozen_values_ = SparseTiles<uint16_t>(quantized, kept.width(), kept.height(), 0);
   std::vector<float>().swap(values_);
   geometry_ = kept;
   frozen_ = true;
@@ -98,7 +98,7 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
 }
 
 size_t LikelihoodField::MemoryBytes() const {
-  return values_.capacity() * sizeof(float) + quantized_values_.capacity() * sizeof(uint16_t) +
+  return values_.capacity() * sizeof(float) + frozen_values_.MemoryBytes() +
          squared_distances_.capacity() * sizeof(float) +
          stale_cells_.capacity() * sizeof(int) + published_index_.capacity() * sizeof(int32_t) +
          segments_.capacity() * sizeof(Segment) + free_segments_.capacity() * sizeof(int32_t);

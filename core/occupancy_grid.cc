@@ -306,8 +306,9 @@ void OccupancyGrid::Freeze(int margin_cells) {
       if (!labels.empty()) labels[to] = labels_[from];
     }
   }
-  frozen_states_.swap(states);
-  labels_.swap(labels);
+  frozen_states_ = SparseTiles<uint8_t>(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
+  frozen_labels_ = SparseTiles<uint8_t>(labels.empty() ? std::vector<uint8_t>(states.size(), 0) : labels, width, height, 0);
+  std::vector<uint8_t>().swap(labels_);
   // The crop keeps the lattice: the new origin is the old grid's corner of cell (x0, y0).
   geometry_ = GridGeometry(geometry_.CellMinCorner({x0, y0}), geometry_.resolution_meters(), width, height);
   if (observed_max_.x >= observed_min_.x) {
@@ -329,7 +330,7 @@ size_t OccupancyGrid::MemoryBytes() const {
   return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_index_.capacity() * sizeof(int32_t) +
          hits_.capacity() * sizeof(HitAccumulator) + free_hits_.capacity() * sizeof(int32_t) +
          last_update_.capacity() * sizeof(uint16_t) + labels_.capacity() + height_min_.capacity() +
-         height_max_.capacity() + frozen_states_.capacity();
+         height_max_.capacity() + frozen_states_.MemoryBytes() + frozen_labels_.MemoryBytes();
 }
 
 float OccupancyGrid::LogOdds(int i) const {

@@ -17,6 +17,7 @@
 
 #include "Eigen/Core"
 #include "core/grid_geometry.h"
+#include "core/sparse_tiles.h"
 #include "core/se2.h"
 
 namespace hetslam {
@@ -112,11 +113,13 @@ class OccupancyGrid {
   void AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds);
 
   CellState State(int linear_index) const {
-    if (frozen_) return static_cast<CellState>(frozen_states_[linear_index]);
+    if (frozen_) return State(geometry_.FromLinearIndex(linear_index));
     if (!observed_[linear_index]) return CellState::kUnknown;
     return IsOccupied(linear_index) ? CellState::kOccupied : CellState::kFree;
   }
-  CellState State(const CellIndex& c) const { return State(geometry_.LinearIndex(c)); }
+  CellState State(const CellIndex& c) const {
+    return frozen_ ? static_cast<CellState>(frozen_states_.Get(c.x, c.y)) : State(geometry_.LinearIndex(c));
+  }
   // The state of the cell holding `p_world`; unknown outside the grid.
   CellState StateAt(const Eigen::Vector2d& p_world) const {
     const CellIndex c = geometry_.WorldToCell(p_world);
@@ -125,16 +128,19 @@ class OccupancyGrid {
   // Not kept by a frozen grid (CHECK-fails there): a finished submap is read by state.
   float LogOdds(int linear_index) const;
   bool IsOccupied(int linear_index) const {
-    if (frozen_) return frozen_states_[linear_index] == static_cast<uint8_t>(CellState::kOccupied);
+    if (frozen_) return State(linear_index) == CellState::kOccupied;
     return log_odds_[linear_index] > options_.occupied_threshold_log_odds;
   }
   // Raw per-cell arrays (linear index order) for vectorised readers of a grid that is not
   // frozen: a cell is free when observed() != 0 and log_odds() <= occupied_threshold_log_odds().
-  // Both are empty once frozen; read frozen_states() then.
+  // Both are empty once frozen; read FrozenStatesRow then.
   const std::vector<float>& log_odds() const { return log_odds_; }
   const std::vector<uint8_t>& observed() const { return observed_; }
-  // A frozen grid's cell states (CellState values, linear index order); empty before Freeze.
-  const std::vector<uint8_t>& frozen_states() const { return frozen_states_; }
+  // A frozen grid's cell states (CellState values) of cells x0 .. x0 + n - 1 of row y, all
+  // inside the grid, into out[0 .. n - 1].
+  void FrozenStatesRow(int x0, int y, int n, uint8_t* out) const { frozen_states_.GetRow(x0, y, n, out); }
+  // SparseTiles::TileRow of the frozen states (null: all unknown to the tile's right edge).
+  const uint8_t* FrozenStatesTileRow(int x, int y) const { return frozen_states_.TileRow(x, y); }
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
@@ -158,15 +164,23 @@ class OccupancyGrid {
 
   // Label layer: the bits (1 << label) of every label that hit the cell; 0 for cells never hit
   // by a labelled point (and everywhere before the first labelled insertion: no memory).
-  uint8_t LabelMask(int linear_index) const { return labels_.empty() ? 0 : labels_[linear_index]; }
-  bool has_labels() const { return !labels_.empty(); }
+  uint8_t LabelMask(int linear_index) const {
+    if (frozen_) {
+      const CellIndex c = geometry_.FromLinearIndex(linear_index);
+      return frozen_labels_.Get(c.x, c.y);
+    }
+    return labels_.empty() ? 0 : labels_[linear_index];
+  }
+  bool has_labels() const { return frozen_ ? frozen_labels_.num_stored_tiles() > 0 : !labels_.empty(); }
   // Occupancy probability in [0, 1], 0.5 for unknown. CHECK-fails on a frozen grid.
   float Probability(int linear_index) const;
 
-  // For finished submaps that are only matched against: keeps the cell states (one byte a
-  // cell instead of log-odds, observed flag, hit index, per-scan stamp: 11 bytes, and heights)
-  // and the label layer, over the observed box grown by `margin_cells` (clipped to the grid)
-  // instead of the grid, whose growth slack and border margin hold only unknown cells. The
+  // For finished submaps that are only matched against: keeps the cell states and the label
+  // layer, over the observed box grown by `margin_cells` (clipped to the grid) instead of the
+  // grid, whose growth slack and border margin hold only unknown cells, in 8 × 8 tiles of
+  // one byte a cell where a tile that is all unknown (labels: all 0) is not stored
+  // (core/sparse_tiles.h; instead of 11 bytes a cell: log-odds, observed flag, hit index,
+  // per-scan stamp, and heights). The
   // geometry becomes that box (same lattice, origin moved by whole cells), so linear indices
   // change; world positions, states and labels do not (every cell left out was unknown, and
   // StateAt still says so). Idempotent. Afterwards State, StateAt, IsOccupied and LabelMask work; InsertScan, EnsureContains, AddCellObservation, HitPoint, Line, LogOdds
@@ -211,9 +225,10 @@ class OccupancyGrid {
   // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); empty
   // until the first insertion with heights.
   std::vector<uint8_t> height_min_, height_max_;
-  // Once frozen, the only per-cell state (CellState values); every array above but labels_
-  // is then empty.
-  std::vector<uint8_t> frozen_states_;
+  // Once frozen, the only per-cell data (CellState values; label masks), in tiles that leave
+  // out all-unknown (all-0) 8 × 8 blocks; every array above is then empty.
+  SparseTiles<uint8_t> frozen_states_;
+  SparseTiles<uint8_t> frozen_labels_;
   uint16_t scan_counter_ = 0;
   bool frozen_ = false;
   int num_scans_refused_ = 0;  // see InsertScan

@@ -16,8 +16,8 @@
 //
 // A frozen field (core/likelihood_field.h) is read in its quantised form, without a copy.
 //
-// Lifetime: the cost keeps a pointer to `field.values()` (`field.quantized_values()` when
-// frozen) and a copy of `field.geometry()` —
+// Lifetime: the cost keeps a pointer to `field.values()` (to `field` itself when frozen) and
+// a copy of `field.geometry()` —
 // the field must outlive the cost function and must not be modified or resized (no scan
 // insertion) while the cost is used. The points and weights are copied.
 #ifndef HETSLAM_FACTORS_SCAN_COST_H_
