@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "factors/sqrt_information.h"
@@ -268,6 +269,26 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   std::vector<Eigen::Vector2d> points_world;
   std::vector<uint8_t> labels;
   if (layer == Layer::kStructure) {
+    // The grid is sized once to the box of every point and sensor: grown scan by scan it would
+    // copy itself at every growth (old and new arrays alive together: the process's peak when
+    // rendering at the end) and keep the growth slack of the last one.
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector2d hi = -lo;
+    for (const Node& node : it->second.nodes) {
+      if (node.points.all.empty()) continue;
+      const Pose2 world_T_node = problem_.pose(node.pose);
+      const Eigen::Vector2d sensor = world_T_node * node.points.sensor_robot;
+      lo = lo.cwiseMin(sensor);
+      hi = hi.cwiseMax(sensor);
+      for (const Eigen::Vector2f& p : node.points.all) {
+        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+        lo = lo.cwiseMin(world);
+        hi = hi.cwiseMax(world);
+      }
+    }
+    // A box the grid cannot hold (a corrupt pose far away) is left to InsertScan, which
+    // refuses the offending scans one by one.
+    if (lo.x() <= hi.x() && grid->CanContain(lo, hi)) grid->EnsureContains(lo, hi);
     for (const Node& node : it->second.nodes) {
       if (node.points.all.empty()) continue;
       const Pose2 world_T_node = problem_.pose(node.pose);
