@@ -439,14 +439,19 @@ int Run() {
   const auto start = std::chrono::steady_clock::now();
   int scans = 0, errors = 0;
   double first_stamp = 0.0, last_stamp = 0.0;
-  for (const Measurement& measurement : log.measurements) {
+  for (Measurement& measurement : log.measurements) {
     const bool scan = std::holds_alternative<LaserReading>(measurement);
     if (scan && scans == num_scans) break;
+    const double stamp = StampOf(measurement);
     const Status status = estimator->Add(measurement);
+    // The estimator copies what it keeps; the log's measurement is not read again, so its
+    // payload (a scan's ranges and beam angles as doubles: ~28 MB for FR079) goes now rather
+    // than at the end.
+    measurement = Measurement();
     if (!status.ok() && ++errors <= 5) std::cerr << "warning: " << FLAGS_log << ": " << status.message() << "\n";
     if (!scan) continue;
-    if (scans == 0) first_stamp = StampOf(measurement);
-    last_stamp = std::max(last_stamp, StampOf(measurement));
+    if (scans == 0) first_stamp = stamp;
+    last_stamp = std::max(last_stamp, stamp);
     ++scans;
     if (FLAGS_progress_every > 0 && scans % FLAGS_progress_every == 0) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
