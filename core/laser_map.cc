@@ -96,6 +96,18 @@ bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
   return true;
 }
 
+void LaserMap::Freeze() {
+  if (grid_.frozen()) return;
+  // Field values are non-zero only within the window radius of an occupied (so observed)
+  // cell; two more cells keep the border at 0 for the bicubic cost and bilinear scores.
+  grid_.Freeze(field_.window_radius_cells() + 2);
+  field_.Freeze(grid_.geometry());
+  std::vector<int>().swap(changed_cells_);
+  std::vector<Eigen::Vector2d>().swap(points_world_);
+  std::vector<uint8_t>().swap(labels_);
+  std::vector<ScanLine>().swap(lines_);
+}
+
 size_t LaserMap::MemoryBytes() const {
   return grid_.MemoryBytes() + field_.MemoryBytes() + changed_cells_.capacity() * sizeof(int) +
          points_world_.capacity() * sizeof(Eigen::Vector2d) + labels_.capacity() + lines_.capacity() * sizeof(ScanLine);

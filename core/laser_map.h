@@ -43,17 +43,16 @@ class LaserMap {
                   const std::vector<Eigen::Vector2f>& points_robot,
                   const std::vector<PointLabel>* labels = nullptr, const std::vector<float>* heights = nullptr);
 
-  // Keeps only what matching needs (cell states, likelihood values); no more insertion.
-  void Freeze() {
-    grid_.Freeze();
-    field_.Freeze();
-  }
+  // Keeps only what matching needs (cell states, labels, likelihood values) over the observed
+  // box grown by the likelihood window and two cells (so the border values stay 0, as
+  // factors/scan_cost.h assumes); no more insertion. See OccupancyGrid::Freeze.
+  void Freeze();
+  // Bytes held by the grid's and the field's cell arrays and the scratch buffers (capacity).
+  size_t MemoryBytes() const;
 
   const OccupancyGrid& grid() const { return grid_; }
   const LikelihoodField& field() const { return field_; }
   int num_scans_inserted() const { return num_scans_inserted_; }
-  // Heap bytes of the grid, the field and the scratch buffers.
-  size_t MemoryBytes() const;
 
  private:
   OccupancyGrid grid_;

@@ -1,5 +1,6 @@
 #include "core/likelihood_field.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -20,6 +21,27 @@ LikelihoodField::Segment LikelihoodField::SegmentOf(const OccupancyGrid& grid, i
   const ScanLine line = grid.has_lines() ? grid.Line(i) : ScanLine();
   return {(grid.HitPoint(i) - geometry_.CellMinCorner(geometry_.FromLinearIndex(i))).cast<float>(), line.direction,
           line.half_length};
+}
+
+void LikelihoodField::SetPublished(int i, const Segment& s) {
+  int32_t& index = published_index_[i];
+  if (s.point.x() != s.point.x()) {  // NaN: withdraw
+    if (index >= 0) {
+      free_segments_.push_back(index);
+      index = -1;
+    }
+    return;
+  }
+  if (index < 0) {
+    if (free_segments_.empty()) {
+      index = static_cast<int32_t>(segments_.size());
+      segments_.push_back(s);
+      return;
+    }
+    index = free_segments_.back();
+    free_segments_.pop_back();
+  }
+  segments_[index] = s;
 }
 
 bool LikelihoodFieldOptions::IsValid(std::string* error) const {
@@ -44,10 +66,42 @@ LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options) : option
   CHECK(options_.IsValid(&error)) << "invalid LikelihoodFieldOptions: " << error;
 }
 
-void LikelihoodField::Freeze() {
+void LikelihoodField::Freeze(const GridGeometry& kept) {
+  if (frozen_) return;
+  const double r = geometry_.resolution_meters();
+  CHECK_EQ(kept.resolution_meters(), r) << "Freeze: resolution changed";
+  // Offset of the kept box in the current grid, in whole cells.
+  const int x0 = static_cast<int>(std::lround((kept.origin().x() - geometry_.origin().x()) / r));
+  const int y0 = static_cast<int>(std::lround((kept.origin().y() - geometry_.origin().y()) / r));
+  CHECK(kept.num_cells() == 0 || (x0 >= 0 && y0 >= 0 && x0 + kept.width() <= geometry_.width() &&
+                                  y0 + kept.height() <= geometry_.height()))
+      << "Freeze: the kept box is not inside the field";
+  std::vector<uint16_t> quantized(kept.num_cells());
+  for (int y = 0; y < kept.height(); ++y) {
+    const float* from = values_.data() + static_cast<size_t>(y + y0) * geometry_.width() + x0;
+    uint16_t* to = quantized.data() + static_cast<size_t>(y) * kept.width();
+    for (int x = 0; x < kept.width(); ++x) {
+      const float v = std::clamp(from[x], 0.f, 1.f);
+      // Round to nearest, but never a positive value to 0 (see Freeze in the header).
+      to[x] = v > 0.f ? static_cast<uint16_t>(std::max(1L, std::lround(v / kQuantizationStep))) : 0;
+    }
+  }
+  frozen_values_ = SparseTiles<uint16_t>(quantized, kept.width(), kept.height(), 0);
+  std::vector<float>().swap(values_);
+  geometry_ = kept;
   frozen_ = true;
-  std::vector<Segment>().swap(published_);
+  std::vector<int32_t>().swap(published_index_);
+  std::vector<Segment>().swap(segments_);
+  std::vector<int32_t>().swap(free_segments_);
   std::vector<float>().swap(squared_distances_);
+  std::vector<int>().swap(stale_cells_);
+}
+
+size_t LikelihoodField::MemoryBytes() const {
+  return values_.capacity() * sizeof(float) + frozen_values_.MemoryBytes() +
+         squared_distances_.capacity() * sizeof(float) +
+         stale_cells_.capacity() * sizeof(int) + published_index_.capacity() * sizeof(int32_t) +
+         segments_.capacity() * sizeof(Segment) + free_segments_.capacity() * sizeof(int32_t);
 }
 
 void LikelihoodField::Resize(const GridGeometry& g) {
@@ -56,7 +110,7 @@ void LikelihoodField::Resize(const GridGeometry& g) {
   radius_cells_ = static_cast<int>(std::ceil(options_.max_distance_meters / r - 1e-9));
   std::vector<float> values(g.num_cells(), 0.f);
   std::vector<float> squared_distances(g.num_cells(), kInfinity);
-  std::vector<Segment> published(g.num_cells(), kUnpublished);
+  std::vector<int32_t> published_index(g.num_cells(), -1);
   if (geometry_.num_cells() > 0) {
     CHECK_EQ(g.resolution_meters(), geometry_.resolution_meters()) << "resolution changed";
     const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
@@ -67,14 +121,14 @@ void LikelihoodField::Resize(const GridGeometry& g) {
         const int to = (y + dy) * g.width() + (x + dx);
         values[to] = values_[from];
         squared_distances[to] = squared_distances_[from];
-        published[to] = published_[from];
+        published_index[to] = published_index_[from];
       }
     }
   }
   geometry_ = g;
   values_.swap(values);
   squared_distances_.swap(squared_distances);
-  published_.swap(published);
+  published_index_.swap(published_index);
 }
 
 float LikelihoodField::ValueFromSquaredDistance(float squared_distance) const {
@@ -86,10 +140,9 @@ float LikelihoodField::RecomputeSquaredDistance(const CellIndex& c) const {
   const int x0 = std::max(0, c.x - radius_cells_), x1 = std::min(geometry_.width() - 1, c.x + radius_cells_);
   const int y0 = std::max(0, c.y - radius_cells_), y1 = std::min(geometry_.height() - 1, c.y + radius_cells_);
   for (int y = y0; y <= y1; ++y) {
+    const int32_t* index = published_index_.data() + static_cast<size_t>(y) * geometry_.width();
     for (int x = x0; x <= x1; ++x) {
-      // No HasPublished branch: an unpublished cell's NaN point gives a NaN d^2, which
-      // std::min(best, NaN) ignores (it returns best when the comparison is false).
-      best = std::min(best, SquaredDistance(c, {x, y}, published_[y * geometry_.width() + x]));
+      if (index[x] >= 0) best = std::min(best, SquaredDistance(c, {x, y}, segments_[index[x]]));
     }
   }
   return best;
@@ -112,7 +165,7 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
   stale_cells_.clear();
   for (int i : changed_cells) {
     const CellIndex o = geometry_.FromLinearIndex(i);
-    const Segment old_s = published_[i];
+    const Segment old_s = Published(i);
     const bool had = HasPublished(i);
     const bool has = grid.IsOccupied(i);
     Segment new_s = kUnpublished;
@@ -128,7 +181,7 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     } else if (!had) {
       continue;
     }
-    published_[i] = new_s;
+    SetPublished(i, new_s);
     const int x0 = std::max(0, o.x - radius_cells_), x1 = std::min(geometry_.width() - 1, o.x + radius_cells_);
     const int y0 = std::max(0, o.y - radius_cells_), y1 = std::min(geometry_.height() - 1, o.y + radius_cells_);
     for (int y = y0; y <= y1; ++y) {
@@ -170,13 +223,8 @@ void LikelihoodField::RebuildAll() {
 
 void LikelihoodField::RebuildFrom(const OccupancyGrid& grid) {
   Resize(grid.geometry());
-  for (int i = 0; i < geometry_.num_cells(); ++i) published_[i] = grid.IsOccupied(i) ? SegmentOf(grid, i) : kUnpublished;
+  for (int i = 0; i < geometry_.num_cells(); ++i) SetPublished(i, grid.IsOccupied(i) ? SegmentOf(grid, i) : kUnpublished);
   RebuildAll();
-}
-
-size_t LikelihoodField::MemoryBytes() const {
-  return (values_.capacity() + squared_distances_.capacity()) * sizeof(float) + stale_cells_.capacity() * sizeof(int) +
-         published_.capacity() * sizeof(Segment);
 }
 
 }  // namespace hetslam

@@ -29,11 +29,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "Eigen/Core"
 #include "core/grid_geometry.h"
+#include "core/sparse_tiles.h"
 #include "core/occupancy_grid.h"
 
 namespace hetslam {
@@ -78,18 +80,53 @@ class LikelihoodField {
   // Publishes every occupied cell's current hit point and rebuilds.
   void RebuildFrom(const OccupancyGrid& grid);
 
-  // Frees the published hit points and squared distances (two thirds of the memory); values
-  // stay readable, ApplyChanges, Resize and the rebuilds CHECK-fail afterwards.
-  void Freeze();
+  // For a finished submap: frees the published hit points and squared distances and keeps the
+  // values over `kept`, a box of the current geometry on the same lattice (the frozen grid's,
+  // OccupancyGrid::Freeze), quantised to 16 bits (kQuantizationStep), in 8 × 8 tiles where a
+  // tile of zeros is not stored (core/sparse_tiles.h: 2 bytes a cell near surfaces, nothing
+  // away from them, instead of 12 bytes a cell and the pooled segments). Every value left out
+  // of the box must be 0, which holds when it covers the window radius around every occupied
+  // cell. A value that is not 0 stays not 0 (it rounds up to at least
+  // one step), so "no surface in the window" keeps its meaning for the free-space penalty.
+  // Values stay readable through Value (0 outside, as before) and FrozenValuesRow; values()
+  // is then empty; ApplyChanges, Resize and the rebuilds CHECK-fail. Idempotent.
+  void Freeze(const GridGeometry& kept);
+  bool frozen() const { return frozen_; }
+  static constexpr float kQuantizationStep = 1.f / 65535.f;
+  // Bytes held by the per-cell arrays (capacity).
+  size_t MemoryBytes() const;
 
   // Value at a cell (0 outside the grid).
   float Value(const CellIndex& c) const {
-    return geometry_.Contains(c) ? values_[geometry_.LinearIndex(c)] : 0.f;
+    if (!geometry_.Contains(c)) return 0.f;
+    return frozen_ ? kQuantizationStep * frozen_values_.Get(c.x, c.y) : values_[geometry_.LinearIndex(c)];
   }
-  float Value(int linear_index) const { return values_[linear_index]; }
+  float Value(int linear_index) const {
+    return frozen_ ? Value(geometry_.FromLinearIndex(linear_index)) : values_[linear_index];
+  }
+  // Values of cells (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1) into v[0..3] (0 outside
+  // the grid): the neighbourhood of a bilinear lookup, read with one tile lookup when frozen.
+  void Values2x2(int x, int y, float* v) const {
+    if (frozen_ && x >= 0 && y >= 0 && x + 1 < geometry_.width() && y + 1 < geometry_.height()) {
+      uint16_t q[4];
+      frozen_values_.Get2x2(x, y, q);
+      for (int k = 0; k < 4; ++k) v[k] = kQuantizationStep * q[k];
+      return;
+    }
+    v[0] = Value(CellIndex{x, y});
+    v[1] = Value(CellIndex{x + 1, y});
+    v[2] = Value(CellIndex{x, y + 1});
+    v[3] = Value(CellIndex{x + 1, y + 1});
+  }
+  // All values, linear index order, before Freeze (empty afterwards).
   const std::vector<float>& values() const { return values_; }
-  // Heap bytes held (vector capacities).
-  size_t MemoryBytes() const;
+  // A frozen field's quantised values q (value = kQuantizationStep * q) of cells
+  // x0 .. x0 + n - 1 of row y, all inside the grid, into out[0 .. n - 1].
+  void FrozenValuesRow(int x0, int y, int n, uint16_t* out) const { frozen_values_.GetRow(x0, y, n, out); }
+  // SparseTiles::TileRow of the frozen values (null: all 0 to the tile's right edge).
+  const uint16_t* FrozenValuesTileRow(int x, int y) const { return frozen_values_.TileRow(x, y); }
+  // The same for one cell inside the grid.
+  uint16_t FrozenValue(int x, int y) const { return frozen_values_.Get(x, y); }
 
  private:
   // A published surface piece: hit point relative to the cell's minimum corner (metres; NaN
@@ -116,7 +153,10 @@ class LikelihoodField {
   float ValueFromSquaredDistance(float squared_distance) const;
   // Min d^2 over the published points in c's window (+inf when there is none).
   float RecomputeSquaredDistance(const CellIndex& c) const;
-  bool HasPublished(int i) const { return published_[i].point.x() == published_[i].point.x(); }
+  bool HasPublished(int i) const { return published_index_[i] >= 0; }
+  const Segment& Published(int i) const { return HasPublished(i) ? segments_[published_index_[i]] : kUnpublished; }
+  // Publishes `s` for cell i (kUnpublished, NaN point: withdraws it).
+  void SetPublished(int i, const Segment& s);
   static const Segment kUnpublished;
   // The segment occupied cell i of `grid` stands for, relative to the cell's minimum corner.
   Segment SegmentOf(const OccupancyGrid& grid, int i) const;
@@ -125,14 +165,18 @@ class LikelihoodField {
   GridGeometry geometry_;
   int radius_cells_ = 0;
   bool frozen_ = false;
-  std::vector<float> values_;
+  std::vector<float> values_;             // empty once frozen
+  SparseTiles<uint16_t> frozen_values_;  // empty until frozen
   // values_[i] = ValueFromSquaredDistance(squared_distances_[i]); freed by Freeze. Within
   // ApplyChanges, kStale marks a cell queued in stale_cells_ for one recompute at the end.
   std::vector<float> squared_distances_;
   std::vector<int> stale_cells_;  // scratch of ApplyChanges
-  // Published segment per cell, its point relative to the cell's own minimum corner (NaN when
-  // the cell does not contribute). Relative storage makes values independent of growth.
-  std::vector<Segment> published_;
+  // Published segment per cell, its point relative to the cell's own minimum corner; relative
+  // storage makes values independent of growth. Only occupied cells publish, a few percent:
+  // the segments sit in a pool, indexed per cell (-1: none; 4 bytes a cell instead of 20).
+  std::vector<int32_t> published_index_;
+  std::vector<Segment> segments_;
+  std::vector<int32_t> free_segments_;  // released entries of segments_, reused first
 };
 
 }  // namespace hetslam

@@ -42,23 +42,6 @@ uint32_t UpdateCrc32(uint32_t crc, const uint8_t* data, size_t size) {
   return crc;
 }
 
-uint32_t Adler32(const std::vector<uint8_t>& data) {
-  constexpr uint32_t kMod = 65521;
-  uint32_t a = 1, b = 0;
-  // 5552 is the largest block for which b cannot overflow 32 bits before the modulo.
-  size_t i = 0;
-  while (i < data.size()) {
-    const size_t end = std::min(data.size(), i + 5552);
-    for (; i < end; ++i) {
-      a += data[i];
-      b += a;
-    }
-    a %= kMod;
-    b %= kMod;
-  }
-  return (b << 16) | a;
-}
-
 void AppendBigEndian32(uint32_t v, std::vector<uint8_t>* out) {
   out->push_back(static_cast<uint8_t>(v >> 24));
   out->push_back(static_cast<uint8_t>(v >> 16));
@@ -353,6 +336,16 @@ void TrajectoryColor(int index, uint8_t rgb[3]) {
 
 Status WritePng(const std::string& path, int width, int height, int channels,
                 const std::vector<uint8_t>& pixels) {
+  if (width >= 1 && height >= 1 && (channels == 1 || channels == 3) &&
+      pixels.size() != static_cast<size_t>(width) * channels * static_cast<size_t>(height)) {
+    return Status::Error("cannot write '" + path + "': " + std::to_string(pixels.size()) +
+                         " pixel bytes given for " + std::to_string(width) + " x " +
+                         std::to_string(height) + " x " + std::to_string(channels));
+  }
+  return WritePngFromBuffer(path, width, height, channels, pixels.data());
+}
+
+Status WritePngFromBuffer(const std::string& path, int width, int height, int channels, const uint8_t* pixels) {
   if (width < 1 || height < 1) {
     return Status::Error("cannot write '" + path + "': image size " + std::to_string(width) +
                          " x " + std::to_string(height) + " is empty or negative");
@@ -362,44 +355,22 @@ Status WritePng(const std::string& path, int width, int height, int channels,
                          std::to_string(channels) + ")");
   }
   const size_t row_bytes = static_cast<size_t>(width) * channels;
-  if (pixels.size() != row_bytes * static_cast<size_t>(height)) {
-    return Status::Error("cannot write '" + path + "': " + std::to_string(pixels.size()) +
-                         " pixel bytes given for " + std::to_string(width) + " x " +
-                         std::to_string(height) + " x " + std::to_string(channels));
-  }
-
-  // Scanlines, each with filter type 0 (None).
-  std::vector<uint8_t> raw;
-  raw.reserve((row_bytes + 1) * height);
-  for (int r = 0; r < height; ++r) {
-    raw.push_back(0);
-    const auto row = pixels.begin() + static_cast<std::ptrdiff_t>(r * row_bytes);
-    raw.insert(raw.end(), row, row + static_cast<std::ptrdiff_t>(row_bytes));
-  }
-
+  // The file is built in one buffer, straight from `pixels` (a large picture would otherwise
+  // be held four times: scanlines, zlib stream, chunks, and the caller's pixels).
+  // Raw stream: scanlines, each with filter type 0 (None).
+  const size_t raw_size = (row_bytes + 1) * static_cast<size_t>(height);
   // zlib stream (RFC 1950): CMF 0x78 (deflate, 32K window), FLG 0x01 (no dictionary, fastest;
   // 0x7801 is a multiple of 31), deflate stored blocks (RFC 1951 §3.2.4) of at most 65535
-  // bytes, then Adler-32 of the uncompressed data, big endian.
-  std::vector<uint8_t> zlib;
+  // bytes, then Adler-32 of the raw stream, big endian.
   constexpr size_t kMaxStored = 65535;
-  zlib.reserve(raw.size() + raw.size() / kMaxStored * 5 + 16);
-  zlib.push_back(0x78);
-  zlib.push_back(0x01);
-  size_t offset = 0;
-  do {
-    const size_t n = std::min(kMaxStored, raw.size() - offset);
-    const bool final_block = offset + n == raw.size();
-    zlib.push_back(final_block ? 0x01 : 0x00);  // BFINAL, BTYPE = 00 (stored)
-    zlib.push_back(static_cast<uint8_t>(n & 0xFF));
-    zlib.push_back(static_cast<uint8_t>(n >> 8));
-    zlib.push_back(static_cast<uint8_t>(~n & 0xFF));
-    zlib.push_back(static_cast<uint8_t>((~n >> 8) & 0xFF));
-    zlib.insert(zlib.end(), raw.begin() + offset, raw.begin() + offset + n);
-    offset += n;
-  } while (offset < raw.size());
-  AppendBigEndian32(Adler32(raw), &zlib);
+  const size_t num_blocks = std::max<size_t>(1, (raw_size + kMaxStored - 1) / kMaxStored);
+  const size_t zlib_size = 2 + raw_size + 5 * num_blocks + 4;
+  // IDAT chunks of at most 1 MiB: the zlib stream may be split anywhere.
+  constexpr size_t kMaxChunk = 1 << 20;
+  const size_t num_chunks = (zlib_size + kMaxChunk - 1) / kMaxChunk;
 
   std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  png.reserve(8 + 25 + zlib_size + 12 * num_chunks + 12);
   std::vector<uint8_t> header;
   AppendBigEndian32(static_cast<uint32_t>(width), &header);
   AppendBigEndian32(static_cast<uint32_t>(height), &header);
@@ -408,13 +379,87 @@ Status WritePng(const std::string& path, int width, int height, int channels,
   header.push_back(0);                        // compression: deflate
   header.push_back(0);                        // filter method 0
   header.push_back(0);                        // no interlace
-  png.reserve(zlib.size() + zlib.size() / (1 << 20) * 12 + 64);
   AppendChunk("IHDR", header.data(), header.size(), &png);
-  // IDAT chunks of at most 1 MiB: the stream may be split anywhere.
-  constexpr size_t kMaxChunk = 1 << 20;
-  for (size_t at = 0; at < zlib.size(); at += kMaxChunk) {
-    AppendChunk("IDAT", zlib.data() + at, std::min(kMaxChunk, zlib.size() - at), &png);
-  }
+
+  // The zlib stream goes into IDAT chunks as it is produced: `emit` appends bytes to the open
+  // chunk, closing it (CRC over type and data) at kMaxChunk and opening the next.
+  size_t chunk_type_at = 0, chunk_size = 0, zlib_written = 0;
+  auto close_chunk = [&]() {
+    const size_t length_at = chunk_type_at - 4;
+    for (int k = 0; k < 4; ++k) png[length_at + k] = static_cast<uint8_t>(chunk_size >> (24 - 8 * k));
+    const uint32_t crc = UpdateCrc32(0xFFFFFFFFu, png.data() + chunk_type_at, chunk_size + 4) ^ 0xFFFFFFFFu;
+    AppendBigEndian32(crc, &png);
+  };
+  auto open_chunk = [&]() {
+    AppendBigEndian32(0, &png);  // length, filled in by close_chunk
+    chunk_type_at = png.size();
+    const char* type = "IDAT";
+    png.insert(png.end(), type, type + 4);
+    chunk_size = 0;
+  };
+  auto emit = [&](const uint8_t* data, size_t n) {
+    while (n > 0) {
+      if (zlib_written % kMaxChunk == 0) {
+        if (zlib_written > 0) close_chunk();
+        open_chunk();
+      }
+      const size_t take = std::min(n, kMaxChunk - zlib_written % kMaxChunk);
+      png.insert(png.end(), data, data + take);
+      chunk_size += take;
+      zlib_written += take;
+      data += take;
+      n -= take;
+    }
+  };
+  const uint8_t zlib_header[2] = {0x78, 0x01};
+  emit(zlib_header, 2);
+  // Adler-32 of the raw stream, updated as it is emitted (5552: the largest run for which b
+  // cannot overflow 32 bits before the modulo).
+  constexpr uint32_t kAdlerMod = 65521;
+  uint32_t adler_a = 1, adler_b = 0;
+  size_t adler_run = 0;
+  auto emit_raw = [&](const uint8_t* data, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      adler_a += data[i];
+      adler_b += adler_a;
+      if (++adler_run == 5552) {
+        adler_a %= kAdlerMod;
+        adler_b %= kAdlerMod;
+        adler_run = 0;
+      }
+    }
+    emit(data, n);
+  };
+  const uint8_t filter_none = 0;
+  size_t raw_at = 0;  // position in the raw stream
+  do {
+    const size_t n = std::min(kMaxStored, raw_size - raw_at);
+    const bool final_block = raw_at + n == raw_size;
+    const uint8_t block_header[5] = {static_cast<uint8_t>(final_block ? 0x01 : 0x00),  // BFINAL, BTYPE 00
+                                     static_cast<uint8_t>(n & 0xFF), static_cast<uint8_t>(n >> 8),
+                                     static_cast<uint8_t>(~n & 0xFF), static_cast<uint8_t>((~n >> 8) & 0xFF)};
+    emit(block_header, 5);
+    // Raw bytes raw_at .. raw_at + n: each scanline is its filter byte, then its pixels.
+    const size_t block_end = raw_at + n;
+    while (raw_at < block_end) {
+      const size_t row = raw_at / (row_bytes + 1), column = raw_at % (row_bytes + 1);
+      if (column == 0) {
+        emit_raw(&filter_none, 1);
+        ++raw_at;
+        continue;
+      }
+      const size_t take = std::min(block_end - raw_at, row_bytes + 1 - column);
+      emit_raw(pixels + row * row_bytes + (column - 1), take);
+      raw_at += take;
+    }
+  } while (raw_at < raw_size);
+  adler_a %= kAdlerMod;
+  adler_b %= kAdlerMod;
+  const uint32_t adler = (adler_b << 16) | adler_a;
+  const uint8_t adler_bytes[4] = {static_cast<uint8_t>(adler >> 24), static_cast<uint8_t>(adler >> 16),
+                                  static_cast<uint8_t>(adler >> 8), static_cast<uint8_t>(adler)};
+  emit(adler_bytes, 4);
+  close_chunk();
   AppendChunk("IEND", nullptr, 0, &png);
   return WriteFileBytes(path, png.data(), png.size());
 }

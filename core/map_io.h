@@ -78,6 +78,9 @@ Status ReadMapPgmYaml(const std::string& yaml_path, GridLayer* layer);
 // every decoder checks. Width and height must be in [1, 2^31 - 1].
 Status WritePng(const std::string& path, int width, int height, int channels,
                 const std::vector<uint8_t>& pixels);
+// The same from `pixels` pointing at width * height * channels bytes (an image's own buffer,
+// with no copy into a vector). A separate name: `{0}` would otherwise pick this overload.
+Status WritePngFromBuffer(const std::string& path, int width, int height, int channels, const uint8_t* pixels);
 
 // Renders the map (occupied black, free white, unknown grey, as in the PGM) and draws each
 // trajectory (world_T_robot poses, in the grid's world frame) as a 1-pixel polyline in its own

@@ -107,10 +107,8 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   const int n = g.num_cells();
   std::vector<float> log_odds(n, 0.f);
   std::vector<uint8_t> observed(n, 0);
-  std::vector<Eigen::Vector2f> hit_sum(n, Eigen::Vector2f::Zero());
-  std::vector<uint32_t> hit_count(n, 0);
-  std::vector<Eigen::Vector3f> line_sum(line_sum_.empty() ? 0 : n, Eigen::Vector3f::Zero());
-  std::vector<uint32_t> last_update(n, 0);
+  std::vector<int32_t> hit_index(n, -1);
+  std::vector<uint16_t> last_update(n, 0);
   std::vector<uint8_t> labels(labels_.empty() ? 0 : n, 0);
   std::vector<uint8_t> height_min(height_min_.empty() ? 0 : n, 255), height_max(height_max_.empty() ? 0 : n, 0);
   // Offset of the old grid inside the new one, in cells.
@@ -122,9 +120,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
       const int to = (y + dy) * g.width() + (x + dx);
       log_odds[to] = log_odds_[from];
       observed[to] = observed_[from];
-      hit_sum[to] = hit_sum_[from];
-      hit_count[to] = hit_count_[from];
-      if (!line_sum.empty()) line_sum[to] = line_sum_[from];
+      hit_index[to] = hit_index_[from];
       last_update[to] = last_update_[from];
       if (!labels.empty()) labels[to] = labels_[from];
       if (!height_min.empty()) {
@@ -140,9 +136,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   geometry_ = g;
   log_odds_.swap(log_odds);
   observed_.swap(observed);
-  hit_sum_.swap(hit_sum);
-  hit_count_.swap(hit_count);
-  line_sum_.swap(line_sum);
+  hit_index_.swap(hit_index);
   last_update_.swap(last_update);
   labels_.swap(labels);
   height_min_.swap(height_min);
@@ -167,9 +161,11 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
   const bool now_occupied = IsOccupied(i);
   if (was_occupied && !now_occupied) {
     // The cell turned free (paper §III-B): its hit point is forgotten.
-    hit_sum_[i].setZero();
-    hit_count_[i] = 0;
-    if (!line_sum_.empty()) line_sum_[i].setZero();
+    if (hit_index_[i] >= 0) {
+      hits_[hit_index_[i]] = HitAccumulator();
+      free_hits_.push_back(hit_index_[i]);
+      hit_index_[i] = -1;
+    }
   }
   if ((was_occupied != now_occupied || (delta > 0 && now_occupied)) && changed_cells != nullptr) {
     changed_cells->push_back(i);
@@ -180,6 +176,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
                                const std::vector<Eigen::Vector2d>& points_world,
                                std::vector<int>* changed_cells, const std::vector<uint8_t>* labels,
                                const std::vector<float>* heights, const std::vector<ScanLine>* lines) {
+  CHECK(!frozen_) << "InsertScan on a frozen grid";
   CHECK(labels == nullptr || labels->size() == points_world.size())
       << "InsertScan: " << labels->size() << " labels for " << points_world.size() << " points";
   Eigen::Vector2d lo = sensor_world, hi = sensor_world;
@@ -198,7 +195,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
   EnsureContains(lo, hi);
   CHECK(heights == nullptr || heights->size() == points_world.size()) << "InsertScan: heights do not match points";
   CHECK(lines == nullptr || lines->size() == points_world.size()) << "InsertScan: lines do not match points";
-  if (lines != nullptr && line_sum_.empty()) line_sum_.assign(geometry_.num_cells(), Eigen::Vector3f::Zero());
+  if (lines != nullptr) has_lines_ = true;
   if ((labels != nullptr || heights != nullptr) && labels_.empty()) labels_.assign(geometry_.num_cells(), 0);
   if (heights != nullptr && height_min_.empty()) {
     height_min_.assign(geometry_.num_cells(), 255);
@@ -206,7 +203,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
   }
   const int wall_span_steps = static_cast<int>(std::lround(options_.wall_min_height_span_meters / 0.02));
   ++scan_counter_;
-  if (scan_counter_ == 0) {  // wrapped after 4e9 scans: restart the stamps
+  if (scan_counter_ == 0) {  // wrapped after 65535 scans: restart the stamps
     std::fill(last_update_.begin(), last_update_.end(), 0);
     scan_counter_ = 1;
   }
@@ -227,13 +224,23 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     const bool first_this_scan = last_update_[i] != scan_counter_;
     if (first_this_scan) UpdateCell(i, hit, changed_cells);
     if (IsOccupied(i)) {
-      hit_sum_[i] += (p - geometry_.CellMinCorner(c)).cast<float>();
-      ++hit_count_[i];
+      if (hit_index_[i] < 0) {
+        if (free_hits_.empty()) {
+          hit_index_[i] = static_cast<int32_t>(hits_.size());
+          hits_.emplace_back();
+        } else {
+          hit_index_[i] = free_hits_.back();
+          free_hits_.pop_back();
+        }
+      }
+      HitAccumulator& acc = hits_[hit_index_[i]];
+      acc.sum += (p - geometry_.CellMinCorner(c)).cast<float>();
+      ++acc.count;
       if (lines != nullptr && (*lines)[k].half_length > 0.f) {
         const ScanLine& line = (*lines)[k];
         const float c2 = line.direction.x() * line.direction.x() - line.direction.y() * line.direction.y();
         const float s2 = 2.f * line.direction.x() * line.direction.y();
-        line_sum_[i] += line.half_length * Eigen::Vector3f(c2, s2, 1.f);
+        acc.line_sum += line.half_length * Eigen::Vector3f(c2, s2, 1.f);
       }
     }
   }
@@ -270,49 +277,91 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
 }
 
 void OccupancyGrid::AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds) {
+  CHECK(!frozen_) << "AddCellObservation on a frozen grid";
   CHECK(p_world.allFinite()) << "AddCellObservation at a non-finite point";
   CHECK(std::isfinite(delta_log_odds)) << "AddCellObservation with a non-finite log-odds change";
   EnsureContains(p_world, p_world);
   UpdateCell(geometry_.LinearIndex(geometry_.WorldToCell(p_world)), delta_log_odds, nullptr);
 }
 
-void OccupancyGrid::Freeze() {
+void OccupancyGrid::Freeze(int margin_cells) {
+  if (frozen_) return;
+  CHECK_GE(margin_cells, 0) << "Freeze: negative margin";
+  // The kept box: observed cells plus the margin, clipped to the grid (empty grid: no cells).
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+  if (observed_max_.x >= observed_min_.x) {
+    x0 = std::max(0, observed_min_.x - margin_cells);
+    y0 = std::max(0, observed_min_.y - margin_cells);
+    x1 = std::min(geometry_.width() - 1, observed_max_.x + margin_cells);
+    y1 = std::min(geometry_.height() - 1, observed_max_.y + margin_cells);
+  }
+  const int width = x1 - x0 + 1, height = y1 - y0 + 1;
+  std::vector<uint8_t> states(static_cast<size_t>(width) * height);
+  std::vector<uint8_t> labels(labels_.empty() ? 0 : states.size());
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const int from = (y + y0) * geometry_.width() + (x + x0);
+      const int to = y * width + x;
+      states[to] = static_cast<uint8_t>(State(from));
+      if (!labels.empty()) labels[to] = labels_[from];
+    }
+  }
+  frozen_states_ = SparseTiles<uint8_t>(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
+  frozen_labels_ = SparseTiles<uint8_t>(labels.empty() ? std::vector<uint8_t>(states.size(), 0) : labels, width, height, 0);
+  std::vector<uint8_t>().swap(labels_);
+  // The crop keeps the lattice: the new origin is the old grid's corner of cell (x0, y0).
+  geometry_ = GridGeometry(geometry_.CellMinCorner({x0, y0}), geometry_.resolution_meters(), width, height);
+  if (observed_max_.x >= observed_min_.x) {
+    observed_min_ = {observed_min_.x - x0, observed_min_.y - y0};
+    observed_max_ = {observed_max_.x - x0, observed_max_.y - y0};
+  }
   frozen_ = true;
-  std::vector<Eigen::Vector2f>().swap(hit_sum_);
-  std::vector<uint32_t>().swap(hit_count_);
-  std::vector<Eigen::Vector3f>().swap(line_sum_);
-  std::vector<uint32_t>().swap(last_update_);
+  std::vector<float>().swap(log_odds_);
+  std::vector<uint8_t>().swap(observed_);
+  std::vector<int32_t>().swap(hit_index_);
+  std::vector<HitAccumulator>().swap(hits_);
+  std::vector<int32_t>().swap(free_hits_);
+  std::vector<uint16_t>().swap(last_update_);
+  std::vector<uint8_t>().swap(height_min_);
+  std::vector<uint8_t>().swap(height_max_);
+}
+
+size_t OccupancyGrid::MemoryBytes() const {
+  return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_index_.capacity() * sizeof(int32_t) +
+         hits_.capacity() * sizeof(HitAccumulator) + free_hits_.capacity() * sizeof(int32_t) +
+         last_update_.capacity() * sizeof(uint16_t) + labels_.capacity() + height_min_.capacity() +
+         height_max_.capacity() + frozen_states_.MemoryBytes() + frozen_labels_.MemoryBytes();
+}
+
+float OccupancyGrid::LogOdds(int i) const {
+  CHECK(!frozen_) << "LogOdds on a frozen grid";
+  return log_odds_[i];
 }
 
 Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
   CHECK(!frozen_) << "HitPoint on a frozen grid";
   const CellIndex c = geometry_.FromLinearIndex(i);
-  if (hit_count_[i] == 0) return geometry_.CellCenter(c);
-  return geometry_.CellMinCorner(c) + (hit_sum_[i] / static_cast<float>(hit_count_[i])).cast<double>();
+  if (hit_index_[i] < 0 || hits_[hit_index_[i]].count == 0) return geometry_.CellCenter(c);
+  const HitAccumulator& acc = hits_[hit_index_[i]];
+  return geometry_.CellMinCorner(c) + (acc.sum / static_cast<float>(acc.count)).cast<double>();
 }
 
 ScanLine OccupancyGrid::Line(int i) const {
   CHECK(!frozen_) << "Line on a frozen grid";
   ScanLine line;
-  if (line_sum_.empty() || hit_count_[i] == 0) return line;
-  const Eigen::Vector3f& sum = line_sum_[i];
+  if (!has_lines_ || hit_index_[i] < 0 || hits_[hit_index_[i]].count == 0) return line;
+  const Eigen::Vector3f& sum = hits_[hit_index_[i]].line_sum;
   if (!(sum.z() > 0.f) || sum.head<2>().norm() < kMinLineCoherence * sum.z()) return line;
   const float theta = 0.5f * std::atan2(sum.y(), sum.x());  // in (-π/2, π/2]: direction.x >= 0
   line.direction = Eigen::Vector2f(std::cos(theta), std::sin(theta));
-  line.half_length = sum.z() / static_cast<float>(hit_count_[i]);
+  line.half_length = sum.z() / static_cast<float>(hits_[hit_index_[i]].count);
   return line;
 }
 
 float OccupancyGrid::Probability(int i) const {
+  CHECK(!frozen_) << "Probability on a frozen grid";
   if (!observed_[i]) return 0.5f;
   return 1.f - 1.f / (1.f + std::exp(log_odds_[i]));
-}
-
-size_t OccupancyGrid::MemoryBytes() const {
-  return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_sum_.capacity() * sizeof(Eigen::Vector2f) +
-         hit_count_.capacity() * sizeof(uint32_t) + line_sum_.capacity() * sizeof(Eigen::Vector3f) +
-         last_update_.capacity() * sizeof(uint32_t) + labels_.capacity() + height_min_.capacity() +
-         height_max_.capacity();
 }
 
 }  // namespace hetslam

@@ -17,6 +17,7 @@
 
 #include "Eigen/Core"
 #include "core/grid_geometry.h"
+#include "core/sparse_tiles.h"
 #include "core/se2.h"
 
 namespace hetslam {
@@ -112,22 +113,41 @@ class OccupancyGrid {
   void AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds);
 
   CellState State(int linear_index) const {
+    if (frozen_) return State(geometry_.FromLinearIndex(linear_index));
     if (!observed_[linear_index]) return CellState::kUnknown;
     return IsOccupied(linear_index) ? CellState::kOccupied : CellState::kFree;
   }
-  CellState State(const CellIndex& c) const { return State(geometry_.LinearIndex(c)); }
-  float LogOdds(int linear_index) const { return log_odds_[linear_index]; }
+  CellState State(const CellIndex& c) const {
+    return frozen_ ? static_cast<CellState>(frozen_states_.Get(c.x, c.y)) : State(geometry_.LinearIndex(c));
+  }
+  // The state of the cell holding `p_world`; unknown outside the grid.
+  CellState StateAt(const Eigen::Vector2d& p_world) const {
+    const CellIndex c = geometry_.WorldToCell(p_world);
+    return geometry_.Contains(c) ? State(c) : CellState::kUnknown;
+  }
+  // Not kept by a frozen grid (CHECK-fails there): a finished submap is read by state.
+  float LogOdds(int linear_index) const;
   bool IsOccupied(int linear_index) const {
+    if (frozen_) return State(linear_index) == CellState::kOccupied;
     return log_odds_[linear_index] > options_.occupied_threshold_log_odds;
   }
-  // Raw per-cell arrays (linear index order) for vectorised readers: a cell is free when
-  // observed() != 0 and log_odds() <= occupied_threshold_log_odds().
+  // Raw per-cell arrays (linear index order) for vectorised readers of a grid that is not
+  // frozen: a cell is free when observed() != 0 and log_odds() <= occupied_threshold_log_odds().
+  // Both are empty once frozen; read FrozenStatesRow then.
   const std::vector<float>& log_odds() const { return log_odds_; }
   const std::vector<uint8_t>& observed() const { return observed_; }
+  // A frozen grid's cell states (CellState values) of cells x0 .. x0 + n - 1 of row y, all
+  // inside the grid, into out[0 .. n - 1].
+  void FrozenStatesRow(int x0, int y, int n, uint8_t* out) const { frozen_states_.GetRow(x0, y, n, out); }
+  // SparseTiles::TileRow of the frozen states (null: all unknown to the tile's right edge).
+  const uint8_t* FrozenStatesTileRow(int x, int y) const { return frozen_states_.TileRow(x, y); }
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
-  int HitCount(int linear_index) const { return frozen_ ? 0 : hit_count_[linear_index]; }
+  int HitCount(int linear_index) const {
+    if (frozen_ || hit_index_[linear_index] < 0) return 0;
+    return static_cast<int>(hits_[hit_index_[linear_index]].count);
+  }
   // The surface through an occupied cell's hit point: its hits' lines averaged (directions as
   // axes, doubled angles, weighted by half length), with half_length 0 when the cell has no
   // line evidence or its lines disagree (their mean axis is shorter than kMinLineCoherence of
@@ -135,7 +155,7 @@ class OccupancyGrid {
   // those without a line counting 0: a cell seen as a point as often as on a line stands for
   // a shorter piece.
   ScanLine Line(int linear_index) const;
-  bool has_lines() const { return !line_sum_.empty(); }
+  bool has_lines() const { return has_lines_; }
   static constexpr float kMinLineCoherence = 0.8f;
 
   // Bounding box (cells) of all observed cells; empty (max < min) before any insertion.
@@ -144,17 +164,30 @@ class OccupancyGrid {
 
   // Label layer: the bits (1 << label) of every label that hit the cell; 0 for cells never hit
   // by a labelled point (and everywhere before the first labelled insertion: no memory).
-  uint8_t LabelMask(int linear_index) const { return labels_.empty() ? 0 : labels_[linear_index]; }
-  bool has_labels() const { return !labels_.empty(); }
-  // Occupancy probability in [0, 1], 0.5 for unknown.
+  uint8_t LabelMask(int linear_index) const {
+    if (frozen_) {
+      const CellIndex c = geometry_.FromLinearIndex(linear_index);
+      return frozen_labels_.Get(c.x, c.y);
+    }
+    return labels_.empty() ? 0 : labels_[linear_index];
+  }
+  bool has_labels() const { return frozen_ ? frozen_labels_.num_stored_tiles() > 0 : !labels_.empty(); }
+  // Occupancy probability in [0, 1], 0.5 for unknown. CHECK-fails on a frozen grid.
   float Probability(int linear_index) const;
 
-  // Frees what only insertion needs (hit points, per-scan stamps): about 60% of the memory.
-  // Afterwards State/LogOdds/Probability still work; InsertScan, EnsureContains and HitPoint
-  // CHECK-fail. For finished submaps that are only matched against.
-  void Freeze();
+  // For finished submaps that are only matched against: keeps the cell states and the label
+  // layer, over the observed box grown by `margin_cells` (clipped to the grid) instead of the
+  // grid, whose growth slack and border margin hold only unknown cells, in 8 × 8 tiles of
+  // one byte a cell where a tile that is all unknown (labels: all 0) is not stored
+  // (core/sparse_tiles.h; instead of 11 bytes a cell: log-odds, observed flag, hit index,
+  // per-scan stamp, and heights). The
+  // geometry becomes that box (same lattice, origin moved by whole cells), so linear indices
+  // change; world positions, states and labels do not (every cell left out was unknown, and
+  // StateAt still says so). Idempotent. Afterwards State, StateAt, IsOccupied and LabelMask work; InsertScan, EnsureContains, AddCellObservation, HitPoint, Line, LogOdds
+  // and Probability CHECK-fail.
+  void Freeze(int margin_cells = 0);
   bool frozen() const { return frozen_; }
-  // Heap bytes held (vector capacities): what the grid costs in memory.
+  // Bytes held by the cell arrays (capacity, not size: what the process holds).
   size_t MemoryBytes() const;
   int num_scans_refused() const { return num_scans_refused_; }
 
@@ -169,21 +202,34 @@ class OccupancyGrid {
   GridGeometry geometry_;
   std::vector<float> log_odds_;
   std::vector<uint8_t> observed_;
-  // Hit point sums relative to the cell's minimum corner (metres); relative storage keeps
-  // float precision and survives growth unchanged.
-  std::vector<Eigen::Vector2f> hit_sum_;
-  std::vector<uint32_t> hit_count_;
-  // Per cell, summed over the hits counted in hit_count_: half_length · (cos 2θ, sin 2θ, 1) of
-  // each hit's line (θ its direction), nothing for a hit without one.
-  // Empty until the first insertion with lines.
-  std::vector<Eigen::Vector3f> line_sum_;
-  // Scan counter stamps so that a cell is updated at most once per scan.
-  std::vector<uint32_t> last_update_;
+  // What an occupied cell accumulates from its hits. Only occupied cells accumulate (a cell
+  // turning free forgets), a few percent of the cells: they are kept in a pool, indexed per
+  // cell (4 bytes a cell instead of 24).
+  struct HitAccumulator {
+    // Hit point sum relative to the cell's minimum corner (metres); relative storage keeps
+    // float precision and survives growth unchanged.
+    Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+    uint32_t count = 0;
+    // Summed over the counted hits: half_length · (cos 2θ, sin 2θ, 1) of each hit's line (θ its
+    // direction), nothing for a hit without one.
+    Eigen::Vector3f line_sum = Eigen::Vector3f::Zero();
+  };
+  std::vector<int32_t> hit_index_;      // per cell: index into hits_, -1 for none
+  std::vector<HitAccumulator> hits_;
+  std::vector<int32_t> free_hits_;      // released entries of hits_, reused first
+  bool has_lines_ = false;              // an insertion with lines happened
+  // Scan counter stamps so that a cell is updated at most once per scan (16 bits: the stamps
+  // restart when the counter wraps, see InsertScan).
+  std::vector<uint16_t> last_update_;
   std::vector<uint8_t> labels_;  // label layer; empty until the first labelled insertion
   // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); empty
   // until the first insertion with heights.
   std::vector<uint8_t> height_min_, height_max_;
-  uint32_t scan_counter_ = 0;
+  // Once frozen, the only per-cell data (CellState values; label masks), in tiles that leave
+  // out all-unknown (all-0) 8 × 8 blocks; every array above is then empty.
+  SparseTiles<uint8_t> frozen_states_;
+  SparseTiles<uint8_t> frozen_labels_;
+  uint16_t scan_counter_ = 0;
   bool frozen_ = false;
   int num_scans_refused_ = 0;  // see InsertScan
   CellIndex observed_min_{1, 1};

@@ -1,5 +1,6 @@
 #include "factors/scan_cost.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "ceres/autodiff_cost_function.h"
@@ -9,12 +10,32 @@
 namespace hetslam {
 namespace {
 
+// A frozen field's tiled, quantised values (core/likelihood_field.h Freeze) as a Ceres grid:
+// row y, column x, clamped to the edge like ceres::Grid2D; value = kQuantizationStep * sample.
+class FrozenFieldGrid {
+ public:
+  enum { DATA_DIMENSION = 1 };
+  explicit FrozenFieldGrid(const LikelihoodField& field) : field_(field) {}
+  void GetValue(int row, int col, double* f) const {
+    const GridGeometry& g = field_.geometry();
+    f[0] = field_.FrozenValue(std::clamp(col, 0, g.width() - 1), std::clamp(row, 0, g.height() - 1));
+  }
+
+ private:
+  const LikelihoodField& field_;  // outlives the cost (see the header's lifetime note)
+};
+
+// `Grid` is the field's storage: ceres::Grid2D<float> over values() while the field is built,
+// FrozenFieldGrid once frozen (quantised: value = value_scale * sample; interpolation is linear
+// in the samples, so scaling the interpolated sample is scaling the samples).
+template <typename Grid>
 class ScanToLikelihoodFieldFunctor {
  public:
-  ScanToLikelihoodFieldFunctor(const LikelihoodField& field, const std::vector<Eigen::Vector2f>& points_robot,
-                               const std::vector<float>& weights)
-      : geometry_(field.geometry()),
-        grid_(field.values().data(), 0, field.geometry().height(), 0, field.geometry().width()),
+  ScanToLikelihoodFieldFunctor(const Grid& grid, double value_scale, const GridGeometry& geometry,
+                               const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights)
+      : geometry_(geometry),
+        value_scale_(value_scale),
+        grid_(grid),
         interpolator_(grid_),
         points_robot_(points_robot),
         scaled_weights_(Scale(weights, points_robot.size())) {}
@@ -34,7 +55,7 @@ class ScanToLikelihoodFieldFunctor {
       const T row = (wy - geometry_.origin().y()) * inv_r - 0.5;
       T likelihood;
       interpolator_.Evaluate(row, col, &likelihood);
-      residuals[i] = scaled_weights_[i] * (1.0 - likelihood);
+      residuals[i] = scaled_weights_[i] * (1.0 - value_scale_ * likelihood);
     }
     return true;
   }
@@ -50,8 +71,9 @@ class ScanToLikelihoodFieldFunctor {
   }
 
   const GridGeometry geometry_;                            // map frame, metres
-  const ceres::Grid2D<float, 1> grid_;                     // field values, row = y, col = x
-  const ceres::BiCubicInterpolator<ceres::Grid2D<float, 1>> interpolator_;
+  const double value_scale_;                               // field value per stored unit
+  const Grid grid_;                                        // field values, row = y, col = x
+  const ceres::BiCubicInterpolator<Grid> interpolator_;
   const std::vector<Eigen::Vector2f> points_robot_;        // robot frame, metres
   const std::vector<double> scaled_weights_;               // w_i / sqrt(N)
 };
@@ -62,8 +84,20 @@ ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& fiel
                                                      const std::vector<Eigen::Vector2f>& points_robot,
                                                      const std::vector<float>& weights) {
   CHECK_GT(field.geometry().num_cells(), 0) << "the likelihood field is empty";
-  return new ceres::AutoDiffCostFunction<ScanToLikelihoodFieldFunctor, ceres::DYNAMIC, 3>(
-      new ScanToLikelihoodFieldFunctor(field, points_robot, weights), static_cast<int>(points_robot.size()));
+  const int n = static_cast<int>(points_robot.size());
+  if (field.frozen()) {
+    using Functor = ScanToLikelihoodFieldFunctor<FrozenFieldGrid>;
+    return new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, 3>(
+        new Functor(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep, field.geometry(), points_robot,
+                    weights),
+        n);
+  }
+  using Grid = ceres::Grid2D<float, 1>;
+  using Functor = ScanToLikelihoodFieldFunctor<Grid>;
+  return new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, 3>(
+      new Functor(Grid(field.values().data(), 0, field.geometry().height(), 0, field.geometry().width()), 1.0,
+                  field.geometry(), points_robot, weights),
+      n);
 }
 
 }  // namespace hetslam

@@ -14,7 +14,10 @@
 //
 // No robust loss: the field is already bounded in [0, 1].
 //
-// Lifetime: the cost keeps a pointer to `field.values()` (and a copy of `field.geometry()`) —
+// A frozen field (core/likelihood_field.h) is read in its quantised form, without a copy.
+//
+// Lifetime: the cost keeps a pointer to `field.values()` (to `field` itself when frozen) and
+// a copy of `field.geometry()` —
 // the field must outlive the cost function and must not be modified or resized (no scan
 // insertion) while the cost is used. The points and weights are copied.
 #ifndef HETSLAM_FACTORS_SCAN_COST_H_

@@ -111,9 +111,16 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
+  // A frozen field (a finished submap) holds its values quantised.
+  const bool frozen_field = field.frozen();
   const float* values = field.values().data();
+  constexpr float kStep = LikelihoodField::kQuantizationStep;
+  // A frozen grid (a finished submap) keeps only cell states (tiled, like the field's values);
+  // one that is being built keeps log-odds and observed flags.
+  CHECK_EQ(grid.frozen(), frozen_field) << "a LaserMap's grid and field freeze together";
   const float* log_odds = grid.log_odds().data();
   const uint8_t* observed = grid.observed().data();
+  constexpr uint8_t kFree = static_cast<uint8_t>(CellState::kFree);
   const float occupied_threshold = grid.occupied_threshold_log_odds();
   const int n = std::max(0, x_end - x_begin);
   for (int y = 0; y < h; ++y) {
@@ -126,8 +133,33 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
     std::fill(dst, dst + x_begin, 0.f);
     std::fill(dst + x_end, dst + w, 0.f);
     const int row = gy * g.width() + s.region_min.x + x_begin;
-    const float* value = values + row;
     float* out = dst + x_begin;
+    if (frozen_field) {
+      // Tile by tile: a tile without values is 0 or, where free, the penalty; a tile without
+      // states is unknown, so just its values.
+      const int gx0 = s.region_min.x + x_begin;
+      for (int x = 0; x < n;) {
+        const int gx = gx0 + x;
+        const int chunk = std::min(n - x, SparseTiles<uint16_t>::kTileSize - (gx & (SparseTiles<uint16_t>::kTileSize - 1)));
+        const uint16_t* q = field.FrozenValuesTileRow(gx, gy);
+        const uint8_t* state = grid.FrozenStatesTileRow(gx, gy);
+        float* o = out + x;
+        if (q == nullptr && (state == nullptr || free_space_penalty == 0.f)) {
+          std::fill(o, o + chunk, 0.f);
+        } else if (q == nullptr) {
+          for (int k = 0; k < chunk; ++k) o[k] = state[k] == kFree ? -free_space_penalty : 0.f;
+        } else if (state == nullptr || free_space_penalty == 0.f) {
+          for (int k = 0; k < chunk; ++k) o[k] = kStep * q[k];
+        } else {
+          for (int k = 0; k < chunk; ++k) {
+            o[k] = (q[k] == 0) & (state[k] == kFree) ? -free_space_penalty : kStep * q[k];
+          }
+        }
+        x += chunk;
+      }
+      continue;
+    }
+    const float* value = values + row;
     if (free_space_penalty > 0.f) {
       // A point in known free space (observed, not occupied), away from any hit, is evidence
       // against the pose. (A plain loop: the equivalent Eigen select over a mixed-type boolean
@@ -236,8 +268,9 @@ double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std:
     const Eigen::Vector2d q = g.WorldToContinuousCell(pose * points[i].cast<double>()).array() - 0.5;
     const int x0 = static_cast<int>(std::floor(q.x())), y0 = static_cast<int>(std::floor(q.y()));
     const double fx = q.x() - x0, fy = q.y() - y0;
-    const double v = (1 - fx) * (1 - fy) * field.Value(CellIndex{x0, y0}) + fx * (1 - fy) * field.Value(CellIndex{x0 + 1, y0}) +
-                     (1 - fx) * fy * field.Value(CellIndex{x0, y0 + 1}) + fx * fy * field.Value(CellIndex{x0 + 1, y0 + 1});
+    float c[4];
+    field.Values2x2(x0, y0, c);
+    const double v = (1 - fx) * (1 - fy) * c[0] + fx * (1 - fy) * c[1] + (1 - fx) * fy * c[2] + fx * fy * c[3];
     sum += (weights.empty() ? 1.0 : weights[i]) * v;
   }
   return sum * InverseWeightSum(weights, points.size());
@@ -285,6 +318,12 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
     msg << "motion penalties must be >= 0; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
+}
+
+size_t ScanMatcher::ScratchBytes() const {
+  size_t bytes = 0;
+  for (const std::vector<float>& level : levels_scratch_) bytes += level.capacity() * sizeof(float);
+  return bytes;
 }
 
 ScanMatcher::ScanMatcher(const ScanMatcherOptions& options) : options_(options) {

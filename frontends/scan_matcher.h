@@ -120,6 +120,13 @@ class ScanMatcher {
 
   const ScanMatcherOptions& options() const { return options_; }
 
+  // The search's table buffers keep the size of the largest search so far (region cells ×
+  // (branch_and_bound_depth + 1) floats: tens of MB for a loop closer's wide window); this
+  // frees them, and the next search allocates them again. For a matcher that searches rarely.
+  void ReleaseScratch() { std::vector<std::vector<float>>().swap(levels_scratch_); }
+  // Bytes the table buffers hold (capacity).
+  size_t ScratchBytes() const;
+
  private:
   // Whether `pose` lies on the border of a window around `predicted` (within 0.1 m or two
   // maximum yaw steps of its edge): then the best may be the clipped side of a peak outside.

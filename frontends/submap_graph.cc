@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "factors/sqrt_information.h"
@@ -88,6 +89,18 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   node.local_pose = result.local_pose;
   node.pose = problem_.AddPose(robot.robot_T_local * result.local_pose, kNodeGroup);
   node.points = std::move(result.points);
+  // Every node's points live as long as the graph (FR079: 4791 nodes, the largest share of its
+  // memory after the log): heights are kept only where they mean something (a 2.5D projection;
+  // otherwise all 0 and never read, see RenderMap), and the vectors lose the slack of their
+  // growth.
+  ScanPoints& points = node.points;
+  if (!points.projected) std::vector<float>().swap(points.heights_meters);
+  points.all.shrink_to_fit();
+  points.labels.shrink_to_fit();
+  points.heights_meters.shrink_to_fit();
+  points.floor_obstacles.shrink_to_fit();
+  points.matching.shrink_to_fit();
+  points.matching_weights.shrink_to_fit();
   robot.nodes.push_back(std::move(node));
   ++stats_.nodes;
 
@@ -312,6 +325,26 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   std::vector<Eigen::Vector2d> points_world;
   std::vector<uint8_t> labels;
   if (layer == Layer::kStructure) {
+    // The grid is sized once to the box of every point and sensor: grown scan by scan it would
+    // copy itself at every growth (old and new arrays alive together: the process's peak when
+    // rendering at the end) and keep the growth slack of the last one.
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector2d hi = -lo;
+    for (const Node& node : it->second.nodes) {
+      if (node.points.all.empty()) continue;
+      const Pose2 world_T_node = problem_.pose(node.pose);
+      const Eigen::Vector2d sensor = world_T_node * node.points.sensor_robot;
+      lo = lo.cwiseMin(sensor);
+      hi = hi.cwiseMax(sensor);
+      for (const Eigen::Vector2f& p : node.points.all) {
+        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+        lo = lo.cwiseMin(world);
+        hi = hi.cwiseMax(world);
+      }
+    }
+    // A box the grid cannot hold (a corrupt pose far away) is left to InsertScan, which
+    // refuses the offending scans one by one.
+    if (lo.x() <= hi.x() && grid->CanContain(lo, hi)) grid->EnsureContains(lo, hi);
     for (const Node& node : it->second.nodes) {
       if (node.points.all.empty()) continue;
       const Pose2 world_T_node = problem_.pose(node.pose);

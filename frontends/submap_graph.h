@@ -155,6 +155,8 @@ class SubmapGraph {
   // The robot whose anchor is the team's world: the first robot that added a node (-1 before).
   int world_robot() const { return first_robot_; }
   double NodeStamp(const NodeId& node) const;
+  // A node's points as the LocalResult gave them, except heights_meters, which is empty unless
+  // `projected` (the heights of a scan without attitude are all 0).
   const ScanPoints& NodePoints(const NodeId& node) const;
   const Pose2& NodeLocalPose(const NodeId& node) const;
   // A finished submap's map (null while it is active) and the box of its nodes' positions in

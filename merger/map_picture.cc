@@ -525,10 +525,11 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   geometry.height_pixels = height;
   // Written by core's dependency-free PNG encoder (uncompressed): OpenCV's image codecs would
   // load ~130 shared libraries (GDAL, codecs) and ~45 MiB into every program that draws a map.
-  cv::Mat rgb;
-  cv::cvtColor(picture, rgb, cv::COLOR_BGR2RGB);
-  std::vector<uint8_t> pixels(rgb.data, rgb.data + rgb.total() * rgb.elemSize());
-  HETSLAM_RETURN_IF_ERROR(WritePng(path, rgb.cols, rgb.rows, 3, pixels));
+  // In place and straight from the image's buffer (continuous: allocated whole above): a
+  // copy of the picture each would double or triple its memory (Intel's peak RSS).
+  cv::cvtColor(picture, picture, cv::COLOR_BGR2RGB);
+  CHECK(picture.isContinuous()) << "the picture is one allocation";
+  HETSLAM_RETURN_IF_ERROR(WritePngFromBuffer(path, picture.cols, picture.rows, 3, picture.data));
   if (layout != nullptr) *layout = geometry;
   return Status::Ok();
 }

@@ -33,6 +33,10 @@
 //   BM_ScanMatchBruteForce/<window>/<points>
 //                                  ScanMatcher::BruteForceSearch: every discrete candidate of
 //                                  the same window scored, same discretisation and result.
+//   BM_SubmapFreeze/N, BM_SubmapLoopMatch/<frozen>/N
+//                                  the finished-submap store: freezing a submap of N scans,
+//                                  and loop-closure matching against it frozen or not (see
+//                                  their comments below).
 // Counters: `beams`, `grid_cells`, `changed_cells`, `points`, `candidates` (scored),
 // `error_cm` / `error_deg` (matched pose minus truth; brute force and branch and bound without
 // Ceres must report the same pose, since the search is exact for its discretisation).
@@ -55,6 +59,7 @@
 #include "core/likelihood_field.h"
 #include "core/occupancy_grid.h"
 #include "core/se2.h"
+#include "frontends/loop_closer.h"
 #include "frontends/scan_matcher.h"
 #include "glog/logging.h"
 
@@ -367,6 +372,91 @@ void BM_ScanMatchBruteForce(benchmark::State& state, double linear_meters, doubl
 BENCHMARK_CAPTURE(BM_ScanMatchBruteForce, window_0.4m_15deg/360_points, 0.4, 15.0, Points::kAll)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ScanMatchBruteForce, window_1.2m_40deg/360_points, 1.2, 40.0, Points::kAll)
+    ->Unit(benchmark::kMillisecond);
+
+// ---------------------------------------------------------------------------------------
+// Finished submaps: LaserMap::Freeze (crop, 16-bit values, sparse tiles) and loop-closure
+// matching against the compact form versus the map it was.
+
+// A submap as the front end finishes one: the first `n` scans of InsertRoom() (0.3 m apart)
+// and a copy of it, frozen.
+struct SubmapPair {
+  const LaserMap* building = nullptr;
+  std::unique_ptr<LaserMap> frozen;
+};
+
+const SubmapPair& SubmapWithScans(int n) {
+  static auto* cache = new std::map<int, std::unique_ptr<SubmapPair>>;
+  std::unique_ptr<SubmapPair>& pair = (*cache)[n];
+  if (pair == nullptr) {
+    pair = std::make_unique<SubmapPair>();
+    pair->building = &MapWithScans(n);
+    pair->frozen = std::make_unique<LaserMap>(*pair->building);
+    pair->frozen->Freeze();
+  }
+  return *pair;
+}
+
+void ReportSubmapSizes(benchmark::State& state, const SubmapPair& pair) {
+  const double cells = pair.building->grid().geometry().num_cells();
+  const double kept = pair.frozen->grid().geometry().num_cells();
+  state.counters["cells"] = cells;
+  state.counters["kept_cells"] = kept;
+  state.counters["bytes"] = static_cast<double>(pair.building->MemoryBytes());
+  state.counters["frozen_bytes"] = static_cast<double>(pair.frozen->MemoryBytes());
+  state.counters["frozen_bytes_per_cell"] = pair.frozen->MemoryBytes() / std::max(1.0, cells);
+}
+
+//   BM_SubmapFreeze/N    LaserMap::Freeze of the room mapped by N scans (copying the map back
+//                        is not timed). Counters: cells before and after the crop, bytes
+//                        (MemoryBytes) before and after, frozen bytes per cell of the original.
+void BM_SubmapFreeze(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const SubmapPair& pair = SubmapWithScans(n);
+  LaserMap map = *pair.building;
+  for (auto _ : state) {
+    state.PauseTiming();
+    map = *pair.building;
+    state.ResumeTiming();
+    map.Freeze();
+    benchmark::ClobberMemory();
+  }
+  ReportSubmapSizes(state, pair);
+}
+BENCHMARK(BM_SubmapFreeze)->Arg(10)->Arg(40)->Arg(100)->Unit(benchmark::kMillisecond);
+
+//   BM_SubmapLoopMatch/<frozen>/N
+//                        ScanMatcher::MatchWithinWindow with the loop closer's matcher
+//                        (LoopCloserOptions::DefaultMatcherOptions: ±2 m, ±45°, depth 5, Ceres
+//                        refinement) of a voxel-filtered scan 0.3 m / 10° off, against the
+//                        N-scan submap while it is built (frozen = 0) and frozen (frozen = 1):
+//                        what the compact form costs or saves per loop search.
+void BM_SubmapLoopMatch(benchmark::State& state) {
+  const bool frozen = state.range(0) != 0;
+  const int n = static_cast<int>(state.range(1));
+  const SubmapPair& pair = SubmapWithScans(n);
+  const LaserMap& map = frozen ? *pair.frozen : *pair.building;
+  const SyntheticRoom& room = InsertRoom();
+  const Pose2 truth = room.poses[n / 2] * Pose2(0.12, 0.07, 0.05);
+  std::mt19937 rng(31);
+  const std::vector<Eigen::Vector2f> points = VoxelFilter(CastScan(room.walls, truth, &rng), 0.2f);
+  const double d = 0.3 / std::sqrt(2.0);
+  const Pose2 predicted(truth.translation() + Eigen::Vector2d(d, -d), truth.theta() + 10 * kDeg);
+  const ScanMatcherOptions options = LoopCloserOptions::DefaultMatcherOptions();
+  const ScanMatcher matcher(options);
+  ScanMatchResult result;
+  for (auto _ : state) {
+    result = matcher.MatchWithinWindow(map, predicted, points, options.linear_search_window_meters,
+                                       options.angular_search_window_radians);
+    benchmark::DoNotOptimize(result.pose);
+  }
+  CHECK(result.converged) << "the benchmark scan must match: " << result.message;
+  state.counters["error_cm"] = 100.0 * (result.pose.translation() - truth.translation()).norm();
+  state.counters["candidates"] = result.candidates_scored;
+  ReportSubmapSizes(state, pair);
+}
+BENCHMARK(BM_SubmapLoopMatch)
+    ->Args({0, 40})->Args({1, 40})->Args({0, 100})->Args({1, 100})->ArgNames({"frozen", "N"})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

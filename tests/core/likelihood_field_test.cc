@@ -93,20 +93,61 @@ TEST_P(LikelihoodFieldUpdateTest, IncrementalMatchesBruteForceOnRandomUpdates) {
 
 INSTANTIATE_TEST_SUITE_P(PointsAndSurfaces, LikelihoodFieldUpdateTest, ::testing::Values(0.0, 0.5));
 
-// Freezing a finished map keeps what matching reads: cell states and likelihood values.
+// Freezing a finished map keeps what matching reads: cell states and likelihood values at every
+// world position, over a box cropped to the observed cells (plus the window), and frees the rest.
 TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
   LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
   std::vector<Eigen::Vector2f> wall;
   for (int i = -20; i <= 20; ++i) wall.emplace_back(1.0f, i * 0.05f);
   map.InsertScan(Pose2(0.1, 0.2, 0.3), Eigen::Vector2d::Zero(), wall);
+  const GridGeometry before = map.grid().geometry();
   const std::vector<float> values = map.field().values();
   std::vector<CellState> states;
-  for (int i = 0; i < map.grid().geometry().num_cells(); ++i) states.push_back(map.grid().State(i));
+  for (int i = 0; i < before.num_cells(); ++i) states.push_back(map.grid().State(i));
+  const size_t bytes_before = map.MemoryBytes();
   map.Freeze();
   EXPECT_TRUE(map.grid().frozen());
-  EXPECT_EQ(values, map.field().values());
-  for (int i = 0; i < map.grid().geometry().num_cells(); ++i) ASSERT_EQ(states[i], map.grid().State(i));
+  EXPECT_TRUE(map.field().frozen());
+  EXPECT_TRUE(map.field().values().empty());
+  const GridGeometry& after = map.grid().geometry();
+  // The 2 m wall seen from 1 m fits in a few metres; the grid had its growth slack around it.
+  EXPECT_LT(after.num_cells(), before.num_cells() / 2);
+  EXPECT_EQ(after.origin(), map.field().geometry().origin());
+  EXPECT_LT(map.MemoryBytes(), bytes_before / 10);
+  int kept = 0;
+  for (int y = 0; y < before.height(); ++y) {
+    for (int x = 0; x < before.width(); ++x) {
+      const Eigen::Vector2d centre = before.CellCenter({x, y});
+      const int i = before.LinearIndex({x, y});
+      ASSERT_EQ(states[i], map.grid().StateAt(centre)) << "cell " << x << ", " << y;
+      // Quantised to the nearest step; a surface in the window stays a surface (not 0).
+      const float frozen_value = map.field().Value(after.WorldToCell(centre));
+      ASSERT_NEAR(values[i], frozen_value, 0.5f * LikelihoodField::kQuantizationStep) << "cell " << x << ", " << y;
+      ASSERT_EQ(values[i] == 0.f, frozen_value == 0.f) << "cell " << x << ", " << y;
+      kept += after.Contains(after.WorldToCell(centre));
+    }
+  }
+  EXPECT_EQ(after.num_cells(), kept);  // the crop is on the same lattice
+  // The border stays 0, as the scan cost's nearest-border extrapolation assumes.
+  for (int x = 0; x < after.width(); ++x) {
+    EXPECT_EQ(0.f, map.field().Value(CellIndex{x, 0}));
+    EXPECT_EQ(0.f, map.field().Value(CellIndex{x, after.height() - 1}));
+  }
+  EXPECT_EQ(CellState::kUnknown, map.grid().StateAt(Eigen::Vector2d(100.0, -100.0)));
+  map.Freeze();  // idempotent
+  EXPECT_EQ(after.num_cells(), map.grid().geometry().num_cells());
   EXPECT_DEATH(map.InsertScan(Pose2(), Eigen::Vector2d::Zero(), wall), "frozen");
+  EXPECT_DEATH(map.grid().LogOdds(0), "frozen");
+}
+
+// An empty map freezes to an empty grid.
+TEST(LikelihoodFieldTest, FreezeEmptyMap) {
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  map.Freeze();
+  EXPECT_EQ(0, map.grid().geometry().num_cells());
+  EXPECT_EQ(0, map.field().geometry().num_cells());
+  EXPECT_EQ(CellState::kUnknown, map.grid().StateAt(Eigen::Vector2d::Zero()));
+  EXPECT_EQ(0.f, map.field().Value(CellIndex{0, 0}));
 }
 
 }  // namespace

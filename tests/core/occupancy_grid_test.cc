@@ -93,6 +93,42 @@ TEST(OccupancyGridTest, ScansTheGridCannotContainAreRefused) {
   EXPECT_TRUE(grid.CanContain(Eigen::Vector2d(-100, -100), Eigen::Vector2d(100, 100)));
 }
 
+// The per-scan stamps are 16 bits: when the scan counter wraps, a cell last updated 65535
+// scans ago must not look updated already. Cell A is hit by scan 1, then never again until
+// scan 65537 (whose counter would equal A's stamp without the restart): its log-odds rises twice.
+TEST(OccupancyGridTest, StampsRestartWhenTheScanCounterWraps) {
+  OccupancyGridOptions options;
+  options.max_log_odds = 10.0;  // no clamping at two hits
+  OccupancyGrid grid(options);
+  const Eigen::Vector2d sensor(0.0, 0.0), a(1.0, 0.0), b(0.0, 1.0);
+  grid.InsertScan(sensor, {a}, nullptr);
+  for (int scan = 2; scan <= 65536; ++scan) grid.InsertScan(sensor, {b}, nullptr);
+  grid.InsertScan(sensor, {a}, nullptr);
+  const int cell = grid.geometry().LinearIndex(grid.geometry().WorldToCell(a));
+  EXPECT_FLOAT_EQ(static_cast<float>(2 * options.hit_log_odds), grid.LogOdds(cell));
+}
+
+// A cell that turns free forgets its hit point; hit again until occupied, it starts a new mean
+// (its accumulator comes from the pool, possibly reused, and must start at zero).
+TEST(OccupancyGridTest, HitPointRestartsAfterTheCellTurnsFree) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  const Eigen::Vector2d sensor(0.0, 0.0);
+  const Eigen::Vector2d first(1.01, 0.01), second(1.04, 0.04), beyond(2.0, 0.0);
+  grid.InsertScan(sensor, {first}, nullptr);
+  const int cell = grid.geometry().LinearIndex(grid.geometry().WorldToCell(first));
+  ASSERT_EQ(CellState::kOccupied, grid.State(cell));
+  EXPECT_NEAR(0.0, (grid.HitPoint(cell) - first).norm(), 1e-6);
+  // Rays through the cell until it is free.
+  for (int i = 0; i < 5 && grid.State(cell) == CellState::kOccupied; ++i) grid.InsertScan(sensor, {beyond}, nullptr);
+  ASSERT_EQ(CellState::kFree, grid.State(cell));
+  EXPECT_EQ(0, grid.HitCount(cell));
+  // Another cell occupied meanwhile may have taken the released accumulator.
+  grid.InsertScan(sensor, {Eigen::Vector2d(0.0, -1.0)}, nullptr);
+  for (int i = 0; i < 5 && grid.State(cell) != CellState::kOccupied; ++i) grid.InsertScan(sensor, {second}, nullptr);
+  ASSERT_EQ(CellState::kOccupied, grid.State(cell));
+  EXPECT_NEAR(0.0, (grid.HitPoint(cell) - second).norm(), 1e-6);
+}
+
 TEST(OccupancyGridTest, ResolutionOutsideItsRangeIsInvalid) {
   OccupancyGridOptions options;
   options.resolution_meters = 1e-4;

@@ -358,6 +358,37 @@ TEST(ScanCostTest, TranslationByWholeCellsLeavesResidualsUnchanged) {
   }
 }
 
+// A frozen field (cropped, values quantised to 16 bits) gives the residuals of the field it was,
+// within the quantisation step (scaled by the weight / sqrt(N)), and Jacobians within the step
+// over the cell size, at seeded random poses over the posts.
+TEST(ScanCostTest, FrozenFieldGivesTheSameResiduals) {
+  const LaserMap map = MapFromHits(PostHits());
+  LaserMap frozen = map;
+  frozen.Freeze();
+  ASSERT_TRUE(frozen.field().frozen());
+  const std::vector<Eigen::Vector2f> points_robot = {{0.30f, 0.0f}, {0.32f, 0.05f}, {0.28f, -0.06f}};
+  std::unique_ptr<ceres::CostFunction> cost(CreateScanToLikelihoodFieldCost(map.field(), points_robot));
+  std::unique_ptr<ceres::CostFunction> frozen_cost(CreateScanToLikelihoodFieldCost(frozen.field(), points_robot));
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> xy(-0.3, 0.3), yaw(-M_PI, M_PI);
+  // Bicubic (Catmull-Rom) weights sum to 1 in absolute value at most 1.25 per axis.
+  const double step = LikelihoodField::kQuantizationStep;
+  const double residual_tolerance = 1.25 * 1.25 * 0.5 * step / std::sqrt(3.0) + kResidualTolerance;
+  for (int i = 0; i < 30; ++i) {
+    Block block = {0.3 + xy(rng), 0.3 + xy(rng), yaw(rng)};
+    const double* parameters[1] = {block.data()};
+    double residuals[3], frozen_residuals[3];
+    double jacobian[9], frozen_jacobian[9];
+    double* jacobians[1] = {jacobian};
+    double* frozen_jacobians[1] = {frozen_jacobian};
+    ASSERT_TRUE(cost->Evaluate(parameters, residuals, jacobians));
+    ASSERT_TRUE(frozen_cost->Evaluate(parameters, frozen_residuals, frozen_jacobians));
+    for (int r = 0; r < 3; ++r) EXPECT_NEAR(residuals[r], frozen_residuals[r], residual_tolerance) << "pose " << i;
+    // d/dx of the interpolation: up to ~4 steps' worth of sample error per cell of motion.
+    for (int k = 0; k < 9; ++k) EXPECT_NEAR(jacobian[k], frozen_jacobian[k], 4 * step / kResolutionMeters) << "pose " << i;
+  }
+}
+
 TEST(ScanCostDeathTest, RejectsWeightCountMismatchAndEmptyScan) {
   const LaserMap map = MapFromHits(WallHits());
   const std::vector<Eigen::Vector2f> points = {{0.3f, 0.0f}, {0.4f, 0.0f}};
