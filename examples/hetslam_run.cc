@@ -375,6 +375,25 @@ Status WriteParticleCounts(const std::string& path, const std::vector<OnlineEsti
   return WriteFileBytes(path, text.data(), text.size());
 }
 
+// The estimator's wall time by stage (seconds; they add up to `estimator_seconds`, the Add()
+// loop and Finish()).
+std::vector<std::pair<std::string, double>> StageTimes(const OnlineEstimator& estimator, double estimator_seconds) {
+  const OnlineEstimatorStats& s = estimator.stats();
+  const ParticleFilterStats& p = estimator.particle_filter().stats();
+  const double loop = estimator.loop_closer().stats().search_seconds;
+  const double solve = estimator.graph().stats().solve_seconds;
+  const double known = s.prepare_seconds + p.match_seconds + p.insert_seconds + p.weight_seconds + s.add_node_seconds +
+                       loop + solve;
+  return {{"scan preparation", s.prepare_seconds},
+          {"matching", p.match_seconds},
+          {"map insertion", p.insert_seconds},
+          {"particle weighting", p.weight_seconds},
+          {"graph nodes", s.add_node_seconds},
+          {"loop search", loop},
+          {"solves", solve},
+          {"other estimator work (EKF, MARG, bookkeeping)", std::max(0.0, estimator_seconds - known)}};
+}
+
 // Every accepted loop closure as measured and as in the final graph.
 Status WriteLoopClosures(const std::string& path, const std::vector<LoopClosureReport>& closures) {
   std::ostringstream out;  // written through a temporary file: no truncated output
@@ -465,7 +484,9 @@ int Run() {
   }
 
   MeasurementLog log;
+  const auto read_start = std::chrono::steady_clock::now();
   const Status read = ReadMeasurementLog(FLAGS_log, read_options, &log);
+  const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   if (!read.ok()) return Fail(read.message()), 1;
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
   if (log.malformed_lines_skipped > 0)
@@ -526,6 +547,9 @@ int Run() {
                  "truth association are unreliable)\n";
   }
   estimator->Finish();
+  const auto finished = std::chrono::steady_clock::now();
+  const double estimator_seconds = std::chrono::duration<double>(finished - start).count();
+  const std::vector<std::pair<std::string, double>> stages = StageTimes(*estimator, estimator_seconds);
   const std::vector<StampedPose2> trajectory = estimator->Trajectory();
   const std::unique_ptr<OccupancyGrid> grid = estimator->RenderMap();
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -587,6 +611,7 @@ int Run() {
   for (const Status& status : written) {
     if (!status.ok()) return Fail(status.message()), 1;
   }
+  const double output_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - finished).count();
 
   std::printf("%s", summary.c_str());
   if (!scores.empty()) {
@@ -602,6 +627,17 @@ int Run() {
   }
   std::printf("time: %.2f s wall, %.1f scans/s, data duration %.1f s, real-time factor %.1fx\n", wall_seconds,
               scans / wall_seconds, duration, duration / wall_seconds);
+  std::vector<std::pair<std::string, double>> all_stages = {{"reading the log", read_seconds}};
+  all_stages.insert(all_stages.end(), stages.begin(), stages.end());
+  all_stages.push_back({"maps and outputs", output_seconds});
+  double process_seconds = 0.0;
+  for (const auto& stage : all_stages) process_seconds += stage.second;
+  std::printf("time per stage (wall s, share of %.2f s):", process_seconds);
+  for (size_t k = 0; k < all_stages.size(); ++k) {
+    std::printf("%s %s %.2f (%.0f%%)", k > 0 ? "," : "", all_stages[k].first.c_str(), all_stages[k].second,
+                process_seconds > 0 ? 100.0 * all_stages[k].second / process_seconds : 0.0);
+  }
+  std::printf("\n");
   if (!truth.empty()) {
     const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(trajectory, truth);
     // An SE(2) alignment of one or two poses fits them exactly: an error of 0 would say nothing.

@@ -1,6 +1,7 @@
 #include "frontends/local_slam.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -271,6 +272,7 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   }
   if (static_cast<int>(points.all.size()) < options_.min_points) return result;
   LocalSlamState& state = state_;
+  const auto match_start = std::chrono::steady_clock::now();
   // Match against the oldest active submap, in its frame.
   if (!state.active.empty() && state.active.front().num_scans > 0) {
     const ActiveSubmap& target = state.active.front();
@@ -346,6 +348,8 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
       result.weak_direction = target.local_T_submap.rotation() * weak_direction;
     }
   }
+  const auto insert_start = std::chrono::steady_clock::now();
+  result.match_seconds = std::chrono::duration<double>(insert_start - match_start).count();
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
   state.recent.push_back({stamp_seconds, result.local_pose});
   if (state.recent.size() > 2) state.recent.erase(state.recent.begin());
@@ -379,6 +383,7 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   }
   result.inserted = true;
   result.points = std::move(points);
+  result.insert_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - insert_start).count();
   return result;
 }
 

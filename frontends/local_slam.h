@@ -233,6 +233,8 @@ struct LocalResult {
   bool degenerate = false;     // the weak direction kept the prediction
   Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();  // local frame, unit, when degenerate
   int frontier_points = 0;     // points left out of the match (frontier_margin_meters)
+  double match_seconds = 0.0;   // wall time of the match (frontier rule, search, refinement)
+  double insert_seconds = 0.0;  // wall time of the insertion into the active submaps
   ScanMatchResult match;
   ScanPoints points;
   // Submaps this scan started (their local pose) and went into (with its pose in each).

@@ -1,6 +1,7 @@
 #include "frontends/online_estimator.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -255,7 +256,9 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   if (!attitude.has_value() && (!marg_attitudes_.empty() || !logged_attitudes_.empty())) {
     ++stats_.scans_without_attitude;
   }
+  const auto prepare_start = std::chrono::steady_clock::now();
   ScanPoints points = PrepareScanPoints(options_.local, reading.scan, attitude);
+  stats_.prepare_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - prepare_start).count();
   stats_.floor_points += points.floor_points;
   stats_.projected_scans += points.projected;
 
@@ -345,7 +348,9 @@ void OnlineEstimator::AddNode(LocalResult result) {
   const double step =
       nodes > 0 ? (result.local_pose.translation() - graph_->NodeLocalPose({options_.robot, nodes - 1}).translation()).norm()
                 : 0.0;
+  const auto add_start = std::chrono::steady_clock::now();
   const NodeId node = graph_->AddNode(options_.robot, std::move(result));
+  stats_.add_node_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - add_start).count();
   if (!options_.loop_closure) return;
   loop_.AddTravel(step);
   const LoopSearchResult found = loop_.Search(*graph_, node);

@@ -135,6 +135,11 @@ struct OnlineEstimatorStats {
   int marg_restarts = 0;            // MARG filter restarted after a gap in the samples
   int ekf_errors = 0;               // EKF updates refused
   int loop_solves_failed = 0;
+  // Wall time per stage (seconds): scan preparation (2.5D projection, labels, voxel filter) and
+  // the graph's node insertions; matching, map insertion and particle weighting are in
+  // ParticleFilterStats, loop search in LoopCloserStats, solves in SubmapGraphStats.
+  double prepare_seconds = 0.0;
+  double add_node_seconds = 0.0;
 };
 
 class OnlineEstimator {

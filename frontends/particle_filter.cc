@@ -1,6 +1,7 @@
 #include "frontends/particle_filter.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -182,6 +183,8 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     std::swap(*slam_.mutable_state(), particles_[i].state);
     results[i] = slam_.AddScan(stamp_seconds, n == 1 ? std::move(points) : points, predictions[i]);
     std::swap(*slam_.mutable_state(), particles_[i].state);
+    stats_.match_seconds += results[i].match_seconds;
+    stats_.insert_seconds += results[i].insert_seconds;
   }
   stats_.particle_scans += n;
   stats_.max_particles = std::max(stats_.max_particles, n);
@@ -223,6 +226,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
 
   // Several particles: weights from the scan at each particle's matched pose.
   ++ambiguous_scans_;
+  const auto weight_start = std::chrono::steady_clock::now();
   if (results[0].inserted) {
     // Against the submaps as they were at the spawn (shared by all particles, so the
     // comparison is fair: a particle's own submaps agree with its own later scans whatever
@@ -238,6 +242,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     }
     ScoreAgainstGraph(points, results, graph, robot);
   }
+  stats_.weight_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - weight_start).count();
   const std::vector<double> weights = Weights();
   best_ = static_cast<int>(std::max_element(weights.begin(), weights.end()) - weights.begin());
   // Every particle matched the same points: all were inserted, or none (suspended, too few).

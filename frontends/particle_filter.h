@@ -129,6 +129,10 @@ struct ParticleFilterStats {
   // Memory of one extra particle beyond the best one (its unshared submaps and deferred
   // results, LaserMap::MemoryBytes and the points' vectors): the largest seen, in bytes.
   size_t max_extra_particle_bytes = 0;
+  // Wall time of every particle's matches and map insertions, and of the weighting.
+  double match_seconds = 0.0;
+  double insert_seconds = 0.0;
+  double weight_seconds = 0.0;
   double mean_particles() const { return scans > 0 ? static_cast<double>(particle_scans) / scans : 0.0; }
 };
 
