@@ -7,9 +7,11 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <utility>
 
 #include <geometry_msgs/PoseStamped.h>
@@ -285,6 +287,179 @@ std::string ImageToGrey(const sensor_msgs::Image& image, std::vector<uint8_t>* g
   return "";
 }
 
+// The record structure of a ROS bag 2.0 file, checked before rosbag_storage opens it. The
+// library trusts the lengths in the file: a header field longer than its header is read past
+// the buffer, and a record's header length is allocated before it is compared with the file
+// (issue #16; tests/fuzz/known_failures/ros_bag: heap overreads, a segfault, a 2.3 GB
+// allocation). Every record the library reads on opening (the bag header, the connection and
+// chunk-info records, each chunk's header and the index records after it) and the records
+// inside uncompressed chunks are checked here: header and data lengths within the file (or the
+// chunk), every header field (4-byte length, "name=value") within its header, a connection's
+// data (a header too) likewise, positions within the file. Compressed chunks are not
+// decompressed here: the records inside them remain the library's to check.
+class BagRecordCheck {
+ public:
+  explicit BagRecordCheck(const std::string& path) : path_(path) {}
+
+  // In the order rosbag_storage reads a bag when it opens it: the bag header, the connection
+  // and chunk-info records at the index position, then per chunk its header (and, uncompressed,
+  // its records) and the connection index records that follow it.
+  Status Run() {
+    in_.open(path_, std::ios::binary);
+    if (!in_) return Status::Error(path_ + ": cannot open the ROS bag");
+    in_.seekg(0, std::ios::end);
+    size_ = static_cast<uint64_t>(in_.tellg());
+    static const std::string kMagic = "#ROSBAG V2.0\n";
+    std::string magic(kMagic.size(), '\0');
+    in_.seekg(0);
+    if (size_ < kMagic.size() || !in_.read(&magic[0], magic.size()) || magic != kMagic) {
+      return Status::Error(path_ + ": not a ROS bag 2.0 file (no '#ROSBAG V2.0' line at the start)");
+    }
+    Record header;
+    HETSLAM_RETURN_IF_ERROR(Read(kMagic.size(), size_, &header));
+    uint64_t index_pos = 0;
+    uint32_t connections = 0, chunks = 0;
+    if (header.op != 0x03 || !Field(header, "index_pos", &index_pos) || !Field(header, "conn_count", &connections) ||
+        !Field(header, "chunk_count", &chunks)) {
+      return Bad(header.pos, "no bag header (op 3 with index_pos, conn_count and chunk_count)");
+    }
+    // A bag whose recording was cut has index_pos 0: the library reports it unindexed.
+    if (index_pos == 0) return Status::Ok();
+    if (index_pos < header.end || index_pos > size_) return Bad(header.pos, "an index position outside the file");
+    uint64_t pos = index_pos;
+    for (uint32_t k = 0; k < connections; ++k) {
+      Record connection;
+      HETSLAM_RETURN_IF_ERROR(Read(pos, size_, &connection));
+      pos = connection.end;
+    }
+    for (uint32_t k = 0; k < chunks; ++k) {
+      Record info;
+      HETSLAM_RETURN_IF_ERROR(Read(pos, size_, &info));
+      pos = info.end;
+      uint64_t chunk_pos = 0;
+      uint32_t chunk_connections = 0;
+      if (info.op != 0x06 || !Field(info, "chunk_pos", &chunk_pos) || !Field(info, "count", &chunk_connections)) {
+        return Bad(info.pos, "no chunk info (op 6 with chunk_pos and count)");
+      }
+      if (chunk_pos < header.end || chunk_pos >= size_) return Bad(info.pos, "a chunk position outside the file");
+      Record chunk;
+      HETSLAM_RETURN_IF_ERROR(Read(chunk_pos, size_, &chunk));
+      const auto compression = chunk.fields.find("compression");
+      if (chunk.op != 0x05 || compression == chunk.fields.end()) return Bad(chunk.pos, "no chunk header (op 5)");
+      if (compression->second == "none") {
+        for (uint64_t at = chunk.data; at < chunk.end;) {
+          Record inner;
+          HETSLAM_RETURN_IF_ERROR(Read(at, chunk.end, &inner));
+          at = inner.end;
+        }
+      }
+      uint64_t at = chunk.end;
+      for (uint32_t c = 0; c < chunk_connections; ++c) {
+        Record index;
+        HETSLAM_RETURN_IF_ERROR(Read(at, size_, &index));
+        at = index.end;
+      }
+    }
+    return Status::Ok();
+  }
+
+ private:
+  struct Record {
+    uint64_t pos = 0;   // first byte
+    uint64_t data = 0;  // first byte of the data
+    uint64_t end = 0;   // one past the last byte
+    uint8_t op = 0;
+    std::map<std::string, std::string> fields;
+  };
+
+  // The record at `pos`, within `end`: its header fields, and a connection's data (a header too).
+  Status Read(uint64_t pos, uint64_t end, Record* record) {
+    record->pos = pos;
+    uint64_t header_length = 0;
+    HETSLAM_RETURN_IF_ERROR(Header(pos, end, &header_length, &record->fields));
+    uint32_t data_length = 0;
+    if (!ReadU32(pos + 4 + header_length, &data_length)) return Truncated(pos, "its data length");
+    record->data = pos + 8 + header_length;
+    record->end = record->data + data_length;
+    if (record->end > end) return Truncated(pos, "its data (" + std::to_string(data_length) + " bytes)");
+    const auto op = record->fields.find("op");
+    if (op == record->fields.end() || op->second.size() != 1) return Bad(pos, "no one-byte op field");
+    record->op = static_cast<uint8_t>(op->second[0]);
+    if (record->op == 0x07) {
+      std::map<std::string, std::string> connection;
+      HETSLAM_RETURN_IF_ERROR(HeaderBytes(record->data, data_length, pos, &connection));
+    }
+    return Status::Ok();
+  }
+
+  template <typename T>
+  static bool Field(const Record& record, const std::string& name, T* value) {
+    const auto it = record.fields.find(name);
+    if (it == record.fields.end() || it->second.size() != sizeof(T)) return false;
+    std::memcpy(value, it->second.data(), sizeof(T));
+    return true;
+  }
+
+  // The header of the record at `pos` (its 4-byte length, then the fields), within `end`.
+  Status Header(uint64_t pos, uint64_t end, uint64_t* header_length, std::map<std::string, std::string>* fields) {
+    uint32_t length = 0;
+    if (pos + 4 > end || !ReadU32(pos, &length)) return Truncated(pos, "its header length");
+    if (pos + 4 + length + 4 > end) return Truncated(pos, "its header (" + std::to_string(length) + " bytes)");
+    *header_length = length;
+    return HeaderBytes(pos + 4, length, pos, fields);
+  }
+
+  // Fields of a header of `length` bytes at `at`, of the record at `record` (for messages).
+  Status HeaderBytes(uint64_t at, uint64_t length, uint64_t record, std::map<std::string, std::string>* fields) {
+    constexpr uint64_t kMaxHeaderBytes = 64u << 20;  // far above any real header
+    if (length > kMaxHeaderBytes) return Bad(record, "a header of " + std::to_string(length) + " bytes");
+    std::string bytes(length, '\0');
+    in_.clear();
+    in_.seekg(static_cast<std::streamoff>(at));
+    if (length > 0 && !in_.read(&bytes[0], static_cast<std::streamsize>(length))) return Truncated(record, "its header");
+    uint64_t k = 0;
+    while (k < length) {
+      if (k + 4 > length) return Bad(record, "a header field length cut by the end of its header");
+      uint32_t field_length = 0;
+      std::memcpy(&field_length, bytes.data() + k, 4);
+      k += 4;
+      if (field_length > length - k) {
+        return Bad(record, "a header field of " + std::to_string(field_length) + " bytes in a header of " +
+                               std::to_string(length));
+      }
+      const std::string field = bytes.substr(k, field_length);
+      const size_t equals = field.find('=');
+      if (equals == std::string::npos) return Bad(record, "a header field without '='");
+      (*fields)[field.substr(0, equals)] = field.substr(equals + 1);
+      k += field_length;
+    }
+    return Status::Ok();
+  }
+
+  bool ReadU32(uint64_t at, uint32_t* value) {
+    unsigned char b[4];
+    in_.clear();
+    in_.seekg(static_cast<std::streamoff>(at));
+    if (!in_.read(reinterpret_cast<char*>(b), 4)) return false;
+    *value = uint32_t{b[0]} | uint32_t{b[1]} << 8 | uint32_t{b[2]} << 16 | uint32_t{b[3]} << 24;
+    return true;
+  }
+
+  Status Truncated(uint64_t record, const std::string& what) {
+    return Status::Error(path_ + ": the ROS bag's record at byte " + std::to_string(record) +
+                         " runs past the end of its file or chunk with " + what + " (the file has " +
+                         std::to_string(size_) + " bytes: truncated or corrupt; a truncated recording may be "
+                         "repaired with `rosbag reindex`)");
+  }
+  Status Bad(uint64_t record, const std::string& what) {
+    return Status::Error(path_ + ": corrupt ROS bag: the record at byte " + std::to_string(record) + " has " + what);
+  }
+
+  const std::string path_;
+  std::ifstream in_;
+  uint64_t size_ = 0;
+};
+
 // Reads one bag; exceptions of the library propagate to ReadRosBag, which turns them into a
 // Status.
 class BagReader {
@@ -293,6 +468,7 @@ class BagReader {
       : path_(path), options_(options), contents_(contents) {}
 
   Status Read() {
+    HETSLAM_RETURN_IF_ERROR(BagRecordCheck(path_).Run());
     rosbag::Bag bag;
     bag.open(path_, rosbag::bagmode::Read);
     const std::vector<TopicInfo> topics = ListTopics(bag);

@@ -242,6 +242,24 @@ TEST(RosBagTest, CorruptBagIsAnErrorNamingTheFile) {
   }
 }
 
+// The bags the fuzzer found crashing or exhausting memory inside rosbag_storage (a header field
+// longer than its header, a record header length of gigabytes) are refused by the record check
+// before the library opens them, with an error naming the file and the record.
+TEST(RosBagTest, HostileRecordLengthsAreRefusedBeforeTheLibraryReadsThem) {
+  const std::string dir = std::string(HETSLAM_SOURCE_DIR) + "/tests/fuzz/known_failures/ros_bag";
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".bag") continue;
+    ++files;
+    RosBagContents contents;
+    const Status status = ReadRosBag(entry.path().string(), RosBagReadOptions(), &contents);
+    ASSERT_FALSE(status.ok()) << entry.path();
+    EXPECT_THAT(status.message(), HasSubstr(entry.path().string()));
+    EXPECT_THAT(status.message(), HasSubstr("record at byte"));
+  }
+  EXPECT_EQ(4, files);
+}
+
 // Images are written as grey PGM files into image_directory and become camera images; without
 // an image_directory they are not read.
 TEST(RosBagTest, ImagesBecomeGreyPgmFiles) {
