@@ -13,16 +13,14 @@ seconds=${2:?usage: scripts/fuzz.sh BUILD_DIR SECONDS_PER_TARGET [TARGET ...]}
 shift 2
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  # ros_bag (the ROS 1 bag reader, built only with the bag libraries) is NOT in this list, which
-  # CI runs and which must pass: within seconds it fails inside Debian's libraries, in
-  # rosbag::Bag::open before our code gets control back: heap-buffer-overflow reads and a SEGV in
-  # ros::Header::parse (a header field longer than its header), and out-of-memory in
-  # Bag::readHeader (it allocates the 32-bit length a record claims, up to 4 GB, before checking
-  # it against the file). Reproducers: tests/fuzz/known_failures/ros_bag/. A walk of the bag's
-  # top-level records before bag.open could stop these (records inside compressed chunks would
-  # still need decompressing to check); until that exists, run it by name:
-  #   scripts/fuzz.sh BUILD_DIR SECONDS ros_bag
   targets=(carmen_log robot_log team_manifest scenario relations g2o map_yaml)
+  # The ROS 1 bag reader's target exists only when core has the bag libraries. Its first runs
+  # failed within seconds inside Debian's rosbag_storage (tests/fuzz/known_failures/ros_bag);
+  # core/ros_bag.cc now checks the records the library reads on opening, and a 3-minute run
+  # found nothing (README, "Hostile input"). Records inside compressed chunks are still only
+  # the library's to check.
+  cmake --build "$build" --target fuzzers -j"${FUZZ_BUILD_JOBS:-1}" > /dev/null
+  if [ -x "$build/tests/fuzz/ros_bag_fuzzer" ]; then targets+=(ros_bag); fi
 fi
 cmake --build "$build" --target fuzzers -j"${FUZZ_BUILD_JOBS:-1}" > /dev/null
 mkdir -p "$build/fuzz/artifacts" "$build/fuzz/logs"
