@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <utility>
 
 #include <geometry_msgs/PoseStamped.h>
@@ -291,12 +292,14 @@ std::string ImageToGrey(const sensor_msgs::Image& image, std::vector<uint8_t>* g
 // library trusts the lengths in the file: a header field longer than its header is read past
 // the buffer, and a record's header length is allocated before it is compared with the file
 // (issue #16; tests/fuzz/known_failures/ros_bag: heap overreads, a segfault, a 2.3 GB
-// allocation). Every record the library reads on opening (the bag header, the connection and
-// chunk-info records, each chunk's header and the index records after it) and the records
-// inside uncompressed chunks are checked here: header and data lengths within the file (or the
-// chunk), every header field (4-byte length, "name=value") within its header, a connection's
-// data (a header too) likewise, positions within the file. Compressed chunks are not
-// decompressed here: the records inside them remain the library's to check.
+// allocation; a message read at an index offset outside its chunk). Every record the library
+// reads on opening (the bag header, the connection and chunk-info records, each chunk's header
+// and the index records after it) and the records inside uncompressed chunks are checked here:
+// header and data lengths within the file (or the chunk), every header field (4-byte length,
+// "name=value") within its header, a connection's data (a header too) likewise, positions
+// within the file, index offsets within the chunk (at a record of an uncompressed one).
+// Compressed chunks are not decompressed here: the records inside them remain the library's to
+// check.
 class BagRecordCheck {
  public:
   explicit BagRecordCheck(const std::string& path) : path_(path) {}
@@ -345,19 +348,52 @@ class BagRecordCheck {
       Record chunk;
       HETSLAM_RETURN_IF_ERROR(Read(chunk_pos, size_, &chunk));
       const auto compression = chunk.fields.find("compression");
-      if (chunk.op != 0x05 || compression == chunk.fields.end()) return Bad(chunk.pos, "no chunk header (op 5)");
-      if (compression->second == "none") {
+      uint32_t uncompressed_size = 0;
+      if (chunk.op != 0x05 || compression == chunk.fields.end() || !Field(chunk, "size", &uncompressed_size)) {
+        return Bad(chunk.pos, "no chunk header (op 5 with compression and size)");
+      }
+      // Offsets (within the uncompressed chunk) where its records start: what the index
+      // entries below must point at. Known only for an uncompressed chunk.
+      std::set<uint32_t> starts;
+      const bool uncompressed = compression->second == "none";
+      if (uncompressed) {
+        if (chunk.end - chunk.data != uncompressed_size) return Bad(chunk.pos, "a size other than its data's");
         for (uint64_t at = chunk.data; at < chunk.end;) {
           Record inner;
           HETSLAM_RETURN_IF_ERROR(Read(at, chunk.end, &inner));
+          starts.insert(static_cast<uint32_t>(at - chunk.data));
           at = inner.end;
         }
       }
+      // The connection index records after the chunk: (time, offset) entries of 12 bytes whose
+      // offsets the library reads messages at.
       uint64_t at = chunk.end;
       for (uint32_t c = 0; c < chunk_connections; ++c) {
         Record index;
         HETSLAM_RETURN_IF_ERROR(Read(at, size_, &index));
-        at = index.end;
+        uint32_t version = 0, count = 0;
+        // The library reads `count` entries and the next record right after them, whatever the
+        // record's data length says (the shared ccny bag has 5560 bytes for 278 entries).
+        if (index.op != 0x04 || !Field(index, "ver", &version) || version != 1 || !Field(index, "count", &count) ||
+            index.end - index.data < uint64_t{count} * 12) {
+          return Bad(index.pos, "no index data (op 4, version 1, 12 bytes per entry)");
+        }
+        std::string entries(uint64_t{count} * 12, '\0');
+        in_.clear();
+        in_.seekg(static_cast<std::streamoff>(index.data));
+        if (!entries.empty() && !in_.read(&entries[0], static_cast<std::streamsize>(entries.size()))) {
+          return Truncated(index.pos, "its entries");
+        }
+        for (uint32_t e = 0; e < count; ++e) {
+          uint32_t offset = 0;
+          std::memcpy(&offset, entries.data() + 12 * e + 8, 4);
+          if (offset >= uncompressed_size || (uncompressed && starts.count(offset) == 0)) {
+            return Bad(index.pos, "an index entry pointing at byte " + std::to_string(offset) +
+                                      ", not at a record of its chunk (" + std::to_string(uncompressed_size) +
+                                      " bytes)");
+          }
+        }
+        at = index.data + entries.size();
       }
     }
     return Status::Ok();
