@@ -2,7 +2,8 @@
 // al. 2007, "Improved techniques for grid mapping with Rao-Blackwellized particle filters").
 //
 // A particle is a local SLAM state (frontends/local_slam.h LocalSlamState: the active submaps,
-// shared copy-on-write, so an extra particle costs only the submaps its own scans changed), a
+// shared copy-on-write, so an extra particle costs the submaps its own scans changed, each
+// copied whole on its first change), a
 // log-weight and the results of the scans it took since the filter spawned particles (its
 // recent trajectory, not yet in the submap graph). One particle runs normally: each scan's
 // result is committed to the graph at once, exactly as a lone LocalSlam would give it.
@@ -11,9 +12,9 @@
 //   (a) matching was suspended (the laser faced the floor), the EKF carried the pose, and the
 //       first match after it did not settle the pose (settled_min_score): the particles'
 //       predictions are drawn from the prediction's covariance;
-//   (b) a match was degenerate (a corridor: the pose kept the prediction along the weak
-//       direction, LocalResult::degenerate) and the prediction is uncertain there: the draws
-//       spread along the weak direction only.
+//   (b) opt-in (spawn_on_degenerate): a match was degenerate (a corridor: the pose kept the
+//       prediction along the weak direction, LocalResult::degenerate) and the prediction is
+//       uncertain there: the draws spread along the weak direction only.
 // Spawning needs a prediction that knows its covariance (the EKF, odometry); particle 0 keeps
 // the undisturbed prediction.
 //
@@ -25,8 +26,9 @@
 // score is the mean likelihood-field value (frontends/scan_matcher.h ScoreAt) against the
 // submaps as they were at the spawn (common to all particles: a particle's own submaps agree with
 // its later scans wherever it is), plus the same against the robot's finished submaps in the
-// graph near the particle (the map from before the ambiguity, where a loop is found). When the effective sample size drops below
-// resample_ess_fraction of the count, the particles are resampled (low variance, seeded).
+// graph near the particle (the map from before the ambiguity, where a loop is found). When the
+// effective sample size drops below resample_ess_fraction of the count, the particles are
+// resampled (low variance, seeded).
 //
 // Collapse: when the best particle's normalised weight reaches collapse_weight, or all
 // particles agree with it within the collapse spread, or after max_ambiguous_scans scans, one
