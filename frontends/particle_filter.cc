@@ -29,7 +29,7 @@ double ScanLogLikelihood(const ParticleFilterOptions& options, double score) {
   return options.effective_points * std::log(p);
 }
 
-// The translation of `a` relative to `b` and their yaw difference, for the collapse spread.
+// Whether `a` lies within the collapse spread of `b` (translation and yaw).
 bool WithinSpread(const ParticleFilterOptions& options, const Pose2& a, const Pose2& b) {
   return (a.translation() - b.translation()).norm() <= options.collapse_spread_meters &&
          std::abs(Between(a, b).theta()) <= options.collapse_spread_radians;
@@ -195,7 +195,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     if (result.inserted) {
       reference_pose_ = result.local_pose;
       // The first match after suspended matching: when it cannot settle the pose (it failed,
-      // or its score is flat along a direction) and the prediction that carried the pose is
+      // or scored below settled_min_score) and the prediction that carried the pose is
       // uncertain, spread particles from its covariance.
       const bool settled = result.match.converged && result.match.score >= options_.settled_min_score;
       if (after_suspension_ && result.matched && !settled && options_.spawn_after_suspension &&
@@ -307,9 +307,7 @@ void ParticleLocalSlam::ScoreAgainstGraph(const ScanPoints& points, const std::v
 }
 
 void ParticleLocalSlam::Resample() {
-  std::vector<double> logs;
-  for (const Particle& p : particles_) logs.push_back(p.log_weight);
-  const std::vector<int> picked = LowVarianceResample(NormalizedWeights(logs), num_particles(), &rng_);
+  const std::vector<int> picked = LowVarianceResample(Weights(), num_particles(), &rng_);
   std::vector<Particle> resampled;
   resampled.reserve(picked.size());
   int new_best = -1;
