@@ -188,6 +188,16 @@ DEFINE_double(outlier_max_score, 0.5, "With a prediction's covariance (the EKF, 
 DEFINE_double(odometry_noise_fraction, 0.1, "With --use_odometry: the prediction's standard deviations are this fraction of "
               "the odometry increment, and the search windows follow them (no wide fallback); 0 = narrow, full and "
               "fallback windows as without odometry.");
+DEFINE_double(motion_filter_distance, 0.0, "Motion filter: a scan that moved less than this (metres) from the last "
+              "inserted scan, turned less than --motion_filter_angle_deg, tilted less than "
+              "--motion_filter_attitude_deg and (with --motion_filter_time > 0) came within that many seconds of it is "
+              "matched and goes into the active submaps but is no graph node and no step towards a new submap, so a robot "
+              "standing still adds nothing (0.05 is a good value); 0 = off (every scan is a node), the default.");
+DEFINE_double(motion_filter_angle_deg, 1.0, "Motion filter: heading change (degrees) that makes a scan new.");
+DEFINE_double(motion_filter_attitude_deg, 1.0, "Motion filter: roll or pitch change (degrees) that makes a scan new (a "
+              "tilting head sees new heights).");
+DEFINE_double(motion_filter_time, 0.0, "Motion filter: seconds after the last inserted scan that make a scan new (0 = "
+              "time never does).");
 DEFINE_double(densify_max_gap, 0.0, "Join the end points of neighbouring beams closer than this (metres) by points at "
               "the grid resolution before matching and mapping (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
@@ -251,6 +261,10 @@ std::string FlagsNamedIn(const std::string& message) {
       {"max_particles", "--max_particles"},
       {"spawn_min_sigma_meters", "--spawn_min_sigma"},
       {"max_ambiguous_scans", "--max_ambiguous_scans"},
+      {"motion_filter_distance_meters", "--motion_filter_distance"},
+      {"motion_filter_angle_radians", "--motion_filter_angle_deg"},
+      {"motion_filter_attitude_radians", "--motion_filter_attitude_deg"},
+      {"motion_filter_time_seconds", "--motion_filter_time"},
   };
   std::string flags;
   for (const auto& [field, flag] : kFlagOf) {
@@ -312,6 +326,10 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->covariance_sigmas = FLAGS_covariance_sigmas;
   options->outlier_max_score = FLAGS_outlier_max_score;
   options->odometry_noise_fraction = FLAGS_odometry_noise_fraction;
+  options->motion_filter_distance_meters = FLAGS_motion_filter_distance;
+  options->motion_filter_angle_radians = FLAGS_motion_filter_angle_deg * M_PI / 180.0;
+  options->motion_filter_attitude_radians = FLAGS_motion_filter_attitude_deg * M_PI / 180.0;
+  options->motion_filter_time_seconds = FLAGS_motion_filter_time;
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
@@ -420,10 +438,11 @@ std::string Summary(const OnlineEstimator& estimator) {
   char line[1024];
   std::snprintf(line, sizeof(line),
                 "scans: %d processed, %d skipped (too few points), %d refused (too late or too far), %d timestamps "
-                "backwards, %d match failures, %lld floor points dropped, %d degenerate matches (prediction kept along "
-                "a flat direction), %d with %lld frontier points left out of the match, %d predicted by the EKF, %d "
-                "without attitude\n",
+                "backwards, %d match failures, %d matched but not inserted (nothing new: motion filter), %lld floor "
+                "points dropped, %d degenerate matches (prediction kept along a flat direction), %d with %lld frontier "
+                "points left out of the match, %d predicted by the EKF, %d without attitude\n",
                 s.scans, s.skipped_too_few_points, s.scans_refused, s.scans_stamped_backwards, s.match_failures,
+                s.filtered_scans,
                 s.floor_points, s.degenerate_matches, s.frontier_scans, s.frontier_points, s.ekf_predicted_scans,
                 s.scans_without_attitude);
   std::string out = line;

@@ -46,6 +46,14 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
     msg << "max_point_range_meters must be in (0, 1e4] (got " << max_point_range_meters << "); ";
   if (!std::isfinite(floor_max_height_meters)) msg << "floor_max_height_meters must be finite; ";
   if (!(odometry_noise_fraction >= 0 && odometry_noise_fraction <= 1)) msg << "odometry_noise_fraction must be in [0, 1]; ";
+  if (!(motion_filter_distance_meters >= 0 && motion_filter_distance_meters <= 100))
+    msg << "motion_filter_distance_meters must be in [0, 100]; ";
+  if (!(motion_filter_angle_radians >= 0 && motion_filter_angle_radians <= M_PI))
+    msg << "motion_filter_angle_radians must be in [0, pi]; ";
+  if (!(motion_filter_attitude_radians >= 0 && motion_filter_attitude_radians <= M_PI))
+    msg << "motion_filter_attitude_radians must be in [0, pi]; ";
+  if (!(motion_filter_time_seconds >= 0 && motion_filter_time_seconds <= 1e9))
+    msg << "motion_filter_time_seconds must be in [0, 1e9]; ";
   if (!(covariance_sigmas > 0 && covariance_sigmas <= 10)) msg << "covariance_sigmas must be in (0, 10]; ";
   if (!frontier_lines.IsValid(&sub)) msg << "frontier_lines: " << sub;
   if (!(frontier_margin_meters >= 0 && frontier_margin_meters <= 10)) msg << "frontier_margin_meters must be in [0, 10]; ";
@@ -228,6 +236,7 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
                         ? VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters))
                         : points.all;
   points.sensor_robot = scan.robot_T_sensor.translation().head<2>();
+  points.attitude = body;
   return points;
 }
 
@@ -258,7 +267,22 @@ Prediction LocalSlam::PredictFrom(const LocalSlamState& state, const std::option
   return prediction;
 }
 
-LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction) {
+bool LocalSlam::NothingNew(const LocalSlamState& state, double stamp_seconds, const Pose2& local_pose,
+                           const BodyAttitude& attitude) const {
+  if (options_.motion_filter_distance_meters <= 0 || !state.last_inserted.has_value()) return false;
+  const InsertedScan& last = *state.last_inserted;
+  const Pose2 moved = Between(last.local_pose, local_pose);
+  const double height = attitude.base_height_meters - last.attitude.base_height_meters;
+  return std::hypot(moved.translation().norm(), height) < options_.motion_filter_distance_meters &&
+         std::abs(moved.theta()) < options_.motion_filter_angle_radians &&
+         std::abs(attitude.roll_radians - last.attitude.roll_radians) < options_.motion_filter_attitude_radians &&
+         std::abs(attitude.pitch_radians - last.attitude.pitch_radians) < options_.motion_filter_attitude_radians &&
+         (options_.motion_filter_time_seconds <= 0 ||
+          std::abs(stamp_seconds - last.stamp_seconds) < options_.motion_filter_time_seconds);
+}
+
+LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction,
+                               bool motion_filter) {
   LocalResult result;
   result.stamp_seconds = stamp_seconds;
   result.predicted = prediction.pose;
@@ -353,11 +377,17 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
   state.recent.push_back({stamp_seconds, result.local_pose});
   if (state.recent.size() > 2) state.recent.erase(state.recent.begin());
-  ++state.num_inserted;
+  // Nothing new (the motion filter): the scan still goes into the active submaps (they see
+  // every observation), but it is no node and no step towards a new or finished submap.
+  result.filtered = motion_filter && NothingNew(state, stamp_seconds, result.local_pose, points.attitude);
+  if (!result.filtered) {
+    state.last_inserted = InsertedScan{stamp_seconds, result.local_pose, points.attitude};
+    ++state.num_inserted;
+  }
 
   // Submap bookkeeping: a new submap every scans_per_submap / 2 scans (one, ever, for 0).
   const int half = options_.scans_per_submap > 0 ? std::max(1, options_.scans_per_submap / 2) : 0;
-  if (state.active.empty() || (half > 0 && state.active.back().num_scans >= half)) {
+  if (!result.filtered && (state.active.empty() || (half > 0 && state.active.back().num_scans >= half))) {
     ActiveSubmap submap{state.next_submap_index++, result.local_pose,
                         std::make_shared<LaserMap>(options_.grid, options_.field), 0};
     result.new_submaps.push_back({submap.index, submap.local_T_submap});
@@ -371,17 +401,18 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     if (submap.map.use_count() > 1) submap.map = std::make_shared<LaserMap>(*submap.map);
     submap.map->InsertScan(submap_T_node, points.sensor_robot, points.all, points.projected ? &points.labels : nullptr,
                           points.projected ? &points.heights_meters : nullptr);
+    if (result.filtered) continue;
     ++submap.num_scans;
     result.insertions.push_back({submap.index, submap_T_node});
   }
-  if (options_.scans_per_submap > 0 && state.active.front().num_scans >= options_.scans_per_submap) {
+  if (!result.filtered && options_.scans_per_submap > 0 && state.active.front().num_scans >= options_.scans_per_submap) {
     ActiveSubmap& done = state.active.front();
     // Matched against only from now on. (Unshared: it just took this scan.)
     done.map->Freeze();
     result.finished = LocalResult::FinishedSubmap{done.index, std::move(done.map)};
     state.active.erase(state.active.begin());
   }
-  result.inserted = true;
+  result.inserted = !result.filtered;
   result.points = std::move(points);
   result.insert_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - insert_start).count();
   return result;

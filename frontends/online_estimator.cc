@@ -293,8 +293,9 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   const LocalResult& current = step.Current();
   const bool suspended = current.suspended;
   const bool inserted = current.inserted;
+  const bool filtered = current.filtered;
   if (inserted || suspended) stats_.floor_obstacle_points += floor_obstacle_points;
-  if (inserted) {
+  if (inserted || filtered) {
     if (current.matched && !current.match.converged) ++stats_.match_failures;
     if (current.match.converged) match_scores_.push_back(current.match.score);
     stats_.degenerate_matches += current.degenerate;
@@ -315,9 +316,16 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   } else if (!suspended) {
     ++stats_.skipped_too_few_points;
   }
+  stats_.filtered_scans += filtered;
   std::optional<LocalResult> this_scan = std::move(step.current);  // `current` may refer to it: not used below
   for (LocalResult& result : step.committed) AddNode(std::move(result));
   RecordParticleCount(stamp, step.particles);
+  if (filtered) {
+    // Nothing new for the map: the pose rides on the node before it. (Only with one particle,
+    // so that node is this scan's predecessor.)
+    const NodeId last{options_.robot, graph_->num_nodes(options_.robot) - 1};
+    non_node_poses_.push_back({stamp, last, graph_->NodeLocalPose(last).inverse() * this_scan->local_pose});
+  }
   if (suspended) {
     // The EKF carries the pose; floor obstacles seen meanwhile stay in the planner map, tied to
     // the last node so that the graph's corrections move them too.
@@ -326,7 +334,7 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
     if (nodes > 0) {
       const NodeId last{options_.robot, nodes - 1};
       const Pose2 node_T_scan = graph_->NodeLocalPose(last).inverse() * prediction.pose;
-      suspended_poses_.push_back({stamp, last, node_T_scan});
+      non_node_poses_.push_back({stamp, last, node_T_scan});
       if (this_scan.has_value() && !this_scan->points.floor_obstacles.empty()) {
         suspended_obstacles_.push_back(
             {last, node_T_scan, this_scan->points.sensor_robot, std::move(this_scan->points.floor_obstacles)});
@@ -430,9 +438,9 @@ std::vector<StampedPose2> OnlineEstimator::Trajectory() const {
   for (const StampedPose2& p : local_.DeferredPoses()) {
     trajectory.push_back({p.stamp_seconds, graph_->LocalToRobot(options_.robot) * p.pose});
   }
-  if (suspended_poses_.empty()) return trajectory;
-  // Scans whose matching was suspended, at the EKF's pose relative to the node before them.
-  for (const SuspendedPose& p : suspended_poses_) {
+  if (non_node_poses_.empty()) return trajectory;
+  // Scans that are not nodes, relative to the node before them.
+  for (const NonNodePose& p : non_node_poses_) {
     trajectory.push_back({p.stamp_seconds, graph_->NodePose(p.node) * p.node_T_scan});
   }
   std::stable_sort(trajectory.begin(), trajectory.end(),
@@ -450,6 +458,12 @@ std::vector<StampedPose2> OnlineEstimator::LocalTrajectory() const {
   }
   const std::vector<StampedPose2> deferred = local_.DeferredPoses();
   trajectory.insert(trajectory.end(), deferred.begin(), deferred.end());
+  if (non_node_poses_.empty()) return trajectory;
+  for (const NonNodePose& p : non_node_poses_) {
+    trajectory.push_back({p.stamp_seconds, graph_->NodeLocalPose(p.node) * p.node_T_scan});
+  }
+  std::stable_sort(trajectory.begin(), trajectory.end(),
+                   [](const StampedPose2& a, const StampedPose2& b) { return a.stamp_seconds < b.stamp_seconds; });
   return trajectory;
 }
 

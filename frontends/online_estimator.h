@@ -92,7 +92,7 @@ struct OnlineEstimatorOptions {
   bool use_commands = true;    // commands drive the EKF prediction
   bool use_odometry = false;   // predict scans from odometry (the scan's own pose, else the latest reading)
   double odometry_max_age_seconds = 0.05;
-  // A scan whose predicted pose is farther than this from the last inserted pose (a corrupt
+  // A scan whose predicted pose is farther than this from the last matched pose (a corrupt
   // odometry pose or command) is refused with an error and counted in scans_refused: mapping
   // it would stretch the submap grids past their size limit (issue #16).
   double max_scan_jump_meters = 100.0;
@@ -127,6 +127,7 @@ struct OnlineEstimatorStats {
   long long floor_points = 0;       // end points dropped as floor hits
   long long floor_obstacle_points = 0;  // end points labelled floor obstacles (planner map only)
   int suspended_scans = 0;          // the laser faced the floor: the EKF carried the pose
+  int filtered_scans = 0;           // matched, not inserted: nothing new (the motion filter)
   int projected_scans = 0;          // projected with an attitude (2.5D)
   int scans_without_attitude = 0;   // the stream has attitudes, but none near the scan: level
   int ekf_predicted_scans = 0;      // scans predicted by the EKF
@@ -164,10 +165,11 @@ class OnlineEstimator {
   // The pose at a past stamp: the EKF's filtered estimate within its history window, else the
   // nodes' poses interpolated (or the nearest end). Error before the first scan.
   Status PoseAt(double stamp_seconds, Pose2* pose) const;
-  // Optimised poses of every inserted scan (robot frame), and of the scans whose matching was
-  // suspended (the EKF's pose, relative to the node before them), in stamp order.
+  // Optimised poses of every inserted scan (robot frame), and of the scans that are not nodes
+  // (relative to the node before them): those whose matching was suspended (the EKF's pose)
+  // and those the motion filter left out (their match), in stamp order.
   std::vector<StampedPose2> Trajectory() const;
-  // The front end's (drifting, never corrected) poses of the inserted scans.
+  // The front end's (drifting, never corrected) poses of the scans of Trajectory().
   std::vector<StampedPose2> LocalTrajectory() const;
   // An occupancy grid of a layer of the map at the optimised poses: the structure localisation
   // uses (every inserted scan), the floor obstacles (also those seen while matching was
@@ -227,12 +229,14 @@ class OnlineEstimator {
   std::vector<double> match_scores_;
   std::vector<ParticleCount> particle_counts_;
   std::vector<SubmapGraph::AnchoredPoints> suspended_obstacles_;
-  struct SuspendedPose {
+  // Scans that are not nodes (matching suspended, or left out by the motion filter): their
+  // pose relative to the node before them.
+  struct NonNodePose {
     double stamp_seconds;
     NodeId node;
     Pose2 node_T_scan;
   };
-  std::vector<SuspendedPose> suspended_poses_;
+  std::vector<NonNodePose> non_node_poses_;
   OnlineEstimatorStats stats_;
 };
 

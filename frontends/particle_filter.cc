@@ -181,7 +181,10 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   std::vector<LocalResult> results(n);
   for (int i = 0; i < n; ++i) {
     std::swap(*slam_.mutable_state(), particles_[i].state);
-    results[i] = slam_.AddScan(stamp_seconds, n == 1 ? std::move(points) : points, predictions[i]);
+    // Several particles insert every scan: they must all insert the same ones (and the
+    // deferred results are all nodes).
+    results[i] = slam_.AddScan(stamp_seconds, n == 1 ? std::move(points) : points, predictions[i],
+                               /*motion_filter=*/n == 1);
     std::swap(*slam_.mutable_state(), particles_[i].state);
     stats_.match_seconds += results[i].match_seconds;
     stats_.insert_seconds += results[i].insert_seconds;
@@ -192,7 +195,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   if (n == 1) {
     LocalResult& result = results[0];
     if (result.suspended) after_suspension_ = true;
-    if (result.inserted) {
+    if (result.inserted || result.filtered) {
       reference_pose_ = result.local_pose;
       // The first match after suspended matching: when it cannot settle the pose (it failed,
       // or scored below settled_min_score) and the prediction that carried the pose is
@@ -217,10 +220,12 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
           spawn_covariance_ = spread;
         }
       }
-      step.committed.push_back(std::move(result));
-    } else {
-      step.current = std::move(result);
+      if (result.inserted) {
+        step.committed.push_back(std::move(result));
+        return step;
+      }
     }
+    step.current = std::move(result);
     return step;
   }
 

@@ -143,7 +143,7 @@ struct ParticleFilterStats {
 struct ParticleStep {
   std::vector<LocalResult> committed;
   // This scan's result of the best particle when it is not committed.back() (deferred while
-  // ambiguous, or not inserted: suspended, too few points).
+  // ambiguous, or not inserted: suspended, too few points, left out by the motion filter).
   std::optional<LocalResult> current;
   int particles = 1;
   bool spawned = false;
@@ -161,7 +161,7 @@ class ParticleLocalSlam {
 
   // Adds one prepared scan. `prediction` is the best particle's; an external one without
   // odometry motion (the caller's EKF) is taken as relative to the best particle's last
-  // inserted pose, which the caller is expected to have fed its EKF: the other particles get
+  // matched pose, which the caller is expected to have fed its EKF: the other particles get
   // the same increment from their own poses. Otherwise (odometry, the front end's own
   // extrapolation) each particle predicts from its own state with `odometry`. `graph` holds the
   // finished submaps of `robot` that particles are weighted against (the deferred results are
@@ -207,7 +207,7 @@ class ParticleLocalSlam {
   std::vector<Particle> particles_;
   int best_ = 0;
   std::mt19937_64 rng_;
-  // The best particle's last inserted pose: what the caller's EKF was last fed.
+  // The best particle's last matched pose: what the caller's EKF was last fed.
   std::optional<Pose2> reference_pose_;
   std::optional<Eigen::Matrix3d> spawn_covariance_;  // a trigger fired: spawn at the next scan
   // The active submaps when the particles spawned (kept unchanged: copy-on-write).

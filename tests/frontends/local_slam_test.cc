@@ -1,6 +1,9 @@
 #include "frontends/local_slam.h"
 
+#include <cmath>
+#include <limits>
 #include <random>
+#include <utility>
 
 #include "core/carmen_log.h"
 #include "core/relations.h"
@@ -29,7 +32,7 @@ std::vector<StampedPose2> RunSlam(const CarmenLog& log, const LocalSlamOptions& 
     const LaserScan& scan = log.lasers[i].scan;
     const LocalResult result =
         slam.AddScan(scan.stamp_seconds, PrepareScanPoints(options, scan), slam.Predict(std::nullopt));
-    if (!result.inserted) continue;
+    if (!result.inserted && !result.filtered) continue;
     failures += result.matched && !result.match.converged;
     trajectory.push_back({result.stamp_seconds, result.local_pose});
   }
@@ -113,6 +116,116 @@ TEST(LocalSlamTest, IntelPrefixRelations) {
   EXPECT_EQ(21, metric.matched);  // every scan is inserted, so the matched set is fixed
   EXPECT_LT(metric.trans_mean_m, 0.035);
   EXPECT_LT(metric.rot_mean_deg, 0.3);
+}
+
+// A level scan from `robot` in a 6 m x 4 m room centred on the origin with a 1 m x 0.5 m box
+// in one corner (so that no pose along a wall is ambiguous): 360 beams, noise-free, the laser
+// 0.5 m above the floor.
+LaserScan RoomScan(const Pose2& robot, double stamp_seconds) {
+  LaserScan scan;
+  scan.stamp_seconds = stamp_seconds;
+  scan.range_max_meters = 10;
+  scan.angles_radians = EvenlySpacedAngles(360, -M_PI, M_PI / 180);
+  scan.robot_T_sensor.translation() = Eigen::Vector3d(0, 0, 0.5);  // a tilt keeps the beams off the floor
+  for (double a : scan.angles_radians) {
+    const Eigen::Vector2d d(std::cos(robot.theta() + a), std::sin(robot.theta() + a));
+    const Eigen::Vector2d o = robot.translation();
+    double range = 1e9;
+    // Room walls x = ±3, y = ±2 (from inside), box [1.8, 2.8] x [1.3, 1.8] (from outside).
+    for (double wall : {-3.0, 3.0}) {
+      if (d.x() != 0 && (wall - o.x()) / d.x() > 0) range = std::min(range, (wall - o.x()) / d.x());
+    }
+    for (double wall : {-2.0, 2.0}) {
+      if (d.y() != 0 && (wall - o.y()) / d.y() > 0) range = std::min(range, (wall - o.y()) / d.y());
+    }
+    for (double x : {1.8, 2.8}) {
+      const double t = d.x() != 0 ? (x - o.x()) / d.x() : -1;
+      const double y = o.y() + t * d.y();
+      if (t > 0 && y >= 1.3 && y <= 1.8) range = std::min(range, t);
+    }
+    for (double y : {1.3, 1.8}) {
+      const double t = d.y() != 0 ? (y - o.y()) / d.y() : -1;
+      const double x = o.x() + t * d.x();
+      if (t > 0 && x >= 1.8 && x <= 2.8) range = std::min(range, t);
+    }
+    scan.ranges_meters.push_back(range);
+  }
+  return scan;
+}
+
+// Issue #15: a robot standing still adds nothing. The same scan again is matched (a pose per
+// scan) and goes into the active submap, but it is no new node and no step towards a new
+// submap; a scan that moved, turned or tilted past the thresholds, or came after the time
+// limit, is new.
+TEST(LocalSlamTest, MotionFilterLeavesOutScansThatAddNothing) {
+  LocalSlamOptions options;
+  options.motion_filter_distance_meters = 0.05;
+  options.scans_per_submap = 4;  // a new submap every 2 inserted scans
+  options.prediction = MotionPrediction::kStationary;
+  LocalSlam slam(options);
+  double t = 0;
+  auto add = [&](const Pose2& robot, const std::optional<BodyAttitude>& attitude = std::nullopt) {
+    t += 0.1;
+    return slam.AddScan(t, PrepareScanPoints(options, RoomScan(robot, t), attitude), slam.Predict(std::nullopt));
+  };
+  ASSERT_TRUE(add(Pose2(0, 0, 0)).inserted);
+  for (int k = 0; k < 100; ++k) {
+    const LocalResult repeated = add(Pose2(0, 0, 0));
+    ASSERT_TRUE(repeated.filtered) << k;
+    EXPECT_FALSE(repeated.inserted);
+    EXPECT_TRUE(repeated.matched);
+    EXPECT_TRUE(repeated.insertions.empty());
+    EXPECT_TRUE(repeated.new_submaps.empty());
+    EXPECT_FALSE(repeated.finished.has_value());
+    EXPECT_LT(repeated.local_pose.translation().norm(), 0.01);
+  }
+  EXPECT_EQ(1, slam.state().num_inserted);
+  EXPECT_EQ(1, slam.state().next_submap_index);
+  // The filtered scans went into the map: its cells were updated by every one of them.
+  EXPECT_EQ(101, slam.state().active.front().map->num_scans_inserted());
+
+  // 4 cm is nothing new, 6 cm is.
+  EXPECT_TRUE(add(Pose2(0.04, 0, 0)).filtered);
+  const LocalResult moved = add(Pose2(0.06, 0, 0));
+  EXPECT_TRUE(moved.inserted);
+  EXPECT_NEAR(0.06, moved.local_pose.x(), 0.01);
+  // Turned 2 degrees (more than 1).
+  EXPECT_TRUE(add(Pose2(0.06, 0, 2 * M_PI / 180)).inserted);
+  // Tilted 2 degrees: a tilting head sees new heights.
+  BodyAttitude tilted;
+  tilted.pitch_radians = 2 * M_PI / 180;
+  EXPECT_TRUE(add(Pose2(0.06, 0, 2 * M_PI / 180), tilted).inserted);
+  EXPECT_TRUE(add(Pose2(0.06, 0, 2 * M_PI / 180), tilted).filtered);
+  EXPECT_EQ(4, slam.state().num_inserted);
+  EXPECT_EQ(2, slam.state().next_submap_index);
+
+  // With a time limit, a standing robot still goes in now and then; distance 0 turns it off.
+  LocalSlamOptions timed = options;
+  timed.motion_filter_time_seconds = 1.0;
+  LocalSlamOptions off = options;
+  off.motion_filter_distance_meters = 0;
+  for (const auto& [o, expected] : {std::make_pair(timed, 5), std::make_pair(off, 50)}) {
+    LocalSlam other(o);
+    int inserted = 0;
+    for (int k = 0; k < 50; ++k) {
+      inserted += other.AddScan(0.1 * k, PrepareScanPoints(o, RoomScan(Pose2(0, 0, 0), 0.1 * k)),
+                                other.Predict(std::nullopt)).inserted;
+    }
+    EXPECT_EQ(expected, inserted);
+  }
+}
+
+TEST(LocalSlamOptionsTest, MotionFilterRanges) {
+  LocalSlamOptions options;
+  std::string error;
+  EXPECT_TRUE(options.IsValid(&error)) << error;
+  options.motion_filter_distance_meters = -1;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("motion_filter_distance_meters"));
+  options = LocalSlamOptions();
+  options.motion_filter_time_seconds = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("motion_filter_time_seconds"));
 }
 
 TEST(NarrowSearchTrustedTest, OnlyAfterSmallMotionOrWithOdometry) {

@@ -74,11 +74,13 @@ TEST(OnlineEstimatorParticlesTest, SpawnDeferCollapseAndOnePosePerScan) {
     EXPECT_NE(run.counts[i - 1].particles, run.counts[i].particles);
     EXPECT_LT(run.counts[i - 1].stamp_seconds, run.counts[i].stamp_seconds);
   }
-  // One pose per scan, deferred or not, midway and at the end; every inserted scan is a node.
+  // One pose per scan, deferred or not, midway and at the end; every inserted scan is a node
+  // (the motion filter's are not).
   EXPECT_EQ(run.stats.scans, run.scans_with_one_pose_each);
   EXPECT_GT(run.scans_with_particles, 50);
   EXPECT_EQ(static_cast<size_t>(run.stats.scans), run.trajectory.size());
-  EXPECT_EQ(run.stats.scans - run.stats.suspended_scans - run.stats.skipped_too_few_points, run.nodes);
+  EXPECT_EQ(run.stats.scans - run.stats.suspended_scans - run.stats.skipped_too_few_points - run.stats.filtered_scans,
+            run.nodes);
   EXPECT_LT(run.ate.translation_rmse_meters, 0.05);
   // One extra particle: its two active submaps and deferred scans, far below the whole map.
   EXPECT_GT(run.particles.max_extra_particle_bytes, 0u);

@@ -191,6 +191,55 @@ TEST(OnlineEstimatorTest, WideSearchClosesALoopBeyondTheStandardWindow) {
             << wide.graph.loop_closures_accepted << " closures in all)";
 }
 
+// Issue #15: a robot standing still stops growing. The ring's first scan repeated 300 and 3000
+// times (10 Hz): with the motion filter, the same nodes, submaps and map memory either way, and
+// still one pose per scan, on the spot; without it, a node per scan.
+TEST(OnlineEstimatorTest, MotionFilterKeepsAStandingRobotFromGrowing) {
+  const sim::SimulationResult simulation = Simulate(1);
+  struct Standing {
+    int nodes = 0;
+    int submaps = 0;
+    size_t finished_bytes = 0;
+    size_t poses = 0;
+    double max_offset_meters = 0.0;
+    int filtered = 0;
+  };
+  auto stand = [&](int repeats, double filter_meters) {
+    OnlineEstimatorOptions options = TestOptions();
+    options.local.motion_filter_distance_meters = filter_meters;
+    OnlineEstimator estimator(options);
+    LaserReading reading = simulation.log.lasers.front();
+    for (int k = 0; k < repeats; ++k) {
+      reading.scan.stamp_seconds = 0.1 * k;
+      const Status status = estimator.Add(reading);
+      EXPECT_TRUE(status.ok()) << status.message();
+    }
+    estimator.Finish();
+    Standing s;
+    s.nodes = estimator.graph().num_nodes(0);
+    s.submaps = estimator.graph().num_submaps(0);
+    s.finished_bytes = estimator.graph().FinishedSubmapBytes(0);
+    const std::vector<StampedPose2> trajectory = estimator.Trajectory();
+    s.poses = trajectory.size();
+    for (const StampedPose2& p : trajectory) s.max_offset_meters = std::max(s.max_offset_meters, p.pose.translation().norm());
+    s.filtered = estimator.stats().filtered_scans;
+    return s;
+  };
+  const Standing few = stand(300, 0.05);
+  const Standing many = stand(3000, 0.05);
+  EXPECT_EQ(1, few.nodes);
+  EXPECT_EQ(few.nodes, many.nodes);
+  EXPECT_EQ(few.submaps, many.submaps);
+  EXPECT_EQ(few.finished_bytes, many.finished_bytes);
+  EXPECT_EQ(300u, few.poses);
+  EXPECT_EQ(3000u, many.poses);
+  EXPECT_EQ(2999, many.filtered);
+  EXPECT_LT(many.max_offset_meters, 0.01);
+  const Standing unfiltered = stand(300, 0.0);
+  EXPECT_EQ(300, unfiltered.nodes);
+  EXPECT_GT(unfiltered.submaps, 10);
+}
+
 TEST(OnlineEstimatorOptionsTest, RejectsBadValues) {
   OnlineEstimatorOptions options;
   std::string error;

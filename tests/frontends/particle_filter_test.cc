@@ -126,6 +126,7 @@ Feed OfficeScans() { return Feed{testing_sim::SimulateRing(11)}; }
 struct FilterRun {
   std::vector<ParticleStep> steps;
   std::vector<LocalResult> committed;
+  int filtered = 0;  // scans the motion filter made no node (matched, in the map)
   ParticleFilterStats stats;
   std::vector<StampedPose2> deferred_at_end;
 };
@@ -137,6 +138,7 @@ struct FilterRun {
 FilterRun RunFilter(const sim::SimulationResult& simulation, const ParticleFilterOptions& options, int scans,
               int first_suspended, int suspended, double prediction_sigma_meters) {
   LocalSlamOptions local;
+  local.motion_filter_distance_meters = 0.05;  // with one particle, some scans add nothing
   ParticleLocalSlam filter(local, options);
   SubmapGraph graph{SubmapGraphOptions()};
   FilterRun run;
@@ -165,7 +167,8 @@ FilterRun RunFilter(const sim::SimulationResult& simulation, const ParticleFilte
     ParticleStep step = filter.AddScan(scan.stamp_seconds, std::move(points), prediction, std::nullopt,
                                        graph, 0);
     const LocalResult& current = step.Current();
-    if (current.inserted) {
+    run.filtered += current.filtered;
+    if (current.inserted || current.filtered) {
       last_fed = current.local_pose;
       last_truth = truth;
     }
@@ -185,10 +188,13 @@ TEST(ParticleLocalSlamTest, OneParticleCommitsEveryScanAtOnce) {
   const FilterRun run = RunFilter(feed.simulation, options, 120, 40, 10, 0.2);
   EXPECT_EQ(0, run.stats.spawns);
   EXPECT_EQ(1, run.stats.max_particles);
-  EXPECT_EQ(110u, run.committed.size());  // every scan but the suspended ones
+  // Every scan but the suspended ones, unless the motion filter found it adds nothing.
+  EXPECT_GT(run.filtered, 0);
+  EXPECT_EQ(110u, run.committed.size() + run.filtered);
   for (const ParticleStep& step : run.steps) {
     EXPECT_EQ(1, step.particles);
-    EXPECT_TRUE(step.Current().inserted || step.Current().suspended);
+    EXPECT_TRUE(step.Current().inserted || step.Current().suspended || step.Current().filtered);
+    EXPECT_EQ(!step.Current().inserted, step.current.has_value());
   }
 }
 
@@ -205,9 +211,11 @@ TEST(ParticleLocalSlamTest, SpawnsAfterSuspensionDefersAndCollapses) {
   EXPECT_EQ(1, run.steps[50].particles);
   EXPECT_TRUE(run.steps[51].spawned);
   EXPECT_EQ(5, run.steps[51].particles);
-  // While deferred, nothing is committed; every inserted scan is committed exactly once.
+  // While deferred, nothing is committed; every inserted scan is committed exactly once (with
+  // several particles the motion filter is off: they all insert the same scans).
   EXPECT_TRUE(run.steps[51].committed.empty() || run.steps[51].collapsed);
-  EXPECT_EQ(110u, run.committed.size());
+  EXPECT_EQ(110u, run.committed.size() + run.filtered);
+  for (const ParticleStep& step : run.steps) EXPECT_TRUE(step.particles == 1 || !step.Current().filtered);
   std::map<double, int> committed_stamps;
   for (const LocalResult& r : run.committed) ++committed_stamps[r.stamp_seconds];
   for (const auto& [stamp, times] : committed_stamps) EXPECT_EQ(1, times) << stamp;
