@@ -119,6 +119,9 @@ DEFINE_bool(loop_wide_search, true, "Once the drift bound (grown with the travel
             "--loop_linear_window and the standard search finds nothing, also search a wide window (up to "
             "--loop_wide_window m), without motion prior; two wide matches of different scans that agree on the "
             "correction enter the graph (long corridors).");
+DEFINE_int32(loop_max_submaps, 0, "Loop search budget: match each node against at most this many finished submaps, "
+             "those nearest its estimate, so a search costs the same however long the run (0 = every submap whose "
+             "box holds the node, the default).");
 DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metres (see --loop_wide_search).");
 DEFINE_double(loop_wide_spacing, 1.0, "Wide loop search: search again only after this much travel (metres) since the "
               "last wide search (see --loop_wide_search).");
@@ -261,6 +264,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"max_particles", "--max_particles"},
       {"spawn_min_sigma_meters", "--spawn_min_sigma"},
       {"max_ambiguous_scans", "--max_ambiguous_scans"},
+      {"max_submaps_per_search", "--loop_max_submaps"},
       {"motion_filter_distance_meters", "--motion_filter_distance"},
       {"motion_filter_angle_radians", "--motion_filter_angle_deg"},
       {"motion_filter_attitude_radians", "--motion_filter_attitude_deg"},
@@ -365,6 +369,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->wide_min_score = FLAGS_loop_wide_min_score;
   loop->wide_search_spacing_meters = FLAGS_loop_wide_spacing;
   loop->degenerate_max_drop_ratio = FLAGS_loop_degenerate_drop_ratio;
+  loop->max_submaps_per_search = FLAGS_loop_max_submaps;
   estimator->graph.loop_weak_translation_sigma_meters = FLAGS_loop_weak_sigma;
   loop->min_node_separation = FLAGS_loop_min_node_separation;
   loop->search_min_travel_meters = FLAGS_loop_search_min_travel;
@@ -468,11 +473,12 @@ std::string Summary(const OnlineEstimator& estimator) {
   out += line;
   if (!estimator.options().loop_closure) return out;
   std::snprintf(line, sizeof(line),
-                "graph: %d nodes, %d submaps, %d loop searches, %d loop closures accepted (%d gated out), %d removed "
-                "as inconsistent, %d solves (%d iterations, %.2f s, %d failed), loop search %.2f s\n"
+                "graph: %d nodes, %d submaps, %d loop searches (%d submaps over the budget skipped), %d loop closures "
+                "accepted (%d gated out), %d removed as inconsistent, %d solves (%d iterations, %.2f s, %d failed), loop "
+                "search %.2f s\n"
                 "wide loop search: %d matches, %d candidates, %d closures accepted; %d results flat along a direction "
                 "(held across it only; wide ones dropped)\n",
-                g.nodes, g.submaps, l.searches, g.loop_closures_accepted, l.rejected_by_gate,
+                g.nodes, g.submaps, l.searches, l.submaps_skipped, g.loop_closures_accepted, l.rejected_by_gate,
                 g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds, g.failed_solves,
                 l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate);
   out += line;

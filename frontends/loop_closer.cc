@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "glog/logging.h"
 
@@ -45,6 +47,7 @@ bool LoopCloserOptions::IsValid(std::string* error) const {
   if (!(search_min_travel_meters >= 0 && search_min_turn_radians >= 0))
     msg << "search travel/turn thresholds must be >= 0; ";
   if (min_node_separation < 0) msg << "min_node_separation must be >= 0; ";
+  if (max_submaps_per_search < 0) msg << "max_submaps_per_search must be >= 0; ";
   if (!(gate_base_meters >= 0 && gate_meters_per_meter >= 0 && gate_base_radians >= 0 && gate_radians_per_meter >= 0))
     msg << "gate parameters must be >= 0; ";
   if (error != nullptr) *error = msg.str();
@@ -140,23 +143,38 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
   const std::vector<Eigen::Vector2f>& points = graph.NodePoints(node).matching;
   const std::vector<float>& weights = graph.NodePoints(node).matching_weights;
   const int num_submaps = graph.num_submaps(node.robot);
+  // The candidates: (distance of the node's estimate from the submap's trajectory box, index).
+  std::vector<std::pair<double, int>> candidates;
   for (int s = 0; s < num_submaps; ++s) {
     const SubmapId submap{node.robot, s};
-    const LaserMap* map = graph.FinishedSubmapMap(submap);
-    if (map == nullptr) continue;
+    if (graph.FinishedSubmapMap(submap) == nullptr) continue;
     // The front end built this submap moments ago: the intra-submap chain already ties the
     // node to it, a closure would add little but cost a search.
     if (node.index - graph.SubmapLastNode(submap) < options_.min_node_separation) continue;
     // Only submaps the node could be inside: its estimated position within the box of the
     // submap's own trajectory, grown by the search window.
-    const Pose2 robot_T_submap = graph.SubmapPose(submap);
-    const Pose2 predicted = robot_T_submap.inverse() * robot_T_node;
+    const Eigen::Vector2d p = (graph.SubmapPose(submap).inverse() * robot_T_node).translation();
     Eigen::Vector2d box_min, box_max;
     graph.SubmapBox(submap, &box_min, &box_max);
-    const Eigen::Vector2d p = predicted.translation();
     if ((p.array() < box_min.array() - margin_meters).any() || (p.array() > box_max.array() + margin_meters).any()) {
       continue;
     }
+    const Eigen::Vector2d outside = (box_min - p).cwiseMax(p - box_max).cwiseMax(0.0);
+    candidates.push_back({outside.norm(), s});
+  }
+  const size_t budget = static_cast<size_t>(options_.max_submaps_per_search);
+  if (budget > 0 && candidates.size() > budget) {
+    std::sort(candidates.begin(), candidates.end());
+    stats_.submaps_skipped += static_cast<int>(candidates.size() - budget);
+    candidates.resize(budget);
+    std::sort(candidates.begin(), candidates.end(),
+              [](const std::pair<double, int>& a, const std::pair<double, int>& b) { return a.second < b.second; });
+  }
+  for (const auto& [distance, s] : candidates) {
+    const SubmapId submap{node.robot, s};
+    const LaserMap* map = graph.FinishedSubmapMap(submap);
+    const Pose2 robot_T_submap = graph.SubmapPose(submap);
+    const Pose2 predicted = robot_T_submap.inverse() * robot_T_node;
     const ScanMatcher& matcher = wide_best != nullptr ? wide_matcher_ : matcher_;
     ++(wide_best != nullptr ? stats_.wide_searches : stats_.searches);
     const ScanMatchResult match =

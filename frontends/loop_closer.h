@@ -60,6 +60,11 @@ struct LoopCloserOptions {
   // corridor whose closures are 0.05-0.6 m off along it but right on average) 0.067 m off,
   // 0.072, 0.074 and 0.079 m. 0 = off.
   double degenerate_max_drop_ratio = 0.1;
+  // Loop search within a budget (issue #15): each search matches the node against at most this
+  // many finished submaps, those whose trajectory box is nearest the node's estimate (ties: the
+  // older submap), so that a search costs the same however long the run (0 = every submap whose
+  // box holds the node; a robot re-driving mapped space has more of them each time round).
+  int max_submaps_per_search = 0;
 
   // ±2 m / ±45° (paper §III-A), no wider retry.
   static ScanMatcherOptions DefaultMatcherOptions();
@@ -70,6 +75,7 @@ struct LoopCloserOptions {
 
 struct LoopCloserStats {
   int searches = 0;            // (node, submap) matches attempted
+  int submaps_skipped = 0;     // candidate submaps beyond max_submaps_per_search
   int rejected_by_gate = 0;
   int wide_searches = 0;       // (node, submap) matches over the wide window
   int wide_candidates = 0;     // wide results above the score, within the bound

@@ -81,6 +81,23 @@ TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
   EXPECT_GE(static_cast<double>(precise) / kept, 0.95);
 }
 
+// Issue #15: loop search within a budget. With at most two submaps per search (the nearest
+// ones), the ring still closes with the same accuracy bound, with fewer matches.
+TEST(OnlineEstimatorTest, LoopSearchBudgetMatchesTheNearestSubmapsOnly) {
+  const sim::SimulationResult simulation = Simulate(5);
+  const PipelineRun all = RunPipeline(simulation, TestOptions());
+  OnlineEstimatorOptions budget = TestOptions();
+  budget.loop.max_submaps_per_search = 2;
+  const PipelineRun nearest = RunPipeline(simulation, budget);
+  EXPECT_EQ(0, all.loop.submaps_skipped);
+  EXPECT_GT(nearest.loop.submaps_skipped, 0);
+  EXPECT_LT(nearest.loop.searches, all.loop.searches);
+  EXPECT_GT(nearest.graph.loop_closures_accepted, 5);
+  const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(nearest.trajectory, simulation.truth);
+  EXPECT_LT(ate.translation_rmse_meters, 0.08);
+  EXPECT_LT(ate.rotation_rmse_degrees, 1.0);
+}
+
 TEST(OnlineEstimatorTest, SameInputSameTrajectory) {
   const sim::SimulationResult simulation = Simulate(6);
   const PipelineRun a = RunPipeline(simulation, TestOptions());
