@@ -85,7 +85,9 @@ TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
 // ones), the ring still closes with the same accuracy bound, with fewer matches.
 TEST(OnlineEstimatorTest, LoopSearchBudgetMatchesTheNearestSubmapsOnly) {
   const sim::SimulationResult simulation = Simulate(5);
-  const PipelineRun all = RunPipeline(simulation, TestOptions());
+  OnlineEstimatorOptions every = TestOptions();
+  every.loop.max_submaps_per_search = 0;
+  const PipelineRun all = RunPipeline(simulation, every);
   OnlineEstimatorOptions budget = TestOptions();
   budget.loop.max_submaps_per_search = 2;
   const PipelineRun nearest = RunPipeline(simulation, budget);
