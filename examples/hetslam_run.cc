@@ -174,6 +174,10 @@ DEFINE_double(spawn_min_sigma, 0.05, "Spawn particles only when the prediction's
 DEFINE_bool(spawn_on_degenerate, false, "Also spawn particles along the weak direction of a degenerate match (a "
             "corridor) when the prediction is uncertain there (see --spawn_min_sigma). Off: particles spawn only when "
             "the first match after suspended matching failed or scored below 0.5.");
+DEFINE_bool(insert_while_ambiguous, false, "While several particles live, insert each particle's scans into its own "
+            "copy of the active submaps at once (each extra particle then costs both submaps whole); off: every particle "
+            "matches against the submaps as they were at the spawn, and the kept particle's scans go in at the "
+            "collapse.");
 DEFINE_int32(max_ambiguous_scans, 60, "Collapse to the best particle after this many scans at the latest (see "
              "--max_particles); its deferred scans then enter the graph.");
 DEFINE_double(line_max_gap, 0.0, "Map surfaces, not dotted hits: neighbouring beams' end points at most this far apart "
@@ -352,6 +356,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->particles.spawn_min_sigma_meters = FLAGS_spawn_min_sigma;
   estimator->particles.max_ambiguous_scans = FLAGS_max_ambiguous_scans;
   estimator->particles.spawn_on_degenerate = FLAGS_spawn_on_degenerate;
+  estimator->particles.insert_while_ambiguous = FLAGS_insert_while_ambiguous;
   estimator->use_odometry = FLAGS_use_odometry;
   estimator->use_commands = FLAGS_use_commands && !FLAGS_use_odometry;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &estimator->attitude_source) ||
@@ -464,12 +469,16 @@ std::string Summary(const OnlineEstimator& estimator) {
     out += line;
   }
   const ParticleFilterStats& p = estimator.particle_filter().stats();
+  size_t active_bytes = 0;
+  for (const ActiveSubmap& submap : estimator.particle_filter().state().active) active_bytes += submap.map->MemoryBytes();
+  const size_t finished_bytes = estimator.graph().FinishedSubmapBytes(estimator.options().robot);
   std::snprintf(line, sizeof(line),
                 "particles: mean %.3f per scan, at most %d; %d spawns, %d collapses, %d resamples, %d scans weighted "
-                "against the earlier map; one extra particle at most %.2f MiB (the finished submaps: %.1f MiB)\n",
+                "against the earlier map; one extra particle at most %.2f MiB (the map: %.1f MiB, finished submaps %.1f "
+                "MiB and active ones %.1f MiB)\n",
                 p.mean_particles(), p.max_particles, p.spawns, p.collapses, p.resamples, p.global_scorings,
-                p.max_extra_particle_bytes / 1048576.0,
-                estimator.graph().FinishedSubmapBytes(estimator.options().robot) / 1048576.0);
+                p.max_extra_particle_bytes / 1048576.0, (finished_bytes + active_bytes) / 1048576.0,
+                finished_bytes / 1048576.0, active_bytes / 1048576.0);
   out += line;
   if (!estimator.options().loop_closure) return out;
   std::snprintf(line, sizeof(line),

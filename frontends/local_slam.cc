@@ -283,6 +283,12 @@ bool LocalSlam::NothingNew(const LocalSlamState& state, double stamp_seconds, co
 
 LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction,
                                bool motion_filter) {
+  LocalResult result = Match(stamp_seconds, std::move(points), prediction);
+  if (result.awaiting_insertion) Insert(&result, motion_filter);
+  return result;
+}
+
+LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Prediction& prediction) {
   LocalResult result;
   result.stamp_seconds = stamp_seconds;
   result.predicted = prediction.pose;
@@ -372,11 +378,23 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
       result.weak_direction = target.local_T_submap.rotation() * weak_direction;
     }
   }
-  const auto insert_start = std::chrono::steady_clock::now();
-  result.match_seconds = std::chrono::duration<double>(insert_start - match_start).count();
+  result.match_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - match_start).count();
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
   state.recent.push_back({stamp_seconds, result.local_pose});
   if (state.recent.size() > 2) state.recent.erase(state.recent.begin());
+  result.points = std::move(points);
+  result.awaiting_insertion = true;
+  return result;
+}
+
+void LocalSlam::Insert(LocalResult* result_ptr, bool motion_filter) {
+  LocalResult& result = *result_ptr;
+  CHECK(result.awaiting_insertion) << "LocalSlam::Insert of a result that is not awaiting insertion";
+  result.awaiting_insertion = false;
+  const auto insert_start = std::chrono::steady_clock::now();
+  LocalSlamState& state = state_;
+  const double stamp_seconds = result.stamp_seconds;
+  const ScanPoints& points = result.points;
   // Nothing new (the motion filter): the scan still goes into the active submaps (they see
   // every observation), but it is no node and no step towards a new or finished submap.
   result.filtered = motion_filter && NothingNew(state, stamp_seconds, result.local_pose, points.attitude);
@@ -413,9 +431,7 @@ LocalResult LocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Pr
     state.active.erase(state.active.begin());
   }
   result.inserted = !result.filtered;
-  result.points = std::move(points);
   result.insert_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - insert_start).count();
-  return result;
 }
 
 }  // namespace hetslam

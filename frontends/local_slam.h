@@ -257,6 +257,10 @@ struct LocalResult {
   // no graph node (inserted is false, `insertions` empty) and no step towards a new or
   // finished submap.
   bool filtered = false;
+  // Matched (local_pose, match and the fields below are set) but not yet inserted: from
+  // LocalSlam::Match, until LocalSlam::Insert (a particle filter inserts its particles' scans
+  // when it collapses to one).
+  bool awaiting_insertion = false;
   Pose2 predicted;             // local frame
   Pose2 local_pose;            // local frame, after matching
   bool matched = false;        // a match was tried (not on the first scan)
@@ -322,6 +326,12 @@ class LocalSlam {
   // motion filter would leave it out (a particle filter with several particles, whose
   // particles must all insert the same scans).
   LocalResult AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction, bool motion_filter = true);
+  // AddScan in two steps. Match: the match and the pose (the state's recent poses and odometry
+  // move on; the submaps do not), result.awaiting_insertion when the scan is to be inserted
+  // (not suspended, enough points). Insert: that result into the active submaps, as AddScan
+  // would have (with the state's submaps as they are now).
+  LocalResult Match(double stamp_seconds, ScanPoints points, const Prediction& prediction);
+  void Insert(LocalResult* result, bool motion_filter = true);
 
   const LocalSlamState& state() const { return state_; }
   void set_state(LocalSlamState state) { state_ = std::move(state); }

@@ -292,7 +292,8 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   ParticleStep step = local_.AddScan(stamp, std::move(points), prediction, odometry, *graph_, options_.robot);
   const LocalResult& current = step.Current();
   const bool suspended = current.suspended;
-  const bool inserted = current.inserted;
+  // Matched: a node now, left out by the motion filter, or deferred by the particle filter.
+  const bool inserted = current.inserted || current.awaiting_insertion;
   const bool filtered = current.filtered;
   if (inserted || suspended) stats_.floor_obstacle_points += floor_obstacle_points;
   if (inserted || filtered) {

@@ -183,8 +183,15 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     std::swap(*slam_.mutable_state(), particles_[i].state);
     // Several particles insert every scan: they must all insert the same ones (and the
     // deferred results are all nodes).
-    results[i] = slam_.AddScan(stamp_seconds, n == 1 ? std::move(points) : points, predictions[i],
-                               /*motion_filter=*/n == 1);
+    if (n == 1) {
+      results[i] = slam_.AddScan(stamp_seconds, std::move(points), predictions[i]);
+    } else if (options_.insert_while_ambiguous) {
+      results[i] = slam_.AddScan(stamp_seconds, points, predictions[i], /*motion_filter=*/false);
+    } else {
+      // Matched against the submaps as they were at the spawn; inserted when the filter
+      // collapses, if this particle is kept.
+      results[i] = slam_.Match(stamp_seconds, points, predictions[i]);
+    }
     std::swap(*slam_.mutable_state(), particles_[i].state);
     stats_.match_seconds += results[i].match_seconds;
     stats_.insert_seconds += results[i].insert_seconds;
@@ -232,7 +239,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   // Several particles: weights from the scan at each particle's matched pose.
   ++ambiguous_scans_;
   const auto weight_start = std::chrono::steady_clock::now();
-  if (results[0].inserted) {
+  if (results[0].inserted || results[0].awaiting_insertion) {
     // Against the submaps as they were at the spawn (shared by all particles, so the
     // comparison is fair: a particle's own submaps agree with its own later scans whatever
     // its pose), and against the graph's finished submaps.
@@ -250,12 +257,27 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   stats_.weight_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - weight_start).count();
   const std::vector<double> weights = Weights();
   best_ = static_cast<int>(std::max_element(weights.begin(), weights.end()) - weights.begin());
-  // Every particle matched the same points: all were inserted, or none (suspended, too few).
-  const bool inserted = results[best_].inserted;
+  // Every particle matched the same points: all were matched, or none (suspended, too few).
+  auto deferrable = [](const LocalResult& r) { return r.inserted || r.awaiting_insertion; };
+  const bool inserted = deferrable(results[best_]);
   if (inserted) reference_pose_ = results[best_].local_pose;
   LocalResult not_inserted = inserted ? LocalResult() : std::move(results[best_]);
-  for (int i = 0; i < n; ++i) {
-    if (results[i].inserted) particles_[i].deferred.push_back(std::make_shared<const LocalResult>(std::move(results[i])));
+  if (inserted) {
+    // The scan's points, once for every particle (they differ only in the matching subset).
+    auto scan = std::make_shared<ScanPoints>();
+    ScanPoints& common = results[best_].points;
+    scan->all = std::move(common.all);
+    scan->labels = std::move(common.labels);
+    scan->heights_meters = std::move(common.heights_meters);
+    scan->floor_obstacles = std::move(common.floor_obstacles);
+    for (int i = 0; i < n; ++i) {
+      ScanPoints& own = results[i].points;
+      std::vector<Eigen::Vector2f>().swap(own.all);
+      std::vector<PointLabel>().swap(own.labels);
+      std::vector<float>().swap(own.heights_meters);
+      std::vector<Eigen::Vector2f>().swap(own.floor_obstacles);
+      particles_[i].deferred.push_back({std::make_shared<const LocalResult>(std::move(results[i])), scan});
+    }
   }
   for (int i = 0; i < n; ++i) {
     if (i != best_) {
@@ -274,7 +296,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     if (!inserted) step.current = std::move(not_inserted);
   } else {
     if (EffectiveSampleSize(weights) < options_.resample_ess_fraction * n) Resample();
-    step.current = inserted ? *particles_[best_].deferred.back() : std::move(not_inserted);
+    step.current = inserted ? Restored(particles_[best_].deferred.back()) : std::move(not_inserted);
   }
   step.particles = n;
   return step;
@@ -342,15 +364,26 @@ int ParticleLocalSlam::CollapseChoice() const {
 std::vector<LocalResult> ParticleLocalSlam::Collapse() {
   Particle kept = std::move(particles_[CollapseChoice()]);
   kept.undisturbed = false;
+  if (particles_.size() > 1) ++stats_.collapses;
+  // The others go first: the kept particle's submaps are then its own (no copy on insertion).
+  particles_.clear();
+  spawn_submaps_.clear();
   std::vector<LocalResult> committed;
   committed.reserve(kept.deferred.size());
-  for (const std::shared_ptr<const LocalResult>& r : kept.deferred) committed.push_back(*r);
-  if (particles_.size() > 1) ++stats_.collapses;
+  std::swap(*slam_.mutable_state(), kept.state);
+  for (const Deferred& d : kept.deferred) {
+    committed.push_back(Restored(d));
+    // Matched only while several particles lived: into the kept particle's submaps now, in
+    // scan order (each a node: the motion filter is off for them).
+    if (committed.back().awaiting_insertion) {
+      slam_.Insert(&committed.back(), /*motion_filter=*/false);
+      stats_.insert_seconds += committed.back().insert_seconds;
+    }
+  }
+  std::swap(*slam_.mutable_state(), kept.state);
   kept.deferred.clear();
   kept.log_weight = 0.0;
-  particles_.clear();
   particles_.push_back(std::move(kept));
-  spawn_submaps_.clear();
   best_ = 0;
   ambiguous_scans_ = 0;
   if (!committed.empty()) reference_pose_ = committed.back().local_pose;
@@ -359,8 +392,8 @@ std::vector<LocalResult> ParticleLocalSlam::Collapse() {
 
 std::vector<StampedPose2> ParticleLocalSlam::DeferredPoses() const {
   std::vector<StampedPose2> poses;
-  for (const std::shared_ptr<const LocalResult>& r : particles_[best_].deferred) {
-    poses.push_back({r->stamp_seconds, r->local_pose});
+  for (const Deferred& d : particles_[best_].deferred) {
+    poses.push_back({d.result->stamp_seconds, d.result->local_pose});
   }
   return poses;
 }
@@ -385,13 +418,27 @@ size_t ParticleLocalSlam::ExtraParticleBytes(const Particle& particle) const {
                                     [&](const ActiveSubmap& b) { return b.map == submap.map; });
     if (!shared) bytes += submap.map->MemoryBytes();
   }
-  for (const std::shared_ptr<const LocalResult>& r : particle.deferred) {
-    const bool shared = std::find(best.deferred.begin(), best.deferred.end(), r) != best.deferred.end();
-    if (shared) continue;
-    bytes += sizeof(LocalResult) + PointsBytes(r->points);
-    if (r->finished.has_value()) bytes += r->finished->map->MemoryBytes();
+  for (const Deferred& d : particle.deferred) {
+    const bool shared = std::any_of(best.deferred.begin(), best.deferred.end(),
+                                    [&](const Deferred& b) { return b.result == d.result; });
+    if (!shared) {
+      bytes += sizeof(LocalResult) + PointsBytes(d.result->points);
+      if (d.result->finished.has_value()) bytes += d.result->finished->map->MemoryBytes();
+    }
+    const bool scan_shared = std::any_of(best.deferred.begin(), best.deferred.end(),
+                                         [&](const Deferred& b) { return b.scan == d.scan; });
+    if (!scan_shared) bytes += PointsBytes(*d.scan);
   }
   return bytes;
+}
+
+LocalResult ParticleLocalSlam::Restored(const Deferred& deferred) {
+  LocalResult result = *deferred.result;
+  result.points.all = deferred.scan->all;
+  result.points.labels = deferred.scan->labels;
+  result.points.heights_meters = deferred.scan->heights_meters;
+  result.points.floor_obstacles = deferred.scan->floor_obstacles;
+  return result;
 }
 
 }  // namespace hetslam

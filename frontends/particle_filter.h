@@ -2,11 +2,11 @@
 // al. 2007, "Improved techniques for grid mapping with Rao-Blackwellized particle filters").
 //
 // A particle is a local SLAM state (frontends/local_slam.h LocalSlamState: the active submaps,
-// shared copy-on-write, so an extra particle costs the submaps its own scans changed, each
-// copied whole on its first change), a
-// log-weight and the results of the scans it took since the filter spawned particles (its
-// recent trajectory, not yet in the submap graph). One particle runs normally: each scan's
-// result is committed to the graph at once, exactly as a lone LocalSlam would give it.
+// shared copy-on-write, and the recent poses), a log-weight and the results of the scans it
+// took since the filter spawned particles (its recent trajectory, not yet in the submap graph
+// and, by default, not yet in its submaps: see insert_while_ambiguous). One particle runs
+// normally: each scan's result is committed to the graph at once, exactly as a lone LocalSlam
+// would give it.
 //
 // Spawning (ambiguity). The filter spawns max_particles particles at the next scan when
 //   (a) matching was suspended (the laser faced the floor), the EKF carried the pose, and the
@@ -20,8 +20,10 @@
 //
 // Each scan, every particle is predicted by the same motion (the increment of the caller's
 // prediction from the pose it last fed the caller's EKF, or the particle's own odometry or
-// extrapolation), matched against its own submaps (the proposal: the scan-match mode, Grisetti's
-// optimal proposal approximated by its peak) and inserted into them. Its log-weight grows by the
+// extrapolation) and matched against its submaps (the proposal: the scan-match mode, Grisetti's
+// optimal proposal approximated by its peak): by default the submaps as they were at the spawn,
+// the scan going into them when the filter collapses (insert_while_ambiguous: into the
+// particle's own copy at once). Its log-weight grows by the
 // scan's log-likelihood at that mode, effective_points · log(floor + (1 - floor) · score), where
 // score is the mean likelihood-field value (frontends/scan_matcher.h ScoreAt) against the
 // submaps as they were at the spawn (common to all particles: a particle's own submaps agree with
@@ -33,7 +35,8 @@
 // Collapse: when the best particle's normalised weight reaches collapse_weight, or all
 // particles agree with it within the collapse spread, or after max_ambiguous_scans scans, one
 // particle goes on (the best, when the evidence for it is decisive, see decisive_weight_ratio)
-// and its deferred results are committed, in scan order, to the graph.
+// and its deferred results are inserted into its submaps (unless already) and committed, in
+// scan order, to the graph.
 //
 // Deterministic: every draw comes from a std::mt19937_64 seeded with `seed`, turned into
 // uniform and normal numbers by this file's own code (same bytes on every platform).
@@ -116,6 +119,13 @@ struct ParticleFilterOptions {
   // The graph's finished submaps scored for a particle: those whose nodes' box, grown by this,
   // holds the particle's position.
   double global_margin_meters = 1.0;
+  // While several particles live, each inserts its scans into its own copy of the active
+  // submaps (true: the submaps follow each particle's trajectory, but a particle costs both
+  // submaps whole, 6.5-6.9 MiB on humanoid_explore and wheeled_corridor), or every particle
+  // matches against the submaps as they were at the spawn and the kept particle's scans go in
+  // when the filter collapses (false: an extra particle costs its scans' points and results,
+  // the ambiguity lasting at most max_ambiguous_scans).
+  bool insert_while_ambiguous = false;
 
   bool IsValid(std::string* error) const;
 };
@@ -184,10 +194,19 @@ class ParticleLocalSlam {
   const LocalSlam& local_slam() const { return slam_; }
 
  private:
+  // A scan a particle took while several lived. Every particle matched the same scan, so its
+  // points (all, labels, heights, floor obstacles) are kept once, in `scan`, shared by every
+  // particle's entry; `result` holds the rest (its pose, match, matching subset).
+  struct Deferred {
+    std::shared_ptr<const LocalResult> result;
+    std::shared_ptr<const ScanPoints> scan;
+  };
+  // The whole result of a deferred scan.
+  static LocalResult Restored(const Deferred& deferred);
   struct Particle {
     LocalSlamState state;
     double log_weight = 0.0;
-    std::vector<std::shared_ptr<const LocalResult>> deferred;
+    std::vector<Deferred> deferred;
     bool undisturbed = false;  // descends from the spawn's undisturbed prediction
   };
   // The particle a collapse keeps: the best, unless its weight is less than

@@ -168,7 +168,7 @@ FilterRun RunFilter(const sim::SimulationResult& simulation, const ParticleFilte
                                        graph, 0);
     const LocalResult& current = step.Current();
     run.filtered += current.filtered;
-    if (current.inserted || current.filtered) {
+    if (current.inserted || current.filtered || current.awaiting_insertion) {
       last_fed = current.local_pose;
       last_truth = truth;
     }
