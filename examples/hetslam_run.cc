@@ -119,9 +119,9 @@ DEFINE_bool(loop_wide_search, true, "Once the drift bound (grown with the travel
             "--loop_linear_window and the standard search finds nothing, also search a wide window (up to "
             "--loop_wide_window m), without motion prior; two wide matches of different scans that agree on the "
             "correction enter the graph (long corridors).");
-DEFINE_int32(loop_max_submaps, 4, "Loop search budget: match each node against at most this many finished submaps, "
-             "those nearest its estimate, so a search costs the same however long the run (0 = every submap whose "
-             "box holds the node).");
+DEFINE_int32(loop_max_submaps, 0, "Loop search budget: match each node against at most this many finished submaps, "
+             "those nearest its estimate, so a search costs the same however long the run (4 is a good value for "
+             "long runs); 0 = every submap whose box holds the node, the default.");
 DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metres (see --loop_wide_search).");
 DEFINE_double(loop_wide_spacing, 1.0, "Wide loop search: search again only after this much travel (metres) since the "
               "last wide search (see --loop_wide_search).");

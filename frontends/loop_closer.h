@@ -66,8 +66,10 @@ struct LoopCloserOptions {
   // box holds the node; a robot re-driving mapped space has more of them each time round).
   // Measured with 4 against every submap (seeds 1-5 of the scenarios, the four real logs):
   // the same ATE except uav_flight 0.074 -> 0.076 m, team_two's nao 0.021 -> 0.016 m and FR079
-  // 0.0415 -> 0.0420 m; Intel's loop search 7.3 -> 4.0 s (50% -> 41% of the run).
-  int max_submaps_per_search = 4;
+  // 0.0415 -> 0.0420 m; Intel's loop search 7.3 -> 4.0 s (50% -> 41% of the run); with 6:
+  // Intel 0.0231 m, FR079 0.0414 m, 45%. Off by default until a long run needs it: every
+  // setting moves some figure by a fraction of a millimetre (README, "Growth").
+  int max_submaps_per_search = 0;
 
   // ±2 m / ±45° (paper §III-A), no wider retry.
   static ScanMatcherOptions DefaultMatcherOptions();
