@@ -231,8 +231,42 @@ TEST(ParticleLocalSlamTest, SpawnsAfterSuspensionDefersAndCollapses) {
     const Pose2 truth = Between(start, it->pose);
     EXPECT_LT((r.local_pose.translation() - truth.translation()).norm(), 0.15) << r.stamp_seconds;
   }
-  // One extra particle costs at most its two active submaps and deferred scans.
+  // One extra particle: its deferred poses and matching subsets; it changes no cell while it
+  // lives (the kept particle's scans go into the submaps at the collapse).
   EXPECT_GT(run.stats.max_extra_particle_bytes, 0u);
+  EXPECT_LT(run.stats.max_extra_particle_bytes, 200u * 1024);
+}
+
+// The per-particle submap copies (insert_while_ambiguous) commit the same scans, each once, on
+// the truth; an extra particle then costs its copies of the active submaps.
+TEST(ParticleLocalSlamTest, InsertWhileAmbiguousCommitsTheSameScans) {
+  const Feed feed = OfficeScans();
+  ParticleFilterOptions options;
+  options.max_particles = 5;
+  options.max_ambiguous_scans = 15;
+  options.insert_while_ambiguous = true;
+  const FilterRun copies = RunFilter(feed.simulation, options, 120, 40, 10, 0.2);
+  options.insert_while_ambiguous = false;
+  const FilterRun deferred = RunFilter(feed.simulation, options, 120, 40, 10, 0.2);
+  EXPECT_GE(copies.stats.spawns, 1);
+  EXPECT_EQ(110u, copies.committed.size() + copies.filtered);
+  std::map<double, int> committed_stamps;
+  for (const LocalResult& r : copies.committed) {
+    ++committed_stamps[r.stamp_seconds];
+    EXPECT_TRUE(r.inserted);
+    EXPECT_FALSE(r.awaiting_insertion);
+    const auto it = std::find_if(feed.simulation.truth.begin(), feed.simulation.truth.end(),
+                                 [&](const StampedPose2& t) { return t.stamp_seconds == r.stamp_seconds; });
+    ASSERT_NE(feed.simulation.truth.end(), it);
+    const Pose2 truth = Between(feed.simulation.truth.front().pose, it->pose);
+    EXPECT_LT((r.local_pose.translation() - truth.translation()).norm(), 0.15) << r.stamp_seconds;
+  }
+  for (const auto& [stamp, times] : committed_stamps) EXPECT_EQ(1, times) << stamp;
+  for (const LocalResult& r : deferred.committed) {
+    EXPECT_TRUE(r.inserted);
+    EXPECT_FALSE(r.awaiting_insertion);
+  }
+  EXPECT_GT(copies.stats.max_extra_particle_bytes, 10 * deferred.stats.max_extra_particle_bytes);
 }
 
 TEST(ParticleLocalSlamTest, NoSpawnWhenThePredictionIsCertain) {
