@@ -215,6 +215,39 @@ TEST(LocalSlamTest, MotionFilterLeavesOutScansThatAddNothing) {
   }
 }
 
+// A poor fit far outside a confident prediction's covariance is a failed match: the scan goes
+// in at the prediction (outlier_max_score). The same scan is taken as matched with the rule off.
+TEST(LocalSlamTest, PoorMatchOutsideThePredictionCovarianceIsRefused) {
+  for (const double outlier_max_score : {0.5, 0.0}) {
+    LocalSlamOptions options;
+    options.prediction = MotionPrediction::kStationary;
+    options.outlier_max_score = outlier_max_score;
+    LocalSlam slam(options);
+    ASSERT_TRUE(slam.AddScan(0.0, PrepareScanPoints(options, RoomScan(Pose2(0, 0, 0), 0.0)), slam.Predict(std::nullopt))
+                    .inserted);
+    // A corrupt scan (every range 25% long: it fits the room nowhere) with a confident
+    // prediction at the true pose (1 cm, 0.3 degrees).
+    LaserScan corrupt = RoomScan(Pose2(0, 0, 0), 0.1);
+    for (double& range : corrupt.ranges_meters) range *= 1.25;
+    Prediction prediction;
+    prediction.pose = Pose2(0, 0, 0);
+    prediction.external = true;
+    prediction.covariance = Eigen::Vector3d(1e-4, 1e-4, std::pow(0.3 * M_PI / 180, 2)).asDiagonal();
+    const LocalResult result = slam.AddScan(0.1, PrepareScanPoints(options, corrupt), prediction);
+    ASSERT_TRUE(result.inserted);
+    ASSERT_TRUE(result.matched);
+    EXPECT_LT(result.match.score, 0.5);
+    if (outlier_max_score > 0) {
+      EXPECT_FALSE(result.match.converged);
+      EXPECT_NE(std::string::npos, result.match.message.find("outside the prediction's covariance"));
+      EXPECT_EQ(0.0, result.local_pose.translation().norm());
+    } else {
+      EXPECT_TRUE(result.match.converged);
+      EXPECT_GT(result.local_pose.translation().norm(), 0.05);
+    }
+  }
+}
+
 TEST(LocalSlamOptionsTest, MotionFilterRanges) {
   LocalSlamOptions options;
   std::string error;
