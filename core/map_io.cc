@@ -59,6 +59,101 @@ void AppendChunk(const char type[4], const uint8_t* data, size_t size, std::vect
   AppendBigEndian32(crc, out);
 }
 
+// Bits into a deflate stream, least significant first (RFC 1951 §3.1.1).
+class DeflateBits {
+ public:
+  explicit DeflateBits(std::vector<uint8_t>* out) : out_(out) {}
+  void Put(uint32_t value, int count) {
+    bits_ |= static_cast<uint64_t>(value) << count_;
+    count_ += count;
+    while (count_ >= 8) {
+      out_->push_back(static_cast<uint8_t>(bits_));
+      bits_ >>= 8;
+      count_ -= 8;
+    }
+  }
+  // A Huffman code, which deflate packs most significant bit first.
+  void PutCode(uint32_t code, int length) {
+    uint32_t reversed = 0;
+    for (int k = 0; k < length; ++k) reversed |= ((code >> k) & 1u) << (length - 1 - k);
+    Put(reversed, length);
+  }
+  void Flush() {
+    if (count_ > 0) out_->push_back(static_cast<uint8_t>(bits_));
+    bits_ = 0;
+    count_ = 0;
+  }
+
+ private:
+  std::vector<uint8_t>* out_;
+  uint64_t bits_ = 0;
+  int count_ = 0;
+};
+
+// Literal/length symbol `symbol` (0..287) with the fixed Huffman code of RFC 1951 §3.2.6.
+void PutFixedLiteral(int symbol, DeflateBits* bits) {
+  if (symbol < 144) {
+    bits->PutCode(0x30 + symbol, 8);
+  } else if (symbol < 256) {
+    bits->PutCode(0x190 + symbol - 144, 9);
+  } else if (symbol < 280) {
+    bits->PutCode(symbol - 256, 7);
+  } else {
+    bits->PutCode(0xC0 + symbol - 280, 8);
+  }
+}
+
+// One final deflate block with the fixed Huffman codes of the `size` bytes raw(0 .. size - 1):
+// each position takes the longer of the runs that repeat the previous byte (distance 1) or the
+// byte `row_distance` back (the scanline above), when at least 3 long, else a literal. Maps are
+// long runs of one grey and rows like the one above, so they shrink ~100x without a search.
+template <typename Raw>
+void DeflateFixed(size_t size, const Raw& raw, size_t row_distance, std::vector<uint8_t>* out) {
+  static constexpr int kLengthBase[29] = {3,  4,  5,  6,  7,  8,  9,  10, 11,  13,  15,  17,  19,  23, 27,
+                                          31, 35, 43, 51, 59, 67, 83, 99, 115, 131, 163, 195, 227, 258};
+  static constexpr int kLengthExtra[29] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2,
+                                           2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0};
+  static constexpr int kDistanceBase[30] = {1,   2,   3,   4,   5,    7,    9,    13,   17,   25,
+                                            33,  49,  65,  97,  129,  193,  257,  385,  513,  769,
+                                            1025, 1537, 2049, 3073, 4097, 6145, 8193, 12289, 16385, 24577};
+  static constexpr int kDistanceExtra[30] = {0, 0, 0, 0, 1, 1, 2, 2,  3,  3,  4,  4,  5,  5,  6,
+                                             6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13, 13};
+  constexpr size_t kMaxMatch = 258;
+  constexpr size_t kWindow = 32768;
+  DeflateBits bits(out);
+  bits.Put(1, 1);  // BFINAL
+  bits.Put(1, 2);  // BTYPE 01: fixed Huffman codes
+  auto match_length = [&](size_t at, size_t distance) {
+    if (distance == 0 || distance > at || distance > kWindow) return size_t{0};
+    const size_t limit = std::min(kMaxMatch, size - at);
+    size_t n = 0;
+    while (n < limit && raw(at + n) == raw(at + n - distance)) ++n;
+    return n;
+  };
+  size_t at = 0;
+  while (at < size) {
+    const size_t run = match_length(at, 1);
+    const size_t above = row_distance > 1 ? match_length(at, row_distance) : 0;
+    const size_t length = std::max(run, above);
+    if (length < 3) {
+      PutFixedLiteral(raw(at), &bits);
+      ++at;
+      continue;
+    }
+    const size_t distance = above > run ? row_distance : 1;
+    const int l = static_cast<int>(std::upper_bound(kLengthBase, kLengthBase + 29, static_cast<int>(length)) - kLengthBase) - 1;
+    PutFixedLiteral(257 + l, &bits);
+    bits.Put(static_cast<uint32_t>(length - kLengthBase[l]), kLengthExtra[l]);
+    const int d =
+        static_cast<int>(std::upper_bound(kDistanceBase, kDistanceBase + 30, static_cast<int>(distance)) - kDistanceBase) - 1;
+    bits.PutCode(static_cast<uint32_t>(d), 5);
+    bits.Put(static_cast<uint32_t>(distance - kDistanceBase[d]), kDistanceExtra[d]);
+    at += length;
+  }
+  PutFixedLiteral(256, &bits);  // end of block
+  bits.Flush();
+}
+
 // ---- Map rendering shared by the PGM and the PNG. ----
 
 // A rectangle of cells [min_x, max_x] x [min_y, max_y] (inclusive), possibly reaching
@@ -355,22 +450,36 @@ Status WritePngFromBuffer(const std::string& path, int width, int height, int ch
                          std::to_string(channels) + ")");
   }
   const size_t row_bytes = static_cast<size_t>(width) * channels;
-  // The file is built in one buffer, straight from `pixels` (a large picture would otherwise
-  // be held four times: scanlines, zlib stream, chunks, and the caller's pixels).
-  // Raw stream: scanlines, each with filter type 0 (None).
-  const size_t raw_size = (row_bytes + 1) * static_cast<size_t>(height);
-  // zlib stream (RFC 1950): CMF 0x78 (deflate, 32K window), FLG 0x01 (no dictionary, fastest;
-  // 0x7801 is a multiple of 31), deflate stored blocks (RFC 1951 §3.2.4) of at most 65535
-  // bytes, then Adler-32 of the raw stream, big endian.
-  constexpr size_t kMaxStored = 65535;
-  const size_t num_blocks = std::max<size_t>(1, (raw_size + kMaxStored - 1) / kMaxStored);
-  const size_t zlib_size = 2 + raw_size + 5 * num_blocks + 4;
-  // IDAT chunks of at most 1 MiB: the zlib stream may be split anywhere.
-  constexpr size_t kMaxChunk = 1 << 20;
-  const size_t num_chunks = (zlib_size + kMaxChunk - 1) / kMaxChunk;
+  // Raw stream: scanlines, each with filter type 0 (None), then its pixels; read in place.
+  const size_t stride = row_bytes + 1;
+  const size_t raw_size = stride * static_cast<size_t>(height);
+  auto raw = [&](size_t i) -> uint8_t {
+    const size_t column = i % stride;
+    return column == 0 ? 0 : pixels[(i / stride) * row_bytes + column - 1];
+  };
+  // zlib stream (RFC 1950): CMF 0x78 (deflate, 32K window), FLG 0x01 (no dictionary; 0x7801 is
+  // a multiple of 31), one deflate block with the fixed Huffman codes (RFC 1951 §3.2.6), then
+  // Adler-32 of the raw stream, big endian.
+  std::vector<uint8_t> zlib = {0x78, 0x01};
+  DeflateFixed(raw_size, raw, stride, &zlib);
+  uint32_t adler_a = 1, adler_b = 0;
+  constexpr uint32_t kAdlerMod = 65521;
+  for (size_t i = 0; i < raw_size;) {
+    // 5552: the largest run for which b cannot overflow 32 bits before the modulo.
+    const size_t run_end = std::min(raw_size, i + 5552);
+    for (; i < run_end; ++i) {
+      adler_a += raw(i);
+      adler_b += adler_a;
+    }
+    adler_a %= kAdlerMod;
+    adler_b %= kAdlerMod;
+  }
+  AppendBigEndian32((adler_b << 16) | adler_a, &zlib);
 
   std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  png.reserve(8 + 25 + zlib_size + 12 * num_chunks + 12);
+  // IDAT chunks of at most 1 MiB: the zlib stream may be split anywhere.
+  constexpr size_t kMaxChunk = 1 << 20;
+  png.reserve(8 + 25 + zlib.size() + 12 * (zlib.size() / kMaxChunk + 1) + 12);
   std::vector<uint8_t> header;
   AppendBigEndian32(static_cast<uint32_t>(width), &header);
   AppendBigEndian32(static_cast<uint32_t>(height), &header);
@@ -380,86 +489,9 @@ Status WritePngFromBuffer(const std::string& path, int width, int height, int ch
   header.push_back(0);                        // filter method 0
   header.push_back(0);                        // no interlace
   AppendChunk("IHDR", header.data(), header.size(), &png);
-
-  // The zlib stream goes into IDAT chunks as it is produced: `emit` appends bytes to the open
-  // chunk, closing it (CRC over type and data) at kMaxChunk and opening the next.
-  size_t chunk_type_at = 0, chunk_size = 0, zlib_written = 0;
-  auto close_chunk = [&]() {
-    const size_t length_at = chunk_type_at - 4;
-    for (int k = 0; k < 4; ++k) png[length_at + k] = static_cast<uint8_t>(chunk_size >> (24 - 8 * k));
-    const uint32_t crc = UpdateCrc32(0xFFFFFFFFu, png.data() + chunk_type_at, chunk_size + 4) ^ 0xFFFFFFFFu;
-    AppendBigEndian32(crc, &png);
-  };
-  auto open_chunk = [&]() {
-    AppendBigEndian32(0, &png);  // length, filled in by close_chunk
-    chunk_type_at = png.size();
-    const char* type = "IDAT";
-    png.insert(png.end(), type, type + 4);
-    chunk_size = 0;
-  };
-  auto emit = [&](const uint8_t* data, size_t n) {
-    while (n > 0) {
-      if (zlib_written % kMaxChunk == 0) {
-        if (zlib_written > 0) close_chunk();
-        open_chunk();
-      }
-      const size_t take = std::min(n, kMaxChunk - zlib_written % kMaxChunk);
-      png.insert(png.end(), data, data + take);
-      chunk_size += take;
-      zlib_written += take;
-      data += take;
-      n -= take;
-    }
-  };
-  const uint8_t zlib_header[2] = {0x78, 0x01};
-  emit(zlib_header, 2);
-  // Adler-32 of the raw stream, updated as it is emitted (5552: the largest run for which b
-  // cannot overflow 32 bits before the modulo).
-  constexpr uint32_t kAdlerMod = 65521;
-  uint32_t adler_a = 1, adler_b = 0;
-  size_t adler_run = 0;
-  auto emit_raw = [&](const uint8_t* data, size_t n) {
-    for (size_t i = 0; i < n; ++i) {
-      adler_a += data[i];
-      adler_b += adler_a;
-      if (++adler_run == 5552) {
-        adler_a %= kAdlerMod;
-        adler_b %= kAdlerMod;
-        adler_run = 0;
-      }
-    }
-    emit(data, n);
-  };
-  const uint8_t filter_none = 0;
-  size_t raw_at = 0;  // position in the raw stream
-  do {
-    const size_t n = std::min(kMaxStored, raw_size - raw_at);
-    const bool final_block = raw_at + n == raw_size;
-    const uint8_t block_header[5] = {static_cast<uint8_t>(final_block ? 0x01 : 0x00),  // BFINAL, BTYPE 00
-                                     static_cast<uint8_t>(n & 0xFF), static_cast<uint8_t>(n >> 8),
-                                     static_cast<uint8_t>(~n & 0xFF), static_cast<uint8_t>((~n >> 8) & 0xFF)};
-    emit(block_header, 5);
-    // Raw bytes raw_at .. raw_at + n: each scanline is its filter byte, then its pixels.
-    const size_t block_end = raw_at + n;
-    while (raw_at < block_end) {
-      const size_t row = raw_at / (row_bytes + 1), column = raw_at % (row_bytes + 1);
-      if (column == 0) {
-        emit_raw(&filter_none, 1);
-        ++raw_at;
-        continue;
-      }
-      const size_t take = std::min(block_end - raw_at, row_bytes + 1 - column);
-      emit_raw(pixels + row * row_bytes + (column - 1), take);
-      raw_at += take;
-    }
-  } while (raw_at < raw_size);
-  adler_a %= kAdlerMod;
-  adler_b %= kAdlerMod;
-  const uint32_t adler = (adler_b << 16) | adler_a;
-  const uint8_t adler_bytes[4] = {static_cast<uint8_t>(adler >> 24), static_cast<uint8_t>(adler >> 16),
-                                  static_cast<uint8_t>(adler >> 8), static_cast<uint8_t>(adler)};
-  emit(adler_bytes, 4);
-  close_chunk();
+  for (size_t at = 0; at < zlib.size(); at += kMaxChunk) {
+    AppendChunk("IDAT", zlib.data() + at, std::min(kMaxChunk, zlib.size() - at), &png);
+  }
   AppendChunk("IEND", nullptr, 0, &png);
   return WriteFileBytes(path, png.data(), png.size());
 }
