@@ -13,8 +13,10 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <memory>
 #include <utility>
 
+#include <bzlib.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <geometry_msgs/TwistStamped.h>
@@ -23,6 +25,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/exceptions.h>
 #include <rosbag/view.h>
+#include <roslz4/lz4s.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/LaserScan.h>
@@ -294,19 +297,22 @@ std::string ImageToGrey(const sensor_msgs::Image& image, std::vector<uint8_t>* g
 // (issue #16; tests/fuzz/known_failures/ros_bag: heap overreads, a segfault, a 2.3 GB
 // allocation; a message read at an index offset outside its chunk). Every record the library
 // reads on opening (the bag header, the connection and chunk-info records, each chunk's header
-// and the index records after it) and the records inside uncompressed chunks are checked here:
+// and the index records after it) and the records inside every chunk are checked here:
 // header and data lengths within the file (or the chunk), every header field (4-byte length,
 // "name=value") within its header, a connection's data (a header too) likewise, positions
-// within the file, index offsets within the chunk (at a record of an uncompressed one).
-// Compressed chunks are not decompressed here: the records inside them remain the library's to
-// check.
+// within the file, index offsets within the chunk and at one of its records. A compressed (bz2,
+// lz4) chunk is decompressed here first, with the same libraries rosbag_storage uses, and its
+// records are walked in the decompressed bytes: a chunk whose claimed size is over
+// kMaxChunkBytes, whose data does not decompress, or decompresses to another length than its
+// size is refused.
 class BagRecordCheck {
  public:
   explicit BagRecordCheck(const std::string& path) : path_(path) {}
 
   // In the order rosbag_storage reads a bag when it opens it: the bag header, the connection
-  // and chunk-info records at the index position, then per chunk its header (and, uncompressed,
-  // its records) and the connection index records that follow it.
+  // and chunk-info records at the index position, then per chunk its header, its records
+  // (decompressed first when the chunk is compressed) and the connection index records that
+  // follow it.
   Status Run() {
     in_.open(path_, std::ios::binary);
     if (!in_) return Status::Error(path_ + ": cannot open the ROS bag");
@@ -353,10 +359,9 @@ class BagRecordCheck {
         return Bad(chunk.pos, "no chunk header (op 5 with compression and size)");
       }
       // Offsets (within the uncompressed chunk) where its records start: what the index
-      // entries below must point at. Known only for an uncompressed chunk.
+      // entries below must point at.
       std::set<uint32_t> starts;
-      const bool uncompressed = compression->second == "none";
-      if (uncompressed) {
+      if (compression->second == "none") {
         if (chunk.end - chunk.data != uncompressed_size) return Bad(chunk.pos, "a size other than its data's");
         for (uint64_t at = chunk.data; at < chunk.end;) {
           Record inner;
@@ -364,6 +369,8 @@ class BagRecordCheck {
           starts.insert(static_cast<uint32_t>(at - chunk.data));
           at = inner.end;
         }
+      } else {
+        HETSLAM_RETURN_IF_ERROR(CheckCompressedChunk(chunk, compression->second, uncompressed_size, &starts));
       }
       // The connection index records after the chunk: (time, offset) entries of 12 bytes whose
       // offsets the library reads messages at.
@@ -379,15 +386,13 @@ class BagRecordCheck {
           return Bad(index.pos, "no index data (op 4, version 1, 12 bytes per entry)");
         }
         std::string entries(uint64_t{count} * 12, '\0');
-        in_.clear();
-        in_.seekg(static_cast<std::streamoff>(index.data));
-        if (!entries.empty() && !in_.read(&entries[0], static_cast<std::streamsize>(entries.size()))) {
+        if (!entries.empty() && !ReadBytes(index.data, entries.size(), &entries[0])) {
           return Truncated(index.pos, "its entries");
         }
         for (uint32_t e = 0; e < count; ++e) {
           uint32_t offset = 0;
           std::memcpy(&offset, entries.data() + 12 * e + 8, 4);
-          if (offset >= uncompressed_size || (uncompressed && starts.count(offset) == 0)) {
+          if (offset >= uncompressed_size || starts.count(offset) == 0) {
             return Bad(index.pos, "an index entry pointing at byte " + std::to_string(offset) +
                                       ", not at a record of its chunk (" + std::to_string(uncompressed_size) +
                                       " bytes)");
@@ -400,6 +405,10 @@ class BagRecordCheck {
   }
 
  private:
+  // The largest uncompressed chunk accepted: rosbag writes chunks of about 768 KB by default
+  // (its chunk threshold), and both this check and the library hold one whole chunk in memory.
+  static constexpr uint64_t kMaxChunkBytes = uint64_t{1} << 30;
+
   struct Record {
     uint64_t pos = 0;   // first byte
     uint64_t data = 0;  // first byte of the data
@@ -408,7 +417,70 @@ class BagRecordCheck {
     std::map<std::string, std::string> fields;
   };
 
+  // Decompresses the `compression` chunk `chunk` (whose header claims `size` uncompressed bytes)
+  // and walks its records; *starts receives the offset of each. The claimed size is bounded
+  // before anything is allocated, and the buffer is not filled beforehand, so a chunk that
+  // claims much more than its data holds costs only the pages the decompressor writes.
+  Status CheckCompressedChunk(const Record& chunk, const std::string& compression, uint32_t size,
+                              std::set<uint32_t>* starts) {
+    if (compression != "bz2" && compression != "lz4") {
+      return Bad(chunk.pos, "an unknown compression '" + compression + "' (none, bz2 or lz4 are known)");
+    }
+    if (size > kMaxChunkBytes) {
+      return Bad(chunk.pos, "an uncompressed size of " + std::to_string(size) + " bytes, over the " +
+                                std::to_string(kMaxChunkBytes) + " bytes accepted for one chunk");
+    }
+    const uint64_t compressed_size = chunk.end - chunk.data;
+    std::unique_ptr<char[]> compressed(new char[std::max<uint64_t>(compressed_size, 1)]);
+    if (!ReadBytes(chunk.data, compressed_size, compressed.get())) return Truncated(chunk.pos, "its data");
+    // One spare byte: data that decompresses to more than `size` then fills it (or overflows)
+    // and is told apart from data of exactly `size` bytes.
+    std::unique_ptr<char[]> bytes(new char[uint64_t{size} + 1]);
+    unsigned int length = size + 1;
+    int result = 0;
+    bool decompressed = false;
+    if (compression == "bz2") {
+      result = BZ2_bzBuffToBuffDecompress(bytes.get(), &length, compressed.get(),
+                                          static_cast<unsigned int>(compressed_size), /*small=*/0, /*verbosity=*/0);
+      decompressed = result == BZ_OK;
+    } else {
+      result = roslz4_buffToBuffDecompress(compressed.get(), static_cast<unsigned int>(compressed_size), bytes.get(),
+                                           &length);
+      decompressed = result == ROSLZ4_OK;
+    }
+    const std::string what = compression + " data";
+    if (!decompressed) {
+      // BZ_OUTBUFF_FULL (-8) and ROSLZ4_OUTPUT_SMALL (-2): more than the claimed size.
+      const bool longer = (compression == "bz2" && result == BZ_OUTBUFF_FULL) ||
+                          (compression == "lz4" && result == ROSLZ4_OUTPUT_SMALL);
+      if (longer) return Bad(chunk.pos, what + " that decompresses to more than its size of " + std::to_string(size) +
+                                          " bytes");
+      return Bad(chunk.pos, what + " that does not decompress (" +
+                                (compression == "bz2" ? "libbz2" : "roslz4") + " error " + std::to_string(result) + ")");
+    }
+    if (length != size) {
+      return Bad(chunk.pos, what + " that decompresses to " + std::to_string(length) + " bytes, not its size of " +
+                                std::to_string(size));
+    }
+    chunk_pos_ = chunk.pos;
+    chunk_compression_ = compression;
+    chunk_bytes_ = bytes.get();
+    chunk_size_ = size;
+    Status status = Status::Ok();
+    for (uint64_t at = 0; at < size && status.ok();) {
+      Record inner;
+      status = Read(at, size, &inner);
+      if (status.ok()) starts->insert(static_cast<uint32_t>(at));
+      at = inner.end;
+    }
+    chunk_bytes_ = nullptr;  // back to the file
+    chunk_size_ = 0;
+    return status;
+  }
+
   // The record at `pos`, within `end`: its header fields, and a connection's data (a header too).
+  // Positions are in the bytes being walked: the file, or the decompressed chunk while
+  // CheckCompressedChunk walks it.
   Status Read(uint64_t pos, uint64_t end, Record* record) {
     record->pos = pos;
     uint64_t header_length = 0;
@@ -450,9 +522,7 @@ class BagRecordCheck {
     constexpr uint64_t kMaxHeaderBytes = 64u << 20;  // far above any real header
     if (length > kMaxHeaderBytes) return Bad(record, "a header of " + std::to_string(length) + " bytes");
     std::string bytes(length, '\0');
-    in_.clear();
-    in_.seekg(static_cast<std::streamoff>(at));
-    if (length > 0 && !in_.read(&bytes[0], static_cast<std::streamsize>(length))) return Truncated(record, "its header");
+    if (length > 0 && !ReadBytes(at, length, &bytes[0])) return Truncated(record, "its header");
     uint64_t k = 0;
     while (k < length) {
       if (k + 4 > length) return Bad(record, "a header field length cut by the end of its header");
@@ -474,26 +544,54 @@ class BagRecordCheck {
 
   bool ReadU32(uint64_t at, uint32_t* value) {
     unsigned char b[4];
-    in_.clear();
-    in_.seekg(static_cast<std::streamoff>(at));
-    if (!in_.read(reinterpret_cast<char*>(b), 4)) return false;
+    if (!ReadBytes(at, 4, reinterpret_cast<char*>(b))) return false;
     *value = uint32_t{b[0]} | uint32_t{b[1]} << 8 | uint32_t{b[2]} << 16 | uint32_t{b[3]} << 24;
     return true;
   }
 
+  // `n` bytes at `at` of the bytes being walked: the decompressed chunk when there is one, else
+  // the file.
+  bool ReadBytes(uint64_t at, uint64_t n, char* out) {
+    if (chunk_bytes_ != nullptr) {
+      if (at > chunk_size_ || n > chunk_size_ - at) return false;
+      std::memcpy(out, chunk_bytes_ + at, n);
+      return true;
+    }
+    in_.clear();
+    in_.seekg(static_cast<std::streamoff>(at));
+    return static_cast<bool>(in_.read(out, static_cast<std::streamsize>(n)));
+  }
+
+  // "the record at byte 4117", or inside a decompressed chunk "the record at byte 96 of the lz4
+  // chunk at byte 4117 (decompressed)".
+  std::string RecordAt(uint64_t record) const {
+    std::string where = "the record at byte " + std::to_string(record);
+    if (chunk_bytes_ != nullptr) {
+      where += " of the " + chunk_compression_ + " chunk at byte " + std::to_string(chunk_pos_) + " (decompressed, " +
+               std::to_string(chunk_size_) + " bytes)";
+    }
+    return where;
+  }
+
   Status Truncated(uint64_t record, const std::string& what) {
-    return Status::Error(path_ + ": the ROS bag's record at byte " + std::to_string(record) +
+    return Status::Error(path_ + ": the ROS bag's " + RecordAt(record).substr(4) +
                          " runs past the end of its file or chunk with " + what + " (the file has " +
                          std::to_string(size_) + " bytes: truncated or corrupt; a truncated recording may be "
                          "repaired with `rosbag reindex`)");
   }
   Status Bad(uint64_t record, const std::string& what) {
-    return Status::Error(path_ + ": corrupt ROS bag: the record at byte " + std::to_string(record) + " has " + what);
+    return Status::Error(path_ + ": corrupt ROS bag: " + RecordAt(record) + " has " + what);
   }
 
   const std::string path_;
   std::ifstream in_;
   uint64_t size_ = 0;
+  // While CheckCompressedChunk walks a decompressed chunk: its bytes, size, position in the file
+  // and compression.
+  const char* chunk_bytes_ = nullptr;
+  uint64_t chunk_size_ = 0;
+  uint64_t chunk_pos_ = 0;
+  std::string chunk_compression_;
 };
 
 // Reads one bag; exceptions of the library propagate to ReadRosBag, which turns them into a

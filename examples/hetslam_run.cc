@@ -456,6 +456,14 @@ std::string Summary(const OnlineEstimator& estimator) {
                 s.floor_points, s.degenerate_matches, s.frontier_scans, s.frontier_points, s.ekf_predicted_scans,
                 s.scans_without_attitude);
   std::string out = line;
+  const ScanConfidence c = estimator.Confidence();
+  std::snprintf(line, sizeof(line),
+                "confidence: %s: %d of %d scans (%.0f%%) placed by a match that constrains x, y and yaw (low under "
+                "%.0f%%); %d matches flat along one direction (a single wall, a corridor), %d match failures, %d "
+                "not matched (first scan, too few points in range, suspended), %d refused\n",
+                c.low ? "LOW" : "ok", c.well_constrained, c.scans, 100.0 * c.well_constrained_fraction,
+                100.0 * estimator.options().min_well_constrained_fraction, c.flat, c.failed, c.unmatched, c.refused);
+  out += line;
   if (s.floor_points > 0 || s.floor_obstacle_points > 0 || s.suspended_scans > 0) {
     std::snprintf(line, sizeof(line),
                   "semantics: %lld floor hits dropped, %lld floor-obstacle points (planner map only, never matched), "

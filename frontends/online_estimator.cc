@@ -64,6 +64,8 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
     msg << "attitude, altitude and odometry ages must be >= 0; ";
   if (!(degenerate_sigma_meters > 0 && degenerate_sigma_meters <= 1e3)) msg << "degenerate_sigma_meters must be in (0, 1000]; ";
   if (!(max_scan_jump_meters > 0)) msg << "max_scan_jump_meters must be > 0; ";
+  if (!(min_well_constrained_fraction >= 0 && min_well_constrained_fraction <= 1))
+    msg << "min_well_constrained_fraction must be in [0, 1]; ";
   if (!(scan_match_translation_sigma_meters > 0 && scan_match_rotation_sigma_radians > 0))
     msg << "scan-match sigmas must be > 0; ";
   if (error != nullptr) *error = msg.str();
@@ -298,7 +300,14 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   if (inserted || suspended) stats_.floor_obstacle_points += floor_obstacle_points;
   if (inserted || filtered) {
     if (current.matched && !current.match.converged) ++stats_.match_failures;
-    if (current.match.converged) match_scores_.push_back(current.match.score);
+    if (current.match.converged) {
+      match_scores_.push_back(current.match.score);
+      // Flat or not, also where no motion source could hold the pose along the flat direction
+      // (the degeneracy test alone: `predicted` is not used for it).
+      bool flat = current.degenerate;
+      if (!flat) DegeneracyAwarePose(options_.local, current.match.pose, current.match, &flat);
+      ++(flat ? stats_.flat_matches : stats_.well_constrained_matches);
+    }
     stats_.degenerate_matches += current.degenerate;
     stats_.frontier_scans += current.frontier_points > 0;
     stats_.frontier_points += current.frontier_points;
@@ -343,6 +352,20 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
     }
   }
   return Status::Ok();
+}
+
+ScanConfidence OnlineEstimator::Confidence() const {
+  ScanConfidence c;
+  c.scans = stats_.scans;
+  c.well_constrained = stats_.well_constrained_matches;
+  c.flat = stats_.flat_matches;
+  c.failed = stats_.match_failures;
+  c.refused = stats_.scans_refused;
+  // The rest: inserted without a match (the first scan), skipped (too few points), suspended.
+  c.unmatched = c.scans - c.refused - c.well_constrained - c.flat - c.failed;
+  c.well_constrained_fraction = c.scans > 0 ? static_cast<double>(c.well_constrained) / c.scans : 0.0;
+  c.low = c.scans == 0 || c.well_constrained_fraction < options_.min_well_constrained_fraction;
+  return c;
 }
 
 void OnlineEstimator::RecordParticleCount(double stamp_seconds, int particles) {

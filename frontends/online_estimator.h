@@ -111,6 +111,10 @@ struct OnlineEstimatorOptions {
   // 0.1 m 0.11, 0.14 m; 10 m 0.48, 0.35 m (a weak direction a few degrees off the corridor
   // then turns every across-track correction into a long along-track one).
   double degenerate_sigma_meters = 0.1;
+  // A run is reported as low confidence (ScanConfidence::low) when fewer than this fraction of
+  // its scans were placed by a match that constrains x, y and yaw (issue #16: nothing in range,
+  // a single wall, a featureless corridor must not look like a good run). In [0, 1].
+  double min_well_constrained_fraction = 0.5;
 
   bool IsValid(std::string* error) const;
 };
@@ -122,6 +126,12 @@ struct OnlineEstimatorStats {
   int skipped_too_few_points = 0;
   int match_failures = 0;           // inserted at the prediction
   int degenerate_matches = 0;       // weak direction kept the prediction
+  // Converged matches, by whether the score is flat along a direction (LocalSlamOptions
+  // degenerate_eigenvalue_ratio, degenerate_max_drop_ratio), whatever the prediction: a flat
+  // match is a degenerate match when a motion source held the pose along that direction, and
+  // the matcher's own guess there otherwise.
+  int well_constrained_matches = 0;
+  int flat_matches = 0;
   int frontier_scans = 0;           // scans with points left out at the map's frontier
   long long frontier_points = 0;    // points left out (LocalSlamOptions::frontier_margin_meters)
   long long floor_points = 0;       // end points dropped as floor hits
@@ -141,6 +151,22 @@ struct OnlineEstimatorStats {
   // ParticleFilterStats, loop search in LoopCloserStats, solves in SubmapGraphStats.
   double prepare_seconds = 0.0;
   double add_node_seconds = 0.0;
+};
+
+// How well the laser placed the scans of a run so far: every scan added falls in exactly one
+// class. `low` when the well-constrained fraction is under
+// OnlineEstimatorOptions::min_well_constrained_fraction (or no scan was added): the map and
+// trajectory then rest mostly on the prediction (commands, odometry, the front end's
+// extrapolation), not on the laser.
+struct ScanConfidence {
+  int scans = 0;
+  int well_constrained = 0;  // a converged match that constrains x, y and yaw
+  int flat = 0;              // a converged match flat along one direction (a single wall, a corridor)
+  int failed = 0;            // the match did not converge: the scan sits at its prediction
+  int unmatched = 0;         // the first scan, too few points in range, or suspended (facing the floor)
+  int refused = 0;           // refused with an error (too late, too far)
+  double well_constrained_fraction = 0.0;  // well_constrained / scans (0 without scans)
+  bool low = true;
 };
 
 class OnlineEstimator {
@@ -192,6 +218,8 @@ class OnlineEstimator {
   const LoopCloser& loop_closer() const { return loop_; }
   const EkfStateUpdater& ekf() const { return ekf_; }
   const OnlineEstimatorStats& stats() const { return stats_; }
+  // The classes of the scans added so far, from stats().
+  ScanConfidence Confidence() const;
   const OnlineEstimatorOptions& options() const { return options_; }
   // Match scores of the converged front-end matches, in scan order.
   const std::vector<double>& match_scores() const { return match_scores_; }

@@ -11,7 +11,7 @@ set(HETSLAM_ROSBAG_INCLUDE_DIRS "")
 set(HETSLAM_ROSBAG_LIBRARIES "")
 
 # header -> the folder that must be on the include path for it.
-foreach(header IN ITEMS rosbag/bag.h ros/serialization.h ros/time.h sensor_msgs/LaserScan.h sensor_msgs/Imu.h
+foreach(header IN ITEMS rosbag/bag.h roslz4/lz4s.h bzlib.h ros/serialization.h ros/time.h sensor_msgs/LaserScan.h sensor_msgs/Imu.h
                         sensor_msgs/Image.h nav_msgs/Odometry.h nav_msgs/Path.h geometry_msgs/Twist.h
                         geometry_msgs/TwistStamped.h geometry_msgs/PoseStamped.h tf2_msgs/TFMessage.h)
   string(MAKE_C_IDENTIFIER "HETSLAM_ROSBAG_H_${header}" var)
@@ -35,7 +35,8 @@ foreach(header IN ITEMS pluginlib/class_loader.hpp class_loader/multi_library_cl
 endforeach()
 list(REMOVE_DUPLICATES HETSLAM_ROSBAG_INCLUDE_DIRS)
 
-foreach(library IN ITEMS rosbag_storage roscpp_serialization rostime cpp_common roslz4 console_bridge)
+# roslz4 and bz2: core/ros_bag.cc decompresses chunks itself to check their records.
+foreach(library IN ITEMS rosbag_storage roscpp_serialization rostime cpp_common roslz4 bz2 console_bridge)
   string(MAKE_C_IDENTIFIER "HETSLAM_ROSBAG_LIB_${library}" var)
   find_library(${var} ${library})
   if(${var})
