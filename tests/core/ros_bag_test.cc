@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <geometry_msgs/PoseStamped.h>
 #include <nav_msgs/Path.h>
 #include <bzlib.h>
@@ -27,7 +29,10 @@ namespace {
 using ::testing::HasSubstr;
 using namespace testing_bag;  // NOLINT: the synthetic bag's constants
 
-std::string TempPath(const std::string& name) { return ::testing::TempDir() + "/ros_bag_test_" + name; }
+// Per process: ctest runs each test (and each parameter) as its own process, in parallel.
+std::string TempPath(const std::string& name) {
+  return ::testing::TempDir() + "/ros_bag_test_" + std::to_string(getpid()) + "_" + name;
+}
 
 std::string Bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
