@@ -16,9 +16,10 @@ if [ ${#targets[@]} -eq 0 ]; then
   targets=(carmen_log robot_log team_manifest scenario relations g2o map_yaml)
   # The ROS 1 bag reader's target exists only when core has the bag libraries. Its first runs
   # failed within seconds inside Debian's rosbag_storage (tests/fuzz/known_failures/ros_bag);
-  # core/ros_bag.cc now checks the records the library reads on opening and the index entries,
-  # and runs of 30, 30 and 150 s found nothing (README, "Hostile input"). Records inside
-  # compressed chunks are still only the library's to check.
+  # core/ros_bag.cc now checks, before the library reads them, the records it reads on
+  # opening, the records inside every chunk (bz2 and lz4 chunks decompressed first), the index
+  # entries and each message's string and array lengths; the README ("Hostile input") has the
+  # figures of a 10-minute run.
   cmake --build "$build" --target fuzzers -j"${FUZZ_BUILD_JOBS:-1}" > /dev/null
   if [ -x "$build/tests/fuzz/ros_bag_fuzzer" ]; then targets+=(ros_bag); fi
 fi

@@ -269,6 +269,24 @@ TEST(RosBagTest, HostileRecordLengthsAreRefusedBeforeTheLibraryReadsThem) {
   EXPECT_EQ(4, files);
 }
 
+// A message whose own lengths run past it: the ros_bag fuzzer's 10-minute run found a LaserScan
+// claiming 1.8e9 ranges, which roscpp's deserializer allocated (7.3 GB) before checking the
+// bytes. Refused before the library deserializes it, naming the file and the message; lenient,
+// the message is skipped and counted.
+TEST(RosBagTest, MessageLengthsBeyondTheMessageAreRefused) {
+  const std::string path =
+      std::string(HETSLAM_SOURCE_DIR) + "/tests/fuzz/known_failures/ros_bag/message_lengths/oom_scan_ranges_length.bag";
+  RosBagContents contents;
+  const Status status = ReadRosBag(path, RosBagReadOptions(), &contents);
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), HasSubstr(path + ": message "));
+  EXPECT_THAT(status.message(), HasSubstr("a string or array length longer than the message's"));
+  RosBagReadOptions lenient;
+  lenient.lenient = true;
+  const Status skipped = ReadRosBag(path, lenient, &contents);
+  EXPECT_GE(contents.malformed_messages_skipped, 1) << skipped.message();
+}
+
 // ---- Compressed chunks rewritten by hand ----
 // A bag is "#ROSBAG V2.0\n" (13 bytes) and then records: a 4-byte header length, the header
 // (fields of a 4-byte length and "name=value"), a 4-byte data length and the data. The bag
