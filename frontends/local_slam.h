@@ -250,7 +250,7 @@ struct LocalSlamState {
 
 struct LocalResult {
   double stamp_seconds = 0.0;
-  bool inserted = false;       // false: too few points, suspended or filtered (see those)
+  bool inserted = false;       // a graph node now; false: too few points, suspended, filtered or awaiting insertion (see those)
   bool suspended = false;      // the laser faced the floor: not matched, not inserted (nothing else below is set)
   // Nothing new (the motion filter, LocalSlamOptions::motion_filter_distance_meters): matched
   // (local_pose, match and the fields below are set) and inserted into the active submaps, but

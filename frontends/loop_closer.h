@@ -3,7 +3,8 @@
 // closures it finds as candidates; the caller adds them to the submap graph.
 //
 // Standard search: every finished submap at least `min_node_separation` nodes old whose box
-// (grown by the window) holds the node's estimate, within ±window around the graph's estimate,
+// (grown by the window) holds the node's estimate (with max_submaps_per_search, only that many,
+// the nearest), within ±window around the graph's estimate,
 // narrowed to the drift gate: a closure is accepted only if it moves the node by at most
 // base + rate * (distance travelled since the graph was last solved) — drift grows with travel,
 // aliases (corridors, repeated rooms) need not. Searches run again only after the robot moved
