@@ -37,8 +37,8 @@ DEFINE_string(manifest, "", "Team manifest (`team.txt`, HSTEAM 1): one `robot na
 DEFINE_string(out, "", "Output folder (created if missing): <robot>/trajectory.txt (t x y theta, common frame), "
               "<robot>/map.pgm + .yaml, merged_map.pgm + .yaml + .png, constraints.txt, frames.txt. Required.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
-DEFINE_bool(use_images, true, "Detect AprilTags in the camera images (the only way robots find each other now); "
-            "false maps each robot alone.");
+DEFINE_bool(use_images, true, "Detect AprilTags in the camera images; false leaves the robots only their maps to find "
+            "each other by (--overlap_search).");
 DEFINE_double(wrong_tag_id_rate, 0.0, "Fault injection: relabel this fraction of tag detections with another tag id "
               "of the manifest (seeded by --fault_seed), to test that wrong ids never merge robots. In [0, 1].");
 DEFINE_uint64(fault_seed, 1, "Seed of the --wrong_tag_id_rate fault injection.");
@@ -60,6 +60,15 @@ DEFINE_bool(more_constraints, true, "After two robots share a frame, search more
 DEFINE_double(inter_min_score, 0.5, "Minimum mean likelihood of a scan match between robots already in one frame.");
 DEFINE_double(second_constraint_min_distance, 3.0, "The second constraint of a robot pair lies at least this many "
               "metres from its first link.");
+DEFINE_bool(overlap_search, true, "Also join robots that share no tag by their maps alone: each robot's scans are "
+            "searched in the other's submaps (every position, every heading), a relative pose needs "
+            "--overlap_min_matches agreeing matches and must fit both whole maps (at most --overlap_max_conflict of "
+            "the compared wall cells where the other robot saw free space); two such poses (a symmetric building) "
+            "are reported ambiguous and not merged.");
+DEFINE_int32(overlap_min_matches, 3, "Scans of different places (1.5 m apart) whose wide matches must agree on a "
+             "map-overlap link. At least 2.");
+DEFINE_double(overlap_max_conflict, 0.05, "Largest share of compared occupied cells that may land on the other "
+              "robot's free space for a map-overlap link. In [0, 1].");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {
@@ -86,6 +95,9 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->link_min_score = FLAGS_link_min_score;
   team->link_min_matches = FLAGS_link_min_matches;
   team->search_more_constraints = FLAGS_more_constraints;
+  team->overlap_search = FLAGS_overlap_search;
+  team->overlap_min_matches = FLAGS_overlap_min_matches;
+  team->overlap_max_conflict = FLAGS_overlap_max_conflict;
   team->inter_min_score = FLAGS_inter_min_score;
   team->second_constraint_min_distance_meters = FLAGS_second_constraint_min_distance;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
@@ -289,6 +301,10 @@ int Run() {
               "accepted, %d rejected\n",
               s.link_attempts, s.links, s.link_seconds, s.inter_constraints, s.inter_searches, s.inter_search_seconds,
               accepted, rejected);
+  std::printf("map overlap (no shared tag): %d attempts, %d wide matches (%d kept), %d hypotheses checked against the "
+              "whole maps, %d links (%.2f s)\n",
+              s.overlap_attempts, s.overlap_matches, s.overlap_kept, s.overlap_map_checks, s.overlap_links,
+              s.overlap_seconds);
   for (int r = 0; r < team.num_robots(); ++r) {
     const std::string frame = team.InCommonFrame(r) ? "in the common frame at " + PoseText(team.CommonTRobot(r))
                                                     : "NOT MERGED: own frame (not " + robots[0].name + "'s)";

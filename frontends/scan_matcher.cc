@@ -232,17 +232,29 @@ struct SearchContext {
   }
 };
 
+// Leaves a branch-and-bound search passes over (the neighbourhood of a mode already found).
+struct Exclusion {
+  const Candidate* around = nullptr;  // none: nothing excluded
+  int cells = 0;
+  double radians = 0.0;
+  bool Excludes(const DiscretizedSearch& s, const Candidate& c) const {
+    return around != nullptr && std::abs(c.dx - around->dx) <= cells && std::abs(c.dy - around->dy) <= cells &&
+           std::abs(WrapAngle(s.yaws[c.yaw_index] - s.yaws[around->yaw_index])) <= radians;
+  }
+};
+
 // Depth-first branch and bound (children visited best-bound first); `best` holds the best
-// leaf so far and prunes every block whose bound cannot beat it.
+// leaf so far and prunes every block whose bound cannot beat it. Leaves `exclusion` names are
+// passed over (a block's bound still covers them: it stays an upper bound of the rest).
 void BranchAndBound(const SearchContext& context, std::vector<Candidate> candidates, int level, Candidate* best,
-                    int* scored) {
+                    int* scored, const Exclusion& exclusion = Exclusion()) {
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   const int window = context.search->window_cells;
   for (const Candidate& candidate : candidates) {
     if (candidate.score <= best->score) break;
     if (level == 0) {
-      *best = candidate;
+      if (!exclusion.Excludes(*context.search, candidate)) *best = candidate;
       continue;
     }
     const int half = 1 << (level - 1);
@@ -256,7 +268,7 @@ void BranchAndBound(const SearchContext& context, std::vector<Candidate> candida
         ++*scored;
       }
     }
-    BranchAndBound(context, std::move(children), level - 1, best, scored);
+    BranchAndBound(context, std::move(children), level - 1, best, scored, exclusion);
   }
 }
 
@@ -316,6 +328,8 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
     msg << "narrow windows and narrow_accept_score must be >= 0 (angular <= pi); ";
   if (!(translation_penalty_per_square_meter >= 0 && rotation_penalty_per_square_radian >= 0))
     msg << "motion penalties must be >= 0; ";
+  if (!(second_mode_exclusion_meters >= 0 && second_mode_exclusion_meters <= 50 && second_mode_exclusion_radians >= 0))
+    msg << "second-mode exclusions must be >= 0 (metres <= 50); ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -447,6 +461,9 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     }
   }
   result.candidates_scored = static_cast<int>(top.size());
+  const bool second_mode = options_.second_mode_exclusion_meters > 0 || options_.second_mode_exclusion_radians > 0;
+  std::vector<Candidate> top_copy;
+  if (second_mode) top_copy = top;
   Candidate best{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
   BranchAndBound(context, std::move(top), depth, &best, &result.candidates_scored);
   if (best.yaw_index < 0) {
@@ -460,6 +477,20 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   result.pose = Pose2(predicted.translation() + Eigen::Vector2d(best.dx, best.dy) * r, s.yaws[best.yaw_index]);
   result.correlative_score = best.score;
   result.converged = true;
+  result.second_mode_pose = predicted;
+  if (second_mode) {
+    Exclusion exclusion;
+    exclusion.around = &best;
+    exclusion.cells = static_cast<int>(std::floor(options_.second_mode_exclusion_meters / r));
+    exclusion.radians = options_.second_mode_exclusion_radians;
+    Candidate second{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
+    BranchAndBound(context, std::move(top_copy), depth, &second, &result.candidates_scored, exclusion);
+    if (second.yaw_index >= 0) {
+      result.second_mode_correlative_score = second.score;
+      result.second_mode_pose =
+          Pose2(predicted.translation() + Eigen::Vector2d(second.dx, second.dy) * r, s.yaws[second.yaw_index]);
+    }
+  }
 
   if (options_.refine_with_ceres) {
     double pose[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};

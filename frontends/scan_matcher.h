@@ -55,6 +55,12 @@ struct ScanMatcherOptions {
   double narrow_linear_search_window_meters = 0.0;
   double narrow_angular_search_window_radians = 0.0;
   double narrow_accept_score = 0.5;
+  // Second mode (0 disables): after the best candidate, the best discrete candidate farther
+  // than second_mode_exclusion_meters (in x or y) or second_mode_exclusion_radians from it is
+  // searched too (ScanMatchResult::second_mode_*): a scan that fits two places of the map
+  // about equally (a symmetric room, a repeated corridor) is ambiguous there. Doubles the search.
+  double second_mode_exclusion_meters = 0.0;
+  double second_mode_exclusion_radians = 0.0;
   bool refine_with_ceres = true;
   double profile_step_meters = 0.1;  // see ScanMatchResult::weak_direction_score_drop
   int max_ceres_iterations = 20;
@@ -83,6 +89,11 @@ struct ScanMatchResult {
   Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();
   double weak_direction_score_drop = 0.0;
   double strong_direction_score_drop = 0.0;
+  // With ScanMatcherOptions::second_mode_exclusion_*: the best discrete candidate outside the
+  // exclusion around the best one (score 0 and the prediction when none scores >=
+  // min_correlative_score there).
+  double second_mode_correlative_score = 0.0;
+  Pose2 second_mode_pose;
   std::string message;           // why it did not converge
 };
 

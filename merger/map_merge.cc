@@ -59,4 +59,49 @@ int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_
   return static_cast<int>(observations.size());
 }
 
+namespace {
+
+// Occupied cells of `from` checked against `to`, with from's frame at to_T_from in to's.
+void CountAgreement(const OccupancyGrid& from, const OccupancyGrid& to, const Pose2& to_T_from, int tolerance_cells,
+                    MapAgreement* agreement) {
+  const CellIndex lo = from.observed_min(), hi = from.observed_max();
+  const GridGeometry& source = from.geometry();
+  const GridGeometry& target = to.geometry();
+  for (int y = lo.y; y <= hi.y; ++y) {
+    for (int x = lo.x; x <= hi.x; ++x) {
+      if (from.State(CellIndex{x, y}) != CellState::kOccupied) continue;
+      const CellIndex c = target.WorldToCell(to_T_from * source.CellCenter({x, y}));
+      if (!target.Contains(c)) continue;
+      const CellState state = to.State(c);
+      if (state == CellState::kUnknown) continue;
+      bool near_occupied = state == CellState::kOccupied;
+      for (int dy = -tolerance_cells; dy <= tolerance_cells && !near_occupied; ++dy) {
+        for (int dx = -tolerance_cells; dx <= tolerance_cells && !near_occupied; ++dx) {
+          const CellIndex n{c.x + dx, c.y + dy};
+          near_occupied = target.Contains(n) && to.State(n) == CellState::kOccupied;
+        }
+      }
+      if (near_occupied) {
+        ++agreement->agreeing;
+      } else {
+        ++agreement->conflicting;  // `state` is free here
+      }
+    }
+  }
+}
+
+}  // namespace
+
+double MapAgreement::ConflictFraction() const {
+  const int total = agreeing + conflicting;
+  return total > 0 ? static_cast<double>(conflicting) / static_cast<double>(total) : 1.0;
+}
+
+MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2& a_T_b, int tolerance_cells) {
+  MapAgreement agreement;
+  CountAgreement(b, a, a_T_b, tolerance_cells, &agreement);
+  CountAgreement(a, b, a_T_b.inverse(), tolerance_cells, &agreement);
+  return agreement;
+}
+
 }  // namespace hetslam

@@ -33,6 +33,21 @@ struct MapMergeOptions {
 int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_T_teammate,
                              const MapMergeOptions& options, OccupancyGrid* merged);
 
+// How two maps agree when b's frame sits at a_T_b in a's: every occupied cell of each map, its
+// centre carried into the other, is
+//  - agreeing when the other map has an occupied cell within tolerance_cells (Chebyshev),
+//  - conflicting when it lands on a cell the other map saw free with no occupied cell that near
+//    (one robot saw a wall where the other saw through),
+//  - neither on the other map's unknown cells or outside it.
+// Both directions are counted (a's walls in b's free space, b's walls in a's).
+struct MapAgreement {
+  int agreeing = 0;
+  int conflicting = 0;
+  // conflicting / (agreeing + conflicting); 1 when neither.
+  double ConflictFraction() const;
+};
+MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2& a_T_b, int tolerance_cells = 1);
+
 }  // namespace hetslam
 
 #endif  // HETSLAM_MERGER_MAP_MERGE_H_

@@ -75,6 +75,8 @@ const char* TeamConstraintKindName(TeamConstraintKind kind) {
       return "tag_scan_match";
     case TeamConstraintKind::kScanMatch:
       return "scan_match";
+    case TeamConstraintKind::kMapOverlap:
+      return "map_overlap";
   }
   return "unknown";
 }
@@ -92,6 +94,16 @@ ScanMatcherOptions TeamEstimatorOptions::DefaultTeamMatcherOptions() {
   // inside it (the estimate is not a prediction of a moving robot).
   options.translation_penalty_per_square_meter = 0.0;
   options.rotation_penalty_per_square_radian = 0.0;
+  return options;
+}
+
+ScanMatcherOptions TeamEstimatorOptions::DefaultOverlapMatcherOptions() {
+  // The loop closer's wide search: no motion prior, a deeper branch-and-bound tree for windows
+  // of several metres and every heading; and the best other mode (half a metre or 10 degrees
+  // away), to refuse a scan that fits two places about equally.
+  ScanMatcherOptions options = LoopCloserOptions::DefaultWideMatcherOptions();
+  options.second_mode_exclusion_meters = 0.5;
+  options.second_mode_exclusion_radians = 10.0 * M_PI / 180.0;
   return options;
 }
 
@@ -130,6 +142,16 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   if (!(submap_agreement_meters > 0 && submap_agreement_radians > 0 && min_information_ratio >= 0 &&
         min_information_ratio <= 1))
     msg << "submap agreement bounds must be > 0, min_information_ratio in [0, 1]; ";
+  if (!overlap_matcher.IsValid(&sub)) msg << "overlap_matcher: " << sub;
+  if (!(overlap_node_spacing_meters > 0 && overlap_submap_spacing_meters >= 0 && overlap_max_window_meters > 0 &&
+        overlap_max_window_meters <= 50 && overlap_agreement_meters > 0 && overlap_agreement_radians > 0 &&
+        overlap_retry_seconds >= 0))
+    msg << "overlap spacings, windows (<= 50 m), agreement bounds must be > 0, retry >= 0; ";
+  if (!(overlap_min_score >= 0 && overlap_min_score < 1 && overlap_max_conflict >= 0 && overlap_max_conflict <= 1))
+    msg << "overlap_min_score must be in [0, 1), overlap_max_conflict in [0, 1]; ";
+  if (!(overlap_min_mode_margin >= 0)) msg << "overlap_min_mode_margin must be >= 0; ";
+  if (overlap_min_matches < 2 || overlap_max_matches_per_attempt < 1 || overlap_min_agreeing_cells < 1)
+    msg << "overlap_min_matches must be >= 2, overlap_max_matches_per_attempt and overlap_min_agreeing_cells >= 1; ";
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
   if (!(wrong_tag_id_rate >= 0 && wrong_tag_id_rate <= 1)) msg << "wrong_tag_id_rate must be in [0, 1]; ";
   if (error != nullptr) *error = msg.str();
@@ -141,6 +163,7 @@ TeamEstimator::TeamEstimator(const TeamEstimatorOptions& options)
       graph_(std::make_unique<SubmapGraph>(options.graph)),
       detector_(options.detector),
       matcher_(options.matcher),
+      overlap_matcher_(options.overlap_matcher),
       fault_rng_(options.fault_seed) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid TeamEstimatorOptions: " << error;
@@ -204,6 +227,10 @@ void TeamEstimator::AfterScan(int robot_index, double stamp_seconds) {
   const int nodes = graph_->num_nodes(robot_index);
   if (nodes == robot.nodes_seen) return;
   robot.nodes_seen = nodes;
+  if (options_.overlap_search) {
+    UpdateOverlapTargets(robot_index);
+    TryOverlapLinks(stamp_seconds);
+  }
   // Links waiting for a finished submap.
   for (const auto& [key, state] : link_states_) {
     if (stamp_seconds >= state.next_attempt_stamp && Root(std::get<0>(key)) != Root(std::get<1>(key))) {
@@ -505,31 +532,18 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
   for (int i : best_set) {
     if (matches[i].candidate.score > matches[best].candidate.score) best = i;
   }
-  const Pose2 a_T_b = matches[best].a_T_b;
-  // Anchors: the group that does not hold the world's anchor moves onto the other.
-  const int world = graph_->world_robot();
-  const bool move_b = Root(b) != Root(world);
-  const int fixed_robot = move_b ? a : b, moving_robot = move_b ? b : a;
-  const Pose2 fixed_T_moving = move_b ? a_T_b : a_T_b.inverse();
-  const Pose2 world_T_moving_new = graph_->Anchor(fixed_robot) * fixed_T_moving;
-  const Pose2 world_T_moving_old = graph_->Anchor(moving_robot);
-  for (int q : Group(moving_robot)) {
-    graph_->SetAnchorEstimate(q, world_T_moving_new * Between(world_T_moving_old, graph_->Anchor(q)));
-  }
-  for (int i : best_set) {
-    if (!graph_->AddConstraint(matches[i].candidate)) continue;
-    const ConstraintCandidate& c = matches[i].candidate;
-    inter_constraints_.push_back({c.submap.robot, c.node.robot, c.submap, c.node, true});
-    match_records[i].accepted = true;
-    match_records[i].reason = "first constraint";
-    ++stats_.inter_constraints;
+  std::vector<ConstraintCandidate> agreeing;
+  for (int i : best_set) agreeing.push_back(matches[i].candidate);
+  std::vector<bool> added;
+  const bool linked = JoinGroups(a, b, matches[best].a_T_b, agreeing, &added);
+  for (size_t k = 0; k < best_set.size(); ++k) {
+    if (!added[k]) continue;
+    match_records[best_set[k]].accepted = true;
+    match_records[best_set[k]].reason = "first constraint";
   }
   for (TeamConstraintRecord& r : match_records) {
     if (!r.accepted && r.reason.empty()) r.reason = "disagrees with the agreeing matches";
   }
-  parent_[Root(moving_robot)] = Root(fixed_robot);
-  Solve(options_.max_iterations_final);
-  const bool linked = Root(a) == Root(b);
   std::ostringstream reason;
   reason << (linked ? "accepted" : "rejected after the solve (the graph's consistency check removed it)") << ": tag "
          << tag_id << " refined by " << best_set.size() << " of " << matches.size() << " scan matches";
@@ -549,28 +563,56 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
   event.description = description.str();
   event.after = GroupPairPoses(a);
   events_.push_back(event);
-  // Retrospectively: every robot of the joined group against its teammates (paper §V-B, "we look
-  // retrospectively for a new constraint").
-  if (options_.search_more_constraints) {
-    for (int q : Group(a)) {
-      std::optional<Pose2> last;
-      for (int i = 0; i < graph_->num_nodes(q); ++i) {
-        const NodeId node{q, i};
-        const Pose2 pose = graph_->NodePose(node);
-        if (last.has_value()) {
-          const Pose2 moved = Between(*last, pose);
-          if (moved.translation().norm() < options_.inter_search_travel_meters &&
-              std::abs(moved.theta()) < options_.inter_search_turn_radians) {
-            continue;
-          }
-        }
-        last = pose;
-        SearchInterRobot(stamp_seconds, node);
-      }
-      robots_[q].last_search_pose = last;
-    }
-  }
+  SearchRetrospectively(stamp_seconds, a);
   return true;
+}
+
+bool TeamEstimator::JoinGroups(int a, int b, const Pose2& a_T_b, const std::vector<ConstraintCandidate>& matches,
+                               std::vector<bool>* added) {
+  // Anchors: the group that does not hold the world's anchor moves onto the other.
+  const int world = graph_->world_robot();
+  const bool move_b = Root(b) != Root(world);
+  const int fixed_robot = move_b ? a : b, moving_robot = move_b ? b : a;
+  const Pose2 fixed_T_moving = move_b ? a_T_b : a_T_b.inverse();
+  const Pose2 world_T_moving_new = graph_->Anchor(fixed_robot) * fixed_T_moving;
+  const Pose2 world_T_moving_old = graph_->Anchor(moving_robot);
+  for (int q : Group(moving_robot)) {
+    graph_->SetAnchorEstimate(q, world_T_moving_new * Between(world_T_moving_old, graph_->Anchor(q)));
+  }
+  added->assign(matches.size(), false);
+  for (size_t i = 0; i < matches.size(); ++i) {
+    const ConstraintCandidate& c = matches[i];
+    if (!graph_->AddConstraint(c)) continue;
+    inter_constraints_.push_back({c.submap.robot, c.node.robot, c.submap, c.node, true});
+    (*added)[i] = true;
+    ++stats_.inter_constraints;
+  }
+  parent_[Root(moving_robot)] = Root(fixed_robot);
+  Solve(options_.max_iterations_final);
+  return Root(a) == Root(b);
+}
+
+void TeamEstimator::SearchRetrospectively(double stamp_seconds, int a) {
+  // Every robot of the joined group against its teammates (paper §V-B, "we look
+  // retrospectively for a new constraint").
+  if (!options_.search_more_constraints) return;
+  for (int q : Group(a)) {
+    std::optional<Pose2> last;
+    for (int i = 0; i < graph_->num_nodes(q); ++i) {
+      const NodeId node{q, i};
+      const Pose2 pose = graph_->NodePose(node);
+      if (last.has_value()) {
+        const Pose2 moved = Between(*last, pose);
+        if (moved.translation().norm() < options_.inter_search_travel_meters &&
+            std::abs(moved.theta()) < options_.inter_search_turn_radians) {
+          continue;
+        }
+      }
+      last = pose;
+      SearchInterRobot(stamp_seconds, node);
+    }
+    robots_[q].last_search_pose = last;
+  }
 }
 
 std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const NodeId& node, int submap_robot,
@@ -648,6 +690,265 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
   return *std::max_element(found.begin(), found.end(), [](const ConstraintCandidate& x, const ConstraintCandidate& y) {
     return x.score < y.score;
   });
+}
+
+void TeamEstimator::UpdateOverlapTargets(int robot_index) {
+  Robot& robot = robots_[robot_index];
+  // Query nodes: one per overlap_node_spacing_meters of travel.
+  const NodeId newest{robot_index, graph_->num_nodes(robot_index) - 1};
+  const Pose2 pose = graph_->NodePose(newest);
+  if ((!robot.last_overlap_pose.has_value() ||
+       (pose.translation() - robot.last_overlap_pose->translation()).norm() >= options_.overlap_node_spacing_meters) &&
+      !graph_->NodePoints(newest).matching.empty()) {
+    robot.overlap_nodes.push_back(newest.index);
+    robot.last_overlap_pose = pose;
+  }
+  // Target submaps: the finished ones, in order, spread out (consecutive submaps see the same place).
+  const auto centre = [&](int index) {
+    Eigen::Vector2d lo = Eigen::Vector2d::Zero(), hi = Eigen::Vector2d::Zero();
+    graph_->SubmapBox({robot_index, index}, &lo, &hi);  // submap frame
+    return Eigen::Vector2d(graph_->SubmapPose({robot_index, index}) * Eigen::Vector2d(0.5 * (lo + hi)));
+  };
+  while (robot.overlap_submaps_seen < graph_->num_submaps(robot_index)) {
+    const int index = robot.overlap_submaps_seen;
+    if (graph_->FinishedSubmapMap({robot_index, index}) == nullptr) break;
+    ++robot.overlap_submaps_seen;
+    const Eigen::Vector2d c = centre(index);
+    if (std::none_of(robot.overlap_submaps.begin(), robot.overlap_submaps.end(),
+                     [&](int s) { return (centre(s) - c).norm() < options_.overlap_submap_spacing_meters; })) {
+      robot.overlap_submaps.push_back(index);
+    }
+  }
+}
+
+void TeamEstimator::TryOverlapLinks(double stamp_seconds) {
+  if (stamp_seconds < next_overlap_attempt_stamp_) return;
+  next_overlap_attempt_stamp_ = stamp_seconds + options_.overlap_retry_seconds;
+  const auto start = std::chrono::steady_clock::now();
+  // New wide matches between every two robots of different groups.
+  for (int a = 0; a < num_robots(); ++a) {
+    for (int b = a + 1; b < num_robots(); ++b) {
+      if (Root(a) != Root(b)) MatchOverlaps(a, b);
+    }
+  }
+  // Then a link between every two groups (by their roots), from all their members' matches.
+  for (int a = 0; a < num_robots(); ++a) {
+    for (int b = a + 1; b < num_robots(); ++b) {
+      if (Root(a) == a && Root(b) == b) TryOverlapLink(stamp_seconds, a, b);
+    }
+  }
+  stats_.overlap_seconds += Seconds(start);
+}
+
+void TeamEstimator::MatchOverlaps(int a, int b) {
+  OverlapState& state = overlap_states_[{a, b}];
+  // (query node, target submap) pairs not matched yet, both ways, within the budget.
+  int budget = options_.overlap_max_matches_per_attempt;
+  for (const int q : {a, b}) {
+    const int p = q == a ? b : a;
+    for (const int node_index : robots_[q].overlap_nodes) {
+      for (const int submap_index : robots_[p].overlap_submaps) {
+        if (budget == 0) return;
+        if (!state.tried.insert({q, node_index, p, submap_index}).second) continue;
+        --budget;
+        ++stats_.overlap_matches;
+        const NodeId node{q, node_index};
+        const SubmapId submap{p, submap_index};
+        const ScanPoints& points = graph_->NodePoints(node);
+        const LaserMap& map = *graph_->FinishedSubmapMap(submap);
+        // The whole submap: its observed box (submap frame), every heading.
+        const OccupancyGrid& grid = map.grid();
+        const Eigen::Vector2d lo = grid.geometry().CellCenter(grid.observed_min());
+        const Eigen::Vector2d hi = grid.geometry().CellCenter(grid.observed_max());
+        const double window = std::min(options_.overlap_max_window_meters, 0.5 * (hi - lo).maxCoeff());
+        if (!(window > 0)) continue;
+        const ScanMatchResult match = overlap_matcher_.MatchWithinWindow(
+            map, Pose2(0.5 * (lo + hi), 0.0), points.matching, window, M_PI, points.matching_weights);
+        if (!match.converged || match.score < options_.overlap_min_score) continue;
+        // A scan that fits elsewhere in the submap about as well (a symmetric room) says nothing.
+        if (match.correlative_score - match.second_mode_correlative_score < options_.overlap_min_mode_margin) continue;
+        if (TranslationalInformationRatio(match.information) < options_.min_information_ratio) continue;
+        int known = 0;
+        for (const Eigen::Vector2f& point : points.matching) {
+          const CellIndex c = grid.geometry().WorldToCell(match.pose * point.cast<double>());
+          if (grid.geometry().Contains(c) && grid.State(c) != CellState::kUnknown) ++known;
+        }
+        if (known < options_.min_submap_overlap * static_cast<double>(points.matching.size())) continue;
+        ConstraintCandidate candidate;
+        candidate.submap = submap;
+        candidate.node = node;
+        candidate.submap_T_node = match.pose;
+        candidate.score = match.score;
+        candidate.robust = true;
+        state.matches.push_back(candidate);
+        ++stats_.overlap_kept;
+        VLOG(1) << "overlap match: " << robots_[q].name << " node " << node_index << " in " << robots_[p].name
+                << " submap " << submap_index << " score " << match.score << " margin "
+                << match.correlative_score - match.second_mode_correlative_score;
+      }
+    }
+  }
+}
+
+Pose2 TeamEstimator::OverlapRelativePose(int a, int b, const ConstraintCandidate& match) const {
+  // The submap robot's frame to the node robot's, then between the groups' roots a and b.
+  const int p = match.submap.robot, q = match.node.robot;
+  const Pose2 p_T_q = graph_->SubmapPose(match.submap) * match.submap_T_node * graph_->NodePose(match.node).inverse();
+  return Root(p) == Root(a) ? AnchorRelative(a, p) * p_T_q * AnchorRelative(q, b)
+                            : AnchorRelative(a, q) * p_T_q.inverse() * AnchorRelative(p, b);
+}
+
+std::unique_ptr<OccupancyGrid> TeamEstimator::RenderGroupMap(int root) const {
+  std::unique_ptr<OccupancyGrid> map = robots_[root].estimator->RenderMap();
+  for (int r : Group(root)) {
+    if (r != root) MergeMapAsOneObservation(*robots_[r].estimator->RenderMap(), AnchorRelative(root, r), MapMergeOptions(), map.get());
+  }
+  return map;
+}
+
+void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
+  ++stats_.overlap_attempts;
+  // Hypotheses a_T_b (a and b the groups' roots) of every kept match between their members,
+  // clustered by agreement at the query nodes (each compared where it acts: the node it places).
+  std::vector<const ConstraintCandidate*> matches;
+  for (const auto& [pair, state] : overlap_states_) {
+    const int ra = Root(pair.first), rb = Root(pair.second);
+    if (!((ra == a && rb == b) || (ra == b && rb == a))) continue;
+    for (const ConstraintCandidate& m : state.matches) matches.push_back(&m);
+  }
+  const int n = static_cast<int>(matches.size());
+  std::vector<Pose2> a_T_b(n), node_in_group(n);
+  for (int i = 0; i < n; ++i) {
+    a_T_b[i] = OverlapRelativePose(a, b, *matches[i]);
+    const NodeId& node = matches[i]->node;
+    node_in_group[i] = AnchorRelative(Root(node.robot), node.robot) * graph_->NodePose(node);
+  }
+  const auto agree = [&](int i, int j) {
+    const bool in_b = Root(matches[j]->node.robot) == b;
+    const Pose2 x_i = in_b ? a_T_b[i] * node_in_group[j] : a_T_b[i].inverse() * node_in_group[j];
+    const Pose2 x_j = in_b ? a_T_b[j] * node_in_group[j] : a_T_b[j].inverse() * node_in_group[j];
+    return Within(Between(x_i, x_j), options_.overlap_agreement_meters, options_.overlap_agreement_radians);
+  };
+  struct Cluster {
+    int best = 0;  // its best-scoring member: the hypothesis checked
+    std::vector<int> members;
+    int nodes = 0;  // distinct query nodes among them
+    double score = 0.0;
+  };
+  std::vector<Cluster> clusters;
+  for (int i = 0; i < n; ++i) {
+    Cluster cluster;
+    cluster.best = i;
+    std::set<std::pair<int, int>> nodes;
+    for (int j = 0; j < n; ++j) {
+      if (!(agree(i, j) && agree(j, i))) continue;
+      cluster.members.push_back(j);
+      nodes.insert({matches[j]->node.robot, matches[j]->node.index});
+      cluster.score += matches[j]->score;
+      if (matches[j]->score > matches[cluster.best]->score) cluster.best = j;
+    }
+    cluster.nodes = static_cast<int>(nodes.size());
+    clusters.push_back(std::move(cluster));
+  }
+  std::stable_sort(clusters.begin(), clusters.end(), [](const Cluster& x, const Cluster& y) {
+    return x.nodes != y.nodes ? x.nodes > y.nodes : x.score > y.score;
+  });
+  // Distinct hypotheses with enough support (one cluster per hypothesis).
+  std::vector<Cluster> candidates;
+  for (const Cluster& c : clusters) {
+    if (c.nodes < options_.overlap_min_matches) break;
+    if (std::any_of(candidates.begin(), candidates.end(), [&](const Cluster& k) { return agree(k.best, c.best); })) {
+      continue;
+    }
+    candidates.push_back(c);
+  }
+  if (candidates.empty()) return;  // waiting: not enough agreeing matches yet
+
+  // Each hypothesis against both groups' whole maps, and against their tags: one id placed by
+  // both groups at places apart contradicts it (a building with two congruent rooms). Places of
+  // at least two sightings count, confirmed or not: a merge refused is the safe side.
+  const std::unique_ptr<OccupancyGrid> map_a = RenderGroupMap(a);
+  const std::unique_ptr<OccupancyGrid> map_b = RenderGroupMap(b);
+  const auto group_tags = [&](int root) {
+    std::vector<std::pair<int, Pose2>> tags;  // (id, root_T_tag)
+    for (int r : Group(root)) {
+      for (const TagPlace& place : Places(r)) {
+        if (place.votes >= 2) tags.emplace_back(place.tag_id, AnchorRelative(root, r) * place.robot_T_tag);
+      }
+    }
+    return tags;
+  };
+  const std::vector<std::pair<int, Pose2>> tags_a = group_tags(a), tags_b = group_tags(b);
+  std::vector<int> passing;
+  std::vector<std::string> outcomes;
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    ++stats_.overlap_map_checks;
+    const Pose2& hypothesis = a_T_b[candidates[k].best];
+    const MapAgreement agreement = CompareMaps(*map_a, *map_b, hypothesis);
+    std::ostringstream outcome;
+    outcome.precision(3);
+    outcome << Text(hypothesis) << " from " << candidates[k].nodes << " query nodes (" << candidates[k].members.size()
+            << " matches): " << agreement.agreeing << " map cells agree, " << agreement.conflicting << " conflict ("
+            << 100.0 * agreement.ConflictFraction() << "%)";
+    bool tags_agree = true;
+    for (const auto& [id_a, a_T_tag] : tags_a) {
+      for (const auto& [id_b, b_T_tag] : tags_b) {
+        const double apart = (a_T_tag.translation() - (hypothesis * b_T_tag).translation()).norm();
+        if (id_a != id_b || apart <= options_.tag_agreement_meters) continue;
+        if (tags_agree) outcome << "; tag " << id_a << " placed " << apart << " m apart";
+        tags_agree = false;
+      }
+    }
+    if (agreement.agreeing >= options_.overlap_min_agreeing_cells &&
+        agreement.ConflictFraction() <= options_.overlap_max_conflict && tags_agree) {
+      passing.push_back(static_cast<int>(k));
+    }
+    outcomes.push_back(outcome.str());
+  }
+  std::string& last_outcome = overlap_outcomes_[{a, b}];
+  const auto record = [&](int k, bool accepted, const std::string& reason) {
+    TeamConstraintRecord r = MakeRecord(stamp_seconds, a, b, TeamConstraintKind::kMapOverlap, -1,
+                                        a_T_b[candidates[k].best], matches[candidates[k].best]);
+    r.accepted = accepted;
+    r.reason = reason;
+    Record(std::move(r));
+  };
+  if (passing.size() != 1) {
+    std::ostringstream summary;
+    summary << (passing.empty() ? "rejected: " : "ambiguous: ") << passing.size() << " of " << candidates.size()
+            << " hypotheses pass the map check (" << options_.overlap_min_agreeing_cells << " agreeing cells, at most "
+            << 100.0 * options_.overlap_max_conflict << "% conflicting)";
+    if (summary.str() == last_outcome) return;  // recorded already
+    last_outcome = summary.str();
+    for (size_t k = 0; k < candidates.size(); ++k) record(static_cast<int>(k), false, summary.str() + "; " + outcomes[k]);
+    return;
+  }
+  const Cluster& chosen = candidates[passing.front()];
+  std::vector<ConstraintCandidate> agreeing;
+  for (int j : chosen.members) agreeing.push_back(*matches[j]);
+  std::vector<bool> added;
+  const bool linked = JoinGroups(a, b, a_T_b[chosen.best], agreeing, &added);
+  std::ostringstream reason;
+  reason << (linked ? "accepted" : "rejected after the solve (the graph's consistency check removed it)")
+         << ": map overlap " << outcomes[passing.front()];
+  last_outcome = reason.str();
+  record(passing.front(), linked, reason.str());
+  if (!linked) return;
+  ++stats_.links;
+  ++stats_.overlap_links;
+  // The first constraint is where the agreeing query nodes are (robot a's frame).
+  std::vector<Eigen::Vector2d>& places = first_link_places_[{a, b}];
+  places.clear();
+  for (const ConstraintCandidate& c : agreeing) places.push_back(NodeInRobotFrame(c.node, a).translation());
+  TeamMergeEvent event;
+  event.kind = TeamMergeEvent::Kind::kFirstLink;
+  event.stamp_seconds = stamp_seconds;
+  event.robot_a = a;
+  event.robot_b = b;
+  event.description = "map overlap (no shared tag): " + outcomes[passing.front()];
+  event.after = GroupPairPoses(a);
+  events_.push_back(event);
+  SearchRetrospectively(stamp_seconds, a);
 }
 
 void TeamEstimator::SearchInterRobot(double stamp_seconds, const NodeId& node) {

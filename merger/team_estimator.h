@@ -41,6 +41,28 @@
 // second_constraint_min_distance_meters from the first link's tag is the pair's second
 // constraint; the relative pose before and after its batch solve is recorded (events()).
 //
+// Linking without a shared tag (map overlap; beyond the paper, which names it the general case):
+// robots not in one frame are also joined by their maps alone.
+//  - Query nodes: one node of each robot per overlap_node_spacing_meters of travel. Target
+//    submaps: a robot's finished submaps whose node-box centres lie at least
+//    overlap_submap_spacing_meters from those already chosen (consecutive submaps see the
+//    same place).
+//  - Every (query node, teammate target submap) pair is matched once, over the whole submap
+//    (its observed box, at most ±overlap_max_window_meters, ±180°, no motion prior; the wide
+//    matcher). A match counts when it scores >= overlap_min_score, beats the search's best
+//    other mode by overlap_min_mode_margin (not a symmetric room), pins both directions
+//    (min_information_ratio) and its points fall on known cells (min_submap_overlap). Each
+//    implies a relative pose of the frames, kept (with its node and submap) for later attempts.
+//  - Every overlap_retry_seconds the kept matches are clustered: a hypothesis needs
+//    overlap_min_matches query nodes whose matches agree (overlap_agreement_*, compared at the
+//    nodes). Each such hypothesis is checked against both robots' whole maps (CompareMaps,
+//    merger/map_merge.h): accepted only when at least overlap_min_agreeing_cells occupied cells
+//    agree and at most overlap_max_conflict of the compared ones conflict (a wall where the
+//    other saw through), and when no other hypothesis passes too (a symmetric building:
+//    reported ambiguous, the robots stay apart).
+//  - Accepted: the agreeing matches enter the graph as inter-robot constraints, as a tag link's
+//    do (kind map_match); the search for more constraints follows.
+//
 // Frames: the team's common frame is that of the first robot added (the manifest's first). A
 // robot not (yet) linked to it keeps its own frame (InCommonFrame false). Transitive chaining
 // (a-b and b-c put c in a's frame) comes from the shared graph: anchors of one connected group.
@@ -146,6 +168,23 @@ struct TeamEstimatorOptions {
   int min_agreeing_submaps = 2;
   double submap_agreement_meters = 0.1;
   double submap_agreement_radians = 1.0 * M_PI / 180.0;
+  // Linking without a shared tag (see the header).
+  bool overlap_search = true;
+  ScanMatcherOptions overlap_matcher = DefaultOverlapMatcherOptions();
+  double overlap_node_spacing_meters = 1.5;
+  double overlap_submap_spacing_meters = 3.0;
+  double overlap_max_window_meters = 8.0;
+  double overlap_min_score = 0.6;
+  // The best match must beat the best other mode of its search (half a metre or 10 degrees
+  // away, DefaultOverlapMatcherOptions) by this much correlative score.
+  double overlap_min_mode_margin = 0.05;
+  int overlap_min_matches = 3;
+  double overlap_agreement_meters = 0.2;
+  double overlap_agreement_radians = 2.0 * M_PI / 180.0;
+  double overlap_retry_seconds = 5.0;
+  int overlap_max_matches_per_attempt = 60;  // (node, submap) matches per pair and attempt
+  int overlap_min_agreeing_cells = 300;
+  double overlap_max_conflict = 0.05;
   int max_iterations_per_solve = 20;
   int max_iterations_final = 50;
 
@@ -155,6 +194,7 @@ struct TeamEstimatorOptions {
 
   static TagDetectorOptions DefaultTeamDetectorOptions();
   static ScanMatcherOptions DefaultTeamMatcherOptions();
+  static ScanMatcherOptions DefaultOverlapMatcherOptions();
   bool IsValid(std::string* error) const;
 };
 
@@ -170,8 +210,10 @@ enum class TeamConstraintKind {
   kTagRelativePose,  // eq. 4 from a tag both robots have seen
   kTagScanMatch,     // a scan match that refines a tag link (the first constraint)
   kScanMatch,        // a scan match between robots already in one frame (second and later)
+  kMapOverlap,       // a link from map overlap alone: agreeing wide scan matches, whole maps checked
 };
-const char* TeamConstraintKindName(TeamConstraintKind kind);  // "tag_eq4", "tag_scan_match", "scan_match"
+// "tag_eq4", "tag_scan_match", "scan_match", "map_overlap"
+const char* TeamConstraintKindName(TeamConstraintKind kind);
 
 // One inter-robot constraint proposed, accepted or rejected.
 struct TeamConstraintRecord {
@@ -225,6 +267,12 @@ struct TeamEstimatorStats {
   double detect_seconds = 0.0;
   double link_seconds = 0.0;
   double inter_search_seconds = 0.0;
+  int overlap_attempts = 0;   // clusterings of the kept matches
+  int overlap_matches = 0;    // (query node, target submap) wide matches run
+  int overlap_kept = 0;       // of them, good enough to keep
+  int overlap_map_checks = 0; // hypotheses checked against the whole maps
+  int overlap_links = 0;
+  double overlap_seconds = 0.0;
 };
 
 class TeamEstimator {
@@ -307,6 +355,15 @@ class TeamEstimator {
     std::vector<Sighting> sightings;
     int nodes_seen = 0;          // nodes already considered by the inter-robot search
     std::optional<Pose2> last_search_pose;  // robot frame
+    // Map-overlap search: query nodes, target submaps, submaps already considered as targets.
+    std::vector<int> overlap_nodes;
+    std::optional<Pose2> last_overlap_pose;
+    std::vector<int> overlap_submaps;
+    int overlap_submaps_seen = 0;
+  };
+  struct OverlapState {  // per robot pair (a < b)
+    std::set<std::tuple<int, int, int, int>> tried;  // (node robot, node index, submap robot, submap index)
+    std::vector<ConstraintCandidate> matches;  // kept: a node of one robot in a submap of the other
   };
   struct LinkState {  // per robot pair and tag id
     double next_attempt_stamp = -INFINITY;
@@ -333,6 +390,24 @@ class TeamEstimator {
                                                            const Pose2& submap_robot_T_node, double linear_window,
                                                            double angular_window, double min_score, bool* covered);
   void SearchInterRobot(double stamp_seconds, const NodeId& node);
+  // Joins the groups of robots a and b at a_T_b (the group without the world anchor moves) with
+  // `matches` as inter-robot constraints (*added: which ones the graph took), solves; true when
+  // the solve kept them joined.
+  bool JoinGroups(int a, int b, const Pose2& a_T_b, const std::vector<ConstraintCandidate>& matches,
+                  std::vector<bool>* added);
+  // After a first link: every node of a's group against its teammates (paper §V-B).
+  void SearchRetrospectively(double stamp_seconds, int a);
+  // Map-overlap search (see the header).
+  void UpdateOverlapTargets(int robot);
+  void TryOverlapLinks(double stamp_seconds);
+  // New wide matches between robots a and b.
+  void MatchOverlaps(int a, int b);
+  // A link between the groups of roots a and b from their members' kept matches.
+  void TryOverlapLink(double stamp_seconds, int a, int b);
+  // root_a_T_root_b implied by an overlap match between members of the two groups.
+  Pose2 OverlapRelativePose(int root_a, int root_b, const ConstraintCandidate& match) const;
+  // The maps of a group's robots merged in its root's frame.
+  std::unique_ptr<OccupancyGrid> RenderGroupMap(int root) const;
   int Root(int robot) const;
   void Solve(int max_iterations);
   // Whether each of inter_constraints_ is still in the graph (not removed by its consistency check).
@@ -349,6 +424,7 @@ class TeamEstimator {
   std::vector<int> parent_;  // union-find over robots: linked groups
   TagDetector detector_;
   ScanMatcher matcher_;
+  ScanMatcher overlap_matcher_;
   std::vector<int> known_tag_ids_;
   std::mt19937_64 fault_rng_;
   std::map<std::tuple<int, int, int>, LinkState> link_states_;
@@ -357,6 +433,9 @@ class TeamEstimator {
   // the second constraint was found.
   std::map<std::pair<int, int>, std::vector<Eigen::Vector2d>> first_link_places_;
   std::set<std::pair<int, int>> has_second_constraint_;
+  std::map<std::pair<int, int>, OverlapState> overlap_states_;
+  std::map<std::pair<int, int>, std::string> overlap_outcomes_;  // per pair of group roots: the last recorded
+  double next_overlap_attempt_stamp_ = -INFINITY;
   std::vector<TeamConstraintRecord> records_;
   std::vector<TeamMergeEvent> events_;
   bool started_ = false;

@@ -12,7 +12,7 @@
 #
 # Environment:
 #   HETSLAM_SEEDS      the simulator seeds, separated by spaces or commas (default: 1).
-#   HETSLAM_TEAMS      the team scenarios (default: "team_two team_three").
+#   HETSLAM_TEAMS      the team scenarios (default: "team_two team_three team_overlap").
 #   HETSLAM_BENCH_OUT  output folder (default: <repo>/out/teams): <team>/seed-<seed>/{sim,run},
 #                      run.log = hetslam_team's output.
 #
@@ -46,7 +46,7 @@ build=${build:-$root/build}
 out_root=${HETSLAM_BENCH_OUT:-$root/out/teams}
 seed_list=${HETSLAM_SEEDS:-1}
 read -r -a seeds <<<"${seed_list//,/ }"
-read -r -a teams <<<"${HETSLAM_TEAMS:-team_two team_three}"
+read -r -a teams <<<"${HETSLAM_TEAMS:-team_two team_three team_overlap}"
 for seed in "${seeds[@]}"; do
   if ! [[ $seed =~ ^[0-9]{1,19}$ ]]; then
     echo "run_teams.sh: seed '$seed' in HETSLAM_SEEDS is not a non-negative integer" >&2

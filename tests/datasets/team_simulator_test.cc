@@ -380,7 +380,7 @@ TEST(TeamSimulatorTest, SameSeedSameBytesForAWholeTeamDataset) {
 
 TEST(TeamSimulatorTest, EveryShippedScenarioParsesGeneratesAndReadsBack) {
   for (const char* name : {"humanoid_static_tilt", "humanoid_explore", "uav_flight",
-                           "wheeled_corridor", "team_two", "team_three"}) {
+                           "wheeled_corridor", "team_two", "team_three", "team_overlap"}) {
     SCOPED_TRACE(name);
     Scenario scenario;
     const Status status = ReadScenarioFile(ScenarioPath(name), &scenario);

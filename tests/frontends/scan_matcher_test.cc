@@ -192,6 +192,51 @@ TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes)
   }
 }
 
+// The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
+// as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
+TEST(ScanMatcherSecondModeTest, TellsASymmetricRoomFromAnAsymmetricOne) {
+  ScanMatcherOptions options;
+  options.translation_penalty_per_square_meter = 0.0;
+  options.branch_and_bound_depth = 6;
+  options.second_mode_exclusion_meters = 0.5;
+  options.second_mode_exclusion_radians = 10.0 * M_PI / 180.0;
+  const Pose2 truth(-1.0, 0.5, 0.3);
+  double margins[2] = {0.0, 0.0};
+  for (const bool pillar : {false, true}) {
+    sim::World world;
+    world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 4.0), 0.0);
+    if (pillar) world.AddBox(Eigen::Vector2d(1.2, 0.7), Eigen::Vector2d(0.6, 0.6), 0.0);
+    std::mt19937 rng(3);
+    LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+    for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
+      map.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world, pose, 0.01, &rng));
+    }
+    const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.01, &rng);
+    const ScanMatchResult result =
+        ScanMatcher(options).MatchWithinWindow(map, Pose2(0.0, 0.0, 0.0), scan, 2.5, M_PI);
+    ASSERT_TRUE(result.converged) << result.message;
+    // The best is one of the two modes (the truth or its half-turn); the second, the other.
+    const Pose2 half_turn = Pose2(0.0, 0.0, M_PI) * truth;
+    const auto near = [](const Pose2& a, const Pose2& b) {
+      return (a.translation() - b.translation()).norm() < 0.1 && std::abs(WrapAngle(a.theta() - b.theta())) < 0.05;
+    };
+    if (pillar) {
+      EXPECT_TRUE(near(result.pose, truth)) << result.pose;
+    } else {
+      EXPECT_TRUE(near(result.pose, truth) || near(result.pose, half_turn)) << result.pose;
+      EXPECT_TRUE(near(result.second_mode_pose, near(result.pose, truth) ? half_turn : truth))
+          << result.second_mode_pose;
+    }
+    margins[pillar ? 1 : 0] = result.correlative_score - result.second_mode_correlative_score;
+  }
+  EXPECT_LT(margins[0], 0.03) << "bare room: the two modes score alike";
+  EXPECT_GT(margins[1], 0.05) << "with the pillar the truth stands out";
+  // Off by default: no second search.
+  const ScanMatchResult plain = ScanMatcher(ScanMatcherOptions()).Match(
+      LaserMap{OccupancyGridOptions(), LikelihoodFieldOptions()}, truth, {});
+  EXPECT_EQ(0.0, plain.second_mode_correlative_score);
+}
+
 TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   ScanMatcherOptions options;
   std::string error;

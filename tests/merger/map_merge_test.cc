@@ -88,5 +88,54 @@ TEST(MapMergeTest, EmptyTeammateChangesNothing) {
   EXPECT_EQ(before, own.log_odds());
 }
 
+// Walls around a 4 m x 3 m room seen from its centre, with a 0.4 m square box in one corner.
+OccupancyGrid RoomMap() {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  std::vector<Eigen::Vector2d> points;
+  for (double t = -2.0; t <= 2.0; t += 0.02) {
+    points.emplace_back(t, -1.5);
+    points.emplace_back(t, 1.5);
+  }
+  for (double t = -1.5; t <= 1.5; t += 0.02) {
+    points.emplace_back(-2.0, t);
+    points.emplace_back(2.0, t);
+  }
+  for (double t = 0.8; t <= 1.2; t += 0.02) points.emplace_back(t, 0.6);  // the box's front face
+  for (int i = 0; i < 5; ++i) grid.InsertScan(Eigen::Vector2d(0.0, 0.0), points, nullptr);
+  return grid;
+}
+
+int OccupiedCells(const OccupancyGrid& grid) {
+  int n = 0;
+  for (int i = 0; i < grid.geometry().num_cells(); ++i) n += grid.State(i) == CellState::kOccupied ? 1 : 0;
+  return n;
+}
+
+// The same map at its own pose agrees everywhere; shifted by 0.5 m its walls land in the other's
+// free space; under a rotation that swaps the room's ends the box is the only conflict.
+TEST(CompareMapsTest, CountsAgreeingAndConflictingWallCells) {
+  const OccupancyGrid a = RoomMap(), b = RoomMap();
+  const int occupied = OccupiedCells(a);
+  ASSERT_GT(occupied, 250);  // 14 m of wall at 5 cm, and the box
+  const MapAgreement same = CompareMaps(a, b, Pose2(0.0, 0.0, 0.0));
+  EXPECT_EQ(2 * occupied, same.agreeing);
+  EXPECT_EQ(0, same.conflicting);
+  EXPECT_EQ(0.0, same.ConflictFraction());
+
+  const MapAgreement shifted = CompareMaps(a, b, Pose2(0.5, 0.0, 0.0));
+  EXPECT_GT(shifted.ConflictFraction(), 0.2) << shifted.agreeing << " agree, " << shifted.conflicting << " conflict";
+
+  // The room is symmetric under a half turn, the box is not: only the box's cells (and the
+  // free cells in front of the other's box) conflict.
+  const MapAgreement half_turn = CompareMaps(a, b, Pose2(0.0, 0.0, M_PI));
+  EXPECT_GT(half_turn.conflicting, 10);
+  EXPECT_LT(half_turn.ConflictFraction(), 0.1);
+
+  // Far apart: nothing compared.
+  const MapAgreement apart = CompareMaps(a, b, Pose2(100.0, 0.0, 0.0));
+  EXPECT_EQ(0, apart.agreeing + apart.conflicting);
+  EXPECT_EQ(1.0, apart.ConflictFraction());
+}
+
 }  // namespace
 }  // namespace hetslam

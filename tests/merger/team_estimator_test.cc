@@ -59,9 +59,12 @@ SimulatedRobot Simulate(const std::string& route, uint64_t seed) {
 // Which tags a robot sees at each scan and with which id (to inject wrong ids).
 using IdMap = std::map<int, int>;  // true id -> reported id (-1: never seen)
 
+// The tag path alone (these robots' maps overlap, so the map-overlap search would link them by
+// itself); the map-overlap tests below turn it on.
 TeamEstimatorOptions TestTeamOptions() {
   TeamEstimatorOptions options;
   options.tag_sizes_meters = {{1, 0.2}, {2, 0.2}, {3, 0.2}};
+  options.overlap_search = false;
   return options;
 }
 
@@ -207,6 +210,51 @@ TEST(TeamEstimatorTest, ChainsTransitivelyThroughTheMiddleRobot) {
       EXPECT_FALSE(r.robot_a == 0 && r.robot_b == 2);
     }
   }
+}
+
+// No tag at all: the robots' maps overlap in the L-shaped room, which has no symmetry. The
+// wide matches of each robot's scans in the other's submaps agree, the whole maps agree under
+// that pose, and the robots are merged by map overlap alone, at the true relative pose.
+TEST(TeamEstimatorTest, MergesByMapOverlapWithoutAnyTag) {
+  const std::vector<SimulatedRobot> robots = {Simulate(kRouteA, 1), Simulate(kRouteB, 2)};
+  TeamEstimatorOptions options = TestTeamOptions();
+  options.overlap_search = true;
+  TeamEstimator team(options);
+  RunTeam(robots, {{}, {}}, &team);
+  ASSERT_TRUE(team.InCommonFrame(1));
+  ExpectRelativePoseNear(team, robots, 0, 1, 0.10, 1.0 * kDeg);
+  EXPECT_EQ(1, team.stats().overlap_links);
+  ASSERT_FALSE(team.events().empty());
+  EXPECT_EQ(TeamMergeEvent::Kind::kFirstLink, team.events().front().kind);
+  EXPECT_EQ(0u, team.events().front().description.find("map overlap")) << team.events().front().description;
+  const auto& records = team.constraints();
+  EXPECT_TRUE(std::any_of(records.begin(), records.end(), [](const TeamConstraintRecord& r) {
+    return r.kind == TeamConstraintKind::kMapOverlap && r.accepted;
+  }));
+  // No wrong hypothesis was ever accepted.
+  for (const TeamConstraintRecord& r : records) {
+    if (r.kind != TeamConstraintKind::kMapOverlap || !r.accepted) continue;
+    const Pose2 truth = Between(robots[0].world_T_start, robots[1].world_T_start);
+    EXPECT_LT(Between(truth, r.a_T_b).translation().norm(), 0.15) << r.reason;
+  }
+}
+
+// The maps say the robots share the room, but the tags disagree: robot 1 reports its sightings
+// of tag 2 (east wall) as tag 1, which robot 0 placed on the west wall. A map-overlap pose that
+// puts one tag id at two places 14 m apart is refused (a building of congruent rooms looks like
+// this), and the refusal names the tag.
+TEST(TeamEstimatorTest, AMapOverlapThatPutsATagAtTwoPlacesIsRefused) {
+  const std::vector<SimulatedRobot> robots = {Simulate(kRouteA, 1), Simulate(kRouteBEast, 2)};
+  TeamEstimatorOptions options = TestTeamOptions();
+  options.overlap_search = true;
+  TeamEstimator team(options);
+  RunTeam(robots, {{{1, 1}}, {{2, 1}}}, &team);
+  EXPECT_FALSE(team.InCommonFrame(1));
+  EXPECT_EQ(0, team.stats().overlap_links);
+  const auto& records = team.constraints();
+  EXPECT_TRUE(std::any_of(records.begin(), records.end(), [](const TeamConstraintRecord& r) {
+    return r.kind == TeamConstraintKind::kMapOverlap && !r.accepted && r.reason.find("tag 1 placed") != std::string::npos;
+  }));
 }
 
 TEST(TeamEstimatorTest, ErrorsAreReturned) {
