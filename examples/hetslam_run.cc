@@ -79,6 +79,10 @@ DEFINE_double(angular_velocity_fraction, 0.0, "Fraction of the last scan-to-scan
               "constant_velocity, in [0, 1.5].");
 DEFINE_double(resolution, 0.05, "Grid cell size in metres (paper: 5 cm).");
 DEFINE_double(sigma, 0.10, "Likelihood field p_hit ~ exp(-d / sigma): sigma in metres.");
+DEFINE_string(refine_interpolation, "values", "What the front end's Ceres refinement of a scan match interpolates "
+              "between cell centres: values (the likelihood field's values; a wall is pulled towards the nearest "
+              "cell centre, by up to half a cell) or distances (each cell centre's distance to the nearest surface, "
+              "so the kernel peaks on the wall itself; see factors/scan_cost.h).");
 DEFINE_double(field_max_distance, 0.3, "Likelihood field window radius in metres (beyond it p_hit = 0).");
 DEFINE_double(linear_window, 1.2, "Scan matcher search window, ± metres around the prediction in x and y.");
 DEFINE_double(angular_window_deg, 40.0, "Scan matcher search window, ± degrees around the predicted heading.");
@@ -319,6 +323,14 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->matcher.narrow_angular_search_window_radians = FLAGS_narrow_angular_window_deg * M_PI / 180.0;
   options->matcher.narrow_accept_score = FLAGS_narrow_accept_score;
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
+  if (FLAGS_refine_interpolation == "values") {
+    options->matcher.refine_interpolation = ScanCostInterpolation::kValues;
+  } else if (FLAGS_refine_interpolation == "distances") {
+    options->matcher.refine_interpolation = ScanCostInterpolation::kDistances;
+  } else {
+    return (*error = "--refine_interpolation must be values or distances, got '" + FLAGS_refine_interpolation + "'"),
+           false;
+  }
   options->max_point_range_meters = FLAGS_max_range;
   options->floor_max_height_meters = FLAGS_floor_max_height;
   options->floor_obstacle_max_height_meters = FLAGS_floor_obstacle_max_height;

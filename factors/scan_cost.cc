@@ -25,16 +25,52 @@ class FrozenFieldGrid {
   const LikelihoodField& field_;  // outlives the cost (see the header's lifetime note)
 };
 
+// The field's distances instead of its values: at each cell centre the distance d to the
+// nearest surface recovered from the stored value L = exp(-d / sigma) as d = -sigma ln L (the
+// window's radius where L is 0 or below exp(-radius / sigma)), served squared. Near a straight
+// wall d^2 is a quadratic in the position, which the bicubic (Catmull-Rom) interpolation
+// reproduces exactly between cell centres, so the interpolated kernel exp(-d / sigma) peaks on
+// the wall itself; the interpolated values peak at cell centres (a cusp is interpolated by
+// its samples), which pulls each wall towards the cell grid by up to half a cell.
+template <typename ValueGrid>
+class SquaredDistanceGrid {
+ public:
+  enum { DATA_DIMENSION = 1 };
+  SquaredDistanceGrid(const ValueGrid& values, double value_scale, double sigma_meters, double max_distance_meters)
+      : values_(values),
+        value_scale_(value_scale),
+        sigma_(sigma_meters),
+        max_distance_(max_distance_meters),
+        min_value_(std::exp(-max_distance_meters / sigma_meters)) {}
+  void GetValue(int row, int col, double* f) const {
+    double value = 0.0;
+    values_.GetValue(row, col, &value);
+    value *= value_scale_;
+    const double d = value > min_value_ ? -sigma_ * std::log(value) : max_distance_;
+    f[0] = d * d;
+  }
+
+ private:
+  const ValueGrid values_;
+  const double value_scale_;
+  const double sigma_;
+  const double max_distance_;
+  const double min_value_;
+};
+
 // `Grid` is the field's storage: ceres::Grid2D<float> over values() while the field is built,
 // FrozenFieldGrid once frozen (quantised: value = value_scale * sample; interpolation is linear
 // in the samples, so scaling the interpolated sample is scaling the samples).
 template <typename Grid>
 class ScanToLikelihoodFieldFunctor {
  public:
-  ScanToLikelihoodFieldFunctor(const Grid& grid, double value_scale, const GridGeometry& geometry,
+  // sigma_meters > 0: `grid` serves squared distances (SquaredDistanceGrid), turned into the
+  // kernel exp(-d / sigma) after interpolation; else field values times value_scale.
+  ScanToLikelihoodFieldFunctor(const Grid& grid, double value_scale, double sigma_meters, const GridGeometry& geometry,
                                const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights)
       : geometry_(geometry),
         value_scale_(value_scale),
+        sigma_meters_(sigma_meters),
         grid_(grid),
         interpolator_(grid_),
         points_robot_(points_robot),
@@ -53,9 +89,17 @@ class ScanToLikelihoodFieldFunctor {
       // Samples sit at cell centres: continuous cell coordinate minus 0.5.
       const T col = (wx - geometry_.origin().x()) * inv_r - 0.5;
       const T row = (wy - geometry_.origin().y()) * inv_r - 0.5;
+      T sample;
+      interpolator_.Evaluate(row, col, &sample);
       T likelihood;
-      interpolator_.Evaluate(row, col, &likelihood);
-      residuals[i] = scaled_weights_[i] * (1.0 - value_scale_ * likelihood);
+      if (sigma_meters_ > 0) {  // `sample` is d^2 (SquaredDistanceGrid)
+        // 1 mm floor: sqrt's derivative at 0 is infinite.
+        const T d = ceres::sqrt((sample < T(0) ? T(0) : sample) + T(1e-6));
+        likelihood = ceres::exp(-d / sigma_meters_);
+      } else {
+        likelihood = value_scale_ * sample;
+      }
+      residuals[i] = scaled_weights_[i] * (1.0 - likelihood);
     }
     return true;
   }
@@ -72,6 +116,7 @@ class ScanToLikelihoodFieldFunctor {
 
   const GridGeometry geometry_;                            // map frame, metres
   const double value_scale_;                               // field value per stored unit
+  const double sigma_meters_;                              // > 0: the grid serves d^2
   const Grid grid_;                                        // field values, row = y, col = x
   const ceres::BiCubicInterpolator<Grid> interpolator_;
   const std::vector<Eigen::Vector2f> points_robot_;        // robot frame, metres
@@ -80,24 +125,41 @@ class ScanToLikelihoodFieldFunctor {
 
 }  // namespace
 
-ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& field,
-                                                     const std::vector<Eigen::Vector2f>& points_robot,
-                                                     const std::vector<float>& weights) {
-  CHECK_GT(field.geometry().num_cells(), 0) << "the likelihood field is empty";
-  const int n = static_cast<int>(points_robot.size());
-  if (field.frozen()) {
-    using Functor = ScanToLikelihoodFieldFunctor<FrozenFieldGrid>;
-    return new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, 3>(
-        new Functor(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep, field.geometry(), points_robot,
-                    weights),
-        n);
-  }
-  using Grid = ceres::Grid2D<float, 1>;
+namespace {
+
+template <typename Grid>
+ceres::CostFunction* MakeCost(const Grid& grid, double value_scale, double sigma_meters, const LikelihoodField& field,
+                              const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights) {
   using Functor = ScanToLikelihoodFieldFunctor<Grid>;
   return new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, 3>(
-      new Functor(Grid(field.values().data(), 0, field.geometry().height(), 0, field.geometry().width()), 1.0,
-                  field.geometry(), points_robot, weights),
-      n);
+      new Functor(grid, value_scale, sigma_meters, field.geometry(), points_robot, weights),
+      static_cast<int>(points_robot.size()));
+}
+
+}  // namespace
+
+ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& field,
+                                                     const std::vector<Eigen::Vector2f>& points_robot,
+                                                     const std::vector<float>& weights,
+                                                     ScanCostInterpolation interpolation) {
+  CHECK_GT(field.geometry().num_cells(), 0) << "the likelihood field is empty";
+  const double sigma = field.options().sigma_meters;
+  const double max_distance = field.window_radius_cells() * field.geometry().resolution_meters();
+  using Values = ceres::Grid2D<float, 1>;
+  if (field.frozen()) {
+    if (interpolation == ScanCostInterpolation::kDistances) {
+      return MakeCost(SquaredDistanceGrid<FrozenFieldGrid>(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep,
+                                                           sigma, max_distance),
+                      1.0, sigma, field, points_robot, weights);
+    }
+    return MakeCost(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep, 0.0, field, points_robot, weights);
+  }
+  const Values values(field.values().data(), 0, field.geometry().height(), 0, field.geometry().width());
+  if (interpolation == ScanCostInterpolation::kDistances) {
+    return MakeCost(SquaredDistanceGrid<Values>(values, 1.0, sigma, max_distance), 1.0, sigma, field, points_robot,
+                    weights);
+  }
+  return MakeCost(values, 1.0, 0.0, field, points_robot, weights);
 }
 
 }  // namespace hetslam

@@ -31,12 +31,23 @@
 
 namespace hetslam {
 
+// What is interpolated between cell centres:
+//  - kValues: the field's values L (as above). L = exp(-d / sigma) has a cusp on a surface,
+//    and an interpolant of a cusp peaks at its samples: a wall is pulled towards the nearest
+//    cell centre, by up to half a cell.
+//  - kDistances: the squared distance d^2 = (-sigma ln L)^2 of each cell centre to the nearest
+//    surface (the window radius where L is 0), and then L = exp(-d / sigma). Near a straight
+//    wall d^2 is quadratic in the position and the interpolation reproduces it exactly: the
+//    kernel peaks on the wall, not on the cell grid. Same values at the cell centres.
+enum class ScanCostInterpolation { kValues, kDistances };
+
 // Returns a cost over one [x, y, yaw] parameter block with N residuals. `weights` is empty
 // (all 1) or one weight per point. The caller owns the returned cost function (or passes
 // ownership to a ceres::Problem).
 ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& field,
                                                      const std::vector<Eigen::Vector2f>& points_robot,
-                                                     const std::vector<float>& weights = {});
+                                                     const std::vector<float>& weights = {},
+                                                     ScanCostInterpolation interpolation = ScanCostInterpolation::kValues);
 
 }  // namespace hetslam
 

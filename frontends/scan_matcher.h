@@ -21,6 +21,7 @@
 #include "Eigen/Core"
 #include "core/laser_map.h"
 #include "core/se2.h"
+#include "factors/scan_cost.h"
 
 namespace hetslam {
 
@@ -62,6 +63,9 @@ struct ScanMatcherOptions {
   double second_mode_exclusion_meters = 0.0;
   double second_mode_exclusion_radians = 0.0;
   bool refine_with_ceres = true;
+  // What the Ceres refinement interpolates between cell centres (factors/scan_cost.h): the
+  // field's values, or its distances (the kernel then peaks on each wall, not on the cell grid).
+  ScanCostInterpolation refine_interpolation = ScanCostInterpolation::kValues;
   double profile_step_meters = 0.1;  // see ScanMatchResult::weak_direction_score_drop
   int max_ceres_iterations = 20;
 
