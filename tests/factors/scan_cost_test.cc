@@ -324,6 +324,46 @@ TEST(ScanCostTest, MovingTowardTheWallLowersTheResidual) {
   EXPECT_NEAR(kWallXMeters, best_points_x, kResolutionMeters);
 }
 
+// The wall's hits lie 1.25 cm off column 10's centre (0.525 m). Sweeping points across it in
+// 1 mm steps: interpolating the field's values, the cost is lowest at the cell centre (the
+// kernel's cusp is interpolated by its samples); interpolating distances, on the wall itself.
+// Both costs agree at cell centres.
+TEST(ScanCostTest, InterpolatedDistancesPutTheMinimumOnTheWallNotOnTheCellCentre) {
+  const LaserMap map = MapFromHits(WallHits());
+  const std::vector<Eigen::Vector2f> points_robot = {{0.25f, -0.05f}, {0.25f, 0.0f}, {0.25f, 0.05f}};
+  double best[2] = {0.0, 0.0};
+  int k = 0;
+  for (const ScanCostInterpolation interpolation : {ScanCostInterpolation::kValues, ScanCostInterpolation::kDistances}) {
+    std::unique_ptr<ceres::CostFunction> cost(
+        CreateScanToLikelihoodFieldCost(map.field(), points_robot, {}, interpolation));
+    double best_norm = std::numeric_limits<double>::infinity();
+    for (int step = 0; step <= 100; ++step) {
+      const double points_x = 0.47 + 0.001 * step;
+      const double norm = Norm(Residuals(*cost, Pose2(points_x - 0.25, 0.0, 0.0)));
+      if (norm < best_norm) {
+        best_norm = norm;
+        best[k] = points_x;
+      }
+    }
+    ++k;
+  }
+  // Values: the minimum 4 mm from column 10's centre (0.525 m) and 8.5 mm from the wall.
+  EXPECT_GT(std::abs(best[0] - kWallXMeters), 0.006) << "values: pulled towards the cell centre";
+  EXPECT_LT(std::abs(best[0] - (kWallColumn + 0.5) * kResolutionMeters), 0.005);
+  EXPECT_NEAR(kWallXMeters, best[1], 0.0015) << "distances: the minimum on the wall";
+  // The same residuals where the points sit on cell centres (y too: rows -1, 0 and 1), up to
+  // the distance's 1 mm floor (sqrt(d^2 + 1e-6): 0.3% of the likelihood 1.25 cm from the wall).
+  const std::vector<Eigen::Vector2f> at_centres = {{0.025f, -0.025f}, {0.025f, 0.025f}, {0.075f, 0.075f}};
+  std::unique_ptr<ceres::CostFunction> values(CreateScanToLikelihoodFieldCost(map.field(), at_centres));
+  std::unique_ptr<ceres::CostFunction> distances(
+      CreateScanToLikelihoodFieldCost(map.field(), at_centres, {}, ScanCostInterpolation::kDistances));
+  for (const double x : {0.35, 0.40, 0.45, 0.50}) {
+    const std::vector<double> a = Residuals(*values, Pose2(x, 0.0, 0.0));
+    const std::vector<double> b = Residuals(*distances, Pose2(x, 0.0, 0.0));
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(a[i], b[i], 5e-4) << "x " << x << " point " << i;
+  }
+}
+
 // Shifting the hits and the pose by the same whole number of cells (7, -4) gives the same
 // residuals and Jacobians: the shifted hits sit at the same sub-cell offsets on the
 // world-aligned lattice, so the field is the same table under another grid origin, and the
