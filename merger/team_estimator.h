@@ -42,26 +42,30 @@
 // constraint; the relative pose before and after its batch solve is recorded (events()).
 //
 // Linking without a shared tag (map overlap; beyond the paper, which names it the general case):
-// robots not in one frame are also joined by their maps alone.
+// groups of robots not in one frame are also joined by their maps alone.
 //  - Query nodes: one node of each robot per overlap_node_spacing_meters of travel. Target
 //    submaps: a robot's finished submaps whose node-box centres lie at least
 //    overlap_submap_spacing_meters from those already chosen (consecutive submaps see the
 //    same place).
-//  - Every (query node, teammate target submap) pair is matched once, over the whole submap
-//    (its observed box, at most ±overlap_max_window_meters, ±180°, no motion prior; the wide
-//    matcher). A match counts when it scores >= overlap_min_score, beats the search's best
+//  - Every (query node, target submap) pair of two robots in different groups is matched once,
+//    over the whole submap (its observed box, at most ±overlap_max_window_meters, ±180°, no
+//    motion prior; the wide matcher), at most overlap_max_matches_per_attempt per robot pair
+//    and attempt. A match counts when it scores >= overlap_min_score, beats the search's best
 //    other mode by overlap_min_mode_margin (not a symmetric room), pins both directions
-//    (min_information_ratio) and its points fall on known cells (min_submap_overlap). Each
-//    implies a relative pose of the frames, kept (with its node and submap) for later attempts.
-//  - Every overlap_retry_seconds the kept matches are clustered: a hypothesis needs
-//    overlap_min_matches query nodes whose matches agree (overlap_agreement_*, compared at the
-//    nodes). Each such hypothesis is checked against both robots' whole maps (CompareMaps,
-//    merger/map_merge.h): accepted only when at least overlap_min_agreeing_cells occupied cells
-//    agree and at most overlap_max_conflict of the compared ones conflict (a wall where the
-//    other saw through), and when no other hypothesis passes too (a symmetric building:
-//    reported ambiguous, the robots stay apart).
+//    (min_information_ratio) and its points fall on known cells (min_submap_overlap). Kept
+//    matches stay for later attempts.
+//  - Every overlap_retry_seconds, per pair of groups, every kept match between their members
+//    implies a relative pose of the groups' frames; a pose needs overlap_min_matches query
+//    nodes whose matches agree (overlap_agreement_*, compared at the nodes). Each such pose is
+//    checked against both groups' whole maps (CompareMaps, merger/map_merge.h: at least
+//    overlap_min_agreeing_cells occupied cells agree and at most overlap_max_conflict of the
+//    compared ones conflict, a wall where the other saw through) and against their tags (one
+//    id placed by both groups more than tag_agreement_meters apart refutes it: a building of
+//    congruent rooms). Exactly one pose must pass; two passing are reported ambiguous and the
+//    groups stay apart. Checking groups, not robot pairs, lets a teammate that has seen both of
+//    two congruent rooms expose the ambiguity.
 //  - Accepted: the agreeing matches enter the graph as inter-robot constraints, as a tag link's
-//    do (kind map_match); the search for more constraints follows.
+//    do (record kind map_overlap); the search for more constraints follows.
 //
 // Frames: the team's common frame is that of the first robot added (the manifest's first). A
 // robot not (yet) linked to it keeps its own frame (InCommonFrame false). Transitive chaining
