@@ -334,9 +334,21 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   return msg.str().empty();
 }
 
+namespace {
+
+// The branch-and-bound tables of every ScanMatcher of a thread (see ReleaseScratch).
+std::vector<std::vector<float>>& ThreadScratch() {
+  thread_local std::vector<std::vector<float>> levels;
+  return levels;
+}
+
+}  // namespace
+
+void ScanMatcher::ReleaseScratch() { std::vector<std::vector<float>>().swap(ThreadScratch()); }
+
 size_t ScanMatcher::ScratchBytes() const {
   size_t bytes = 0;
-  for (const std::vector<float>& level : levels_scratch_) bytes += level.capacity() * sizeof(float);
+  for (const std::vector<float>& level : ThreadScratch()) bytes += level.capacity() * sizeof(float);
   return bytes;
 }
 
@@ -448,7 +460,7 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   windows.linear_search_window_meters = linear_window_meters;
   windows.angular_search_window_radians = angular_window_radians;
   const DiscretizedSearch s = Discretize(windows, map, predicted, points_robot, weights, block);
-  std::vector<std::vector<float>>& levels = levels_scratch_;
+  std::vector<std::vector<float>>& levels = ThreadScratch();
   BuildPyramid(map, s, depth, options_.free_space_penalty, &levels);
   const SearchContext context = MakeContext(options_, map, s, levels, weights, points_robot.size());
 

@@ -106,7 +106,8 @@ struct ScanMatchResult {
 double ScoreAt(const LaserMap& map, const Pose2& pose, const std::vector<Eigen::Vector2f>& points_robot,
                const std::vector<float>& weights = {});
 
-// Not thread-safe: searches reuse internal buffers, so use one ScanMatcher per thread.
+// Not thread-safe: searches reuse per-thread buffers (see ReleaseScratch), so use one
+// ScanMatcher per thread, and a search must not start another.
 class ScanMatcher {
  public:
   explicit ScanMatcher(const ScanMatcherOptions& options);
@@ -135,11 +136,13 @@ class ScanMatcher {
 
   const ScanMatcherOptions& options() const { return options_; }
 
-  // The search's table buffers keep the size of the largest search so far (region cells ×
-  // (branch_and_bound_depth + 1) floats: tens of MB for a loop closer's wide window); this
-  // frees them, and the next search allocates them again. For a matcher that searches rarely.
-  void ReleaseScratch() { std::vector<std::vector<float>>().swap(levels_scratch_); }
-  // Bytes the table buffers hold (capacity).
+  // The search's table buffers are shared by every ScanMatcher of the calling thread (a front
+  // end and a loop closer, or a team's robots, never search at once) and keep the size of the
+  // largest search so far (region cells × (branch_and_bound_depth + 1) floats: tens of MB for
+  // a loop closer's wide window). This frees them; the next search of any matcher of the thread
+  // allocates them again. After a rare search over a large window.
+  void ReleaseScratch();
+  // Bytes the calling thread's table buffers hold (capacity).
   size_t ScratchBytes() const;
 
  private:
@@ -152,9 +155,6 @@ class ScanMatcher {
                             double linear_window_meters, double angular_window_radians) const;
 
   ScanMatcherOptions options_;
-  // Table buffers reused by every search (they are large: a few MB). This makes Match not
-  // reentrant: use one ScanMatcher per thread.
-  mutable std::vector<std::vector<float>> levels_scratch_;
 };
 
 }  // namespace hetslam
