@@ -131,14 +131,29 @@ TEST(DegenerateWorldsTest, SingleWallWithCommandsIsLowConfidence) {
 // What the issue asks and the pipeline does not do yet (found by this test; disabled so that
 // the default set passes, see the README, "Hostile input"): along the wall the pose should
 // follow the commands (the simulator integrates the same commands exactly), across it and in
-// yaw the laser, and no step should exceed the motion. Measured: after 28 m along the wall the
-// estimate has moved 2.1 m along it and 4.1 m away from it (max errors 25.9 m along, 4.2 m
-// across). The held "weak" direction comes from the eigenvalue test
-// (LocalSlamOptions::degenerate_eigenvalue_ratio) and lies at about 45 degrees to the wall,
-// not along it (the score-profile direction is along it): a likelihood field's J^T J at its
-// optimum is mostly noise. With degenerate_eigenvalue_ratio = 0 (the profile test alone) the
-// errors are 0.61 m along and 0.77 m across; with both tests off (no held direction) the
-// estimate stays at the start (27.7 m along).
+// yaw the laser, and no step should exceed the motion. Measured: max errors 25.9 m along,
+// 4.2 m across, 0.041 rad. Three causes, found by printing per scan the prediction, its
+// covariance, the match, both degeneracy tests and the held direction:
+// - The far wall is dotted in the map (beams 1 degree apart hit it up to 1.3 m apart at 12 m)
+//   and a scan's dots fit best where earlier scans were taken: matches are pulled back along
+//   the wall by 0.05 to 0.5 m. The held pose takes the match's correction projected on the
+//   strong direction, so a held direction at an angle e to the wall moves the pose across it
+//   by e times the pull-back. The eigenvalue test's direction
+//   (LocalSlamOptions::degenerate_eigenvalue_ratio) is 45 to 65 degrees off (a likelihood
+//   field's J^T J at its optimum is mostly noise), the score profile's 1 to 3 degrees. With
+//   the eigenvalue test off: 0.61 m along, 0.77 m across.
+// - At every submap switch the estimate moves about 1 cm across the wall. A submap's cell
+//   lattice is anchored at the robot's pose, which stays 2 m from the wall, so the wall lies
+//   at the same sub-cell offset in every submap and the map's sub-cell bias there repeats
+//   (with the leak above removed: towards the wall at 2 m, away from it at 2.0375 m, none at
+//   2.025 m). One submap for the whole run, eigenvalue test off: 0.03 m across.
+// - In the first submap (the first 2 s, accelerating) both tests sit at their thresholds
+//   (profile drop ratio about 0.3, eigenvalue ratio 0.3 to 0.4): the matches judged well
+//   constrained reset the pose to the pulled-back match, 0.6 m along by 2 s.
+// Submap origins snapped to whole cells plus densify_max_gap_meters = 0.5 pass at every wall
+// distance tried (2 to 3.01 m: at most 0.009 m along, 0.029 m across, 0.018 rad), but densify
+// 0.5 takes MIT CSAIL 17 m from GMapping (0.17 m now) and the snap flips ACES (4.1 m; 0.09 m
+// with the lattice shifted by 1 cm).
 TEST(DegenerateWorldsTest, DISABLED_SingleWallWithCommandsFollowsThePrediction) {
   const SingleWallRun run = RunSingleWall(/*commands=*/true);
   ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
