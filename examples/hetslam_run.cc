@@ -323,11 +323,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->matcher.narrow_angular_search_window_radians = FLAGS_narrow_angular_window_deg * M_PI / 180.0;
   options->matcher.narrow_accept_score = FLAGS_narrow_accept_score;
   options->matcher.rotation_penalty_per_square_radian = FLAGS_rotation_penalty;
-  if (FLAGS_refine_interpolation == "values") {
-    options->matcher.refine_interpolation = ScanCostInterpolation::kValues;
-  } else if (FLAGS_refine_interpolation == "distances") {
-    options->matcher.refine_interpolation = ScanCostInterpolation::kDistances;
-  } else {
+  if (!ParseScanCostInterpolation(FLAGS_refine_interpolation, &options->matcher.refine_interpolation)) {
     return (*error = "--refine_interpolation must be values or distances, got '" + FLAGS_refine_interpolation + "'"),
            false;
   }

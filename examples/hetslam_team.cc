@@ -69,6 +69,9 @@ DEFINE_int32(overlap_min_matches, 3, "Scans of different places (1.5 m apart) wh
              "map-overlap link. At least 2.");
 DEFINE_double(overlap_max_conflict, 0.05, "Largest share of compared occupied cells that may land on the other "
               "robot's free space for a map-overlap link. In [0, 1].");
+DEFINE_string(refine_interpolation, "values", "What each robot's front end refines its scan matches on between cell "
+              "centres: values (the likelihood field's) or distances (to the nearest surface; see hetslam_run "
+              "--help and factors/scan_cost.h).");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {
@@ -86,6 +89,10 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   if (FLAGS_out.empty()) return (*error = "--out is required (an output folder)"), false;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &robot->attitude_source)) {
     return (*error = "--attitude_source must be marg, logged or level (got '" + FLAGS_attitude_source + "')"), false;
+  }
+  if (!ParseScanCostInterpolation(FLAGS_refine_interpolation, &robot->local.matcher.refine_interpolation)) {
+    return (*error = "--refine_interpolation must be values or distances (got '" + FLAGS_refine_interpolation + "')"),
+           false;
   }
   team->wrong_tag_id_rate = FLAGS_wrong_tag_id_rate;
   team->fault_seed = FLAGS_fault_seed;

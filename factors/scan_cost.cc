@@ -138,6 +138,17 @@ ceres::CostFunction* MakeCost(const Grid& grid, double value_scale, double sigma
 
 }  // namespace
 
+bool ParseScanCostInterpolation(const std::string& name, ScanCostInterpolation* interpolation) {
+  if (name == "values") {
+    *interpolation = ScanCostInterpolation::kValues;
+  } else if (name == "distances") {
+    *interpolation = ScanCostInterpolation::kDistances;
+  } else {
+    return false;
+  }
+  return true;
+}
+
 ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& field,
                                                      const std::vector<Eigen::Vector2f>& points_robot,
                                                      const std::vector<float>& weights,

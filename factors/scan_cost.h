@@ -23,6 +23,7 @@
 #ifndef HETSLAM_FACTORS_SCAN_COST_H_
 #define HETSLAM_FACTORS_SCAN_COST_H_
 
+#include <string>
 #include <vector>
 
 #include "Eigen/Core"
@@ -40,6 +41,8 @@ namespace hetslam {
 //    wall d^2 is quadratic in the position and the interpolation reproduces it exactly: the
 //    kernel peaks on the wall, not on the cell grid. Same values at the cell centres.
 enum class ScanCostInterpolation { kValues, kDistances };
+// "values" / "distances" (the programs' --refine_interpolation flag); false for anything else.
+bool ParseScanCostInterpolation(const std::string& name, ScanCostInterpolation* interpolation);
 
 // Returns a cost over one [x, y, yaw] parameter block with N residuals. `weights` is empty
 // (all 1) or one weight per point. The caller owns the returned cost function (or passes
