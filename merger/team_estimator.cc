@@ -61,6 +61,29 @@ TeamConstraintRecord MakeRecord(double stamp_seconds, int a, int b, TeamConstrai
   return record;
 }
 
+// The share of `points` (robot frame) that `pose` puts on known cells of `grid`.
+double KnownFraction(const OccupancyGrid& grid, const Pose2& pose, const std::vector<Eigen::Vector2f>& points) {
+  if (points.empty()) return 0.0;
+  int known = 0;
+  for (const Eigen::Vector2f& q : points) {
+    const CellIndex c = grid.geometry().WorldToCell(pose * q.cast<double>());
+    if (grid.geometry().Contains(c) && grid.State(c) != CellState::kUnknown) ++known;
+  }
+  return static_cast<double>(known) / static_cast<double>(points.size());
+}
+
+// An inter-robot scan match as a graph constraint (robust loss).
+ConstraintCandidate InterRobotCandidate(const SubmapId& submap, const NodeId& node, const Pose2& submap_T_node,
+                                        double score) {
+  ConstraintCandidate candidate;
+  candidate.submap = submap;
+  candidate.node = node;
+  candidate.submap_T_node = submap_T_node;
+  candidate.score = score;
+  candidate.robust = true;
+  return candidate;
+}
+
 bool Within(const Pose2& difference, double meters, double radians) {
   return difference.translation().norm() <= meters && std::abs(difference.theta()) <= radians;
 }
@@ -634,13 +657,7 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
     const Eigen::Vector2d p = predicted.translation();
     const double margin = options_.submap_margin_meters;
     if ((p.array() < box_min.array() - margin).any() || (p.array() > box_max.array() + margin).any()) continue;
-    const OccupancyGrid& grid = map->grid();
-    int known = 0;
-    for (const Eigen::Vector2f& q : points.matching) {
-      const CellIndex c = grid.geometry().WorldToCell(predicted * q.cast<double>());
-      if (grid.geometry().Contains(c) && grid.State(c) != CellState::kUnknown) ++known;
-    }
-    const double overlap = static_cast<double>(known) / static_cast<double>(points.matching.size());
+    const double overlap = KnownFraction(map->grid(), predicted, points.matching);
     if (overlap >= options_.min_submap_overlap) candidates.emplace_back(-overlap, s);
   }
   std::sort(candidates.begin(), candidates.end());
@@ -666,13 +683,7 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
     if (correction.translation().cwiseAbs().maxCoeff() > linear_window || std::abs(correction.theta()) > angular_window) {
       continue;
     }
-    ConstraintCandidate candidate;
-    candidate.submap = submap;
-    candidate.node = node;
-    candidate.submap_T_node = match.pose;
-    candidate.score = match.score;
-    candidate.robust = true;
-    found.push_back(candidate);
+    found.push_back(InterRobotCandidate(submap, node, match.pose, match.score));
     robot_T_matched.push_back(graph_->SubmapPose(submap) * match.pose);
   }
   // A well-constrained scan lands at the same place in every submap of the teammate that sees
@@ -768,19 +779,8 @@ void TeamEstimator::MatchOverlaps(int a, int b) {
         // A scan that fits elsewhere in the submap about as well (a symmetric room) says nothing.
         if (match.correlative_score - match.second_mode_correlative_score < options_.overlap_min_mode_margin) continue;
         if (TranslationalInformationRatio(match.information) < options_.min_information_ratio) continue;
-        int known = 0;
-        for (const Eigen::Vector2f& point : points.matching) {
-          const CellIndex c = grid.geometry().WorldToCell(match.pose * point.cast<double>());
-          if (grid.geometry().Contains(c) && grid.State(c) != CellState::kUnknown) ++known;
-        }
-        if (known < options_.min_submap_overlap * static_cast<double>(points.matching.size())) continue;
-        ConstraintCandidate candidate;
-        candidate.submap = submap;
-        candidate.node = node;
-        candidate.submap_T_node = match.pose;
-        candidate.score = match.score;
-        candidate.robust = true;
-        state.matches.push_back(candidate);
+        if (KnownFraction(grid, match.pose, points.matching) < options_.min_submap_overlap) continue;
+        state.matches.push_back(InterRobotCandidate(submap, node, match.pose, match.score));
         ++stats_.overlap_kept;
         VLOG(1) << "overlap match: " << robots_[q].name << " node " << node_index << " in " << robots_[p].name
                 << " submap " << submap_index << " score " << match.score << " margin "
