@@ -123,10 +123,6 @@ class ScanToLikelihoodFieldFunctor {
   const std::vector<double> scaled_weights_;               // w_i / sqrt(N)
 };
 
-}  // namespace
-
-namespace {
-
 template <typename Grid>
 ceres::CostFunction* MakeCost(const Grid& grid, double value_scale, double sigma_meters, const LikelihoodField& field,
                               const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights) {
