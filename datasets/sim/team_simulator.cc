@@ -545,6 +545,78 @@ bool TeamSimulatorOptions::IsValid(std::string* error) const {
   return false;
 }
 
+namespace {
+
+// Whether segments [a, b] and [c, d] share a point (touching counts).
+bool SegmentsIntersect(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
+                       const Eigen::Vector2d& d) {
+  const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& v) { return u.x() * v.y() - u.y() * v.x(); };
+  const double d1 = cross(b - a, c - a), d2 = cross(b - a, d - a);
+  const double d3 = cross(d - c, a - c), d4 = cross(d - c, b - c);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
+  const auto on = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& q, const Eigen::Vector2d& r, double side) {
+    return side == 0.0 && r.x() >= std::min(p.x(), q.x()) && r.x() <= std::max(p.x(), q.x()) &&
+           r.y() >= std::min(p.y(), q.y()) && r.y() <= std::max(p.y(), q.y());
+  };
+  return on(a, b, c, d1) || on(a, b, d, d2) || on(c, d, a, d3) || on(c, d, b, d4);
+}
+
+// Whether segment [a, b] meets the convex polygon `footprint` (an edge crossed or inside).
+bool SegmentMeetsPolygon(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                         const std::vector<Eigen::Vector2d>& footprint) {
+  const size_t n = footprint.size();
+  bool inside = n >= 3;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& p = footprint[i];
+    const Eigen::Vector2d& q = footprint[(i + 1) % n];
+    if (SegmentsIntersect(a, b, p, q)) return true;
+    const Eigen::Vector2d e = q - p, r = a - p;
+    if (e.x() * r.y() - e.y() * r.x() < 0) inside = false;  // counter-clockwise: inside is on the left
+  }
+  return inside;
+}
+
+std::string PointText(const Eigen::Vector2d& p) {
+  std::ostringstream out;
+  out << "(" << p.x() << ", " << p.y() << ")";
+  return out.str();
+}
+
+}  // namespace
+
+Status CheckRoutesClear(const Scenario& scenario, const World& world) {
+  for (const RobotSpec& robot : scenario.robots) {
+    const bool uav = robot.kind == RobotKind::kUav;
+    double altitude = robot.altitude_meters;
+    Eigen::Vector2d from = robot.InitialPose().translation();
+    for (const RouteStep& step : robot.route) {
+      if (step.type != RouteStep::Type::kWaypoint) continue;
+      const double leg_altitude = uav && std::isfinite(step.altitude_meters) ? std::min(altitude, step.altitude_meters)
+                                                                              : altitude;
+      const auto blocked = [&](const std::string& what) {
+        return Status::Error(scenario.source_name + ":" + std::to_string(step.source_line) + ": robot '" + robot.name +
+                             "' would go from " + PointText(from) + " to " + PointText(step.target) + " through " +
+                             what + " (the simulator has no collisions: add a waypoint around it)");
+      };
+      for (const WallSegment& wall : world.walls()) {
+        if (uav && leg_altitude > world.wall_height_meters()) continue;
+        if (SegmentsIntersect(from, step.target, wall.a, wall.b)) {
+          return blocked("the wall of line " + std::to_string(wall.source_line));
+        }
+      }
+      for (const Prism& prism : world.prisms()) {
+        const bool in_the_way = uav ? prism.z_max_meters > leg_altitude - 0.2 : prism.z_min_meters < 0.3;
+        if (in_the_way && SegmentMeetsPolygon(from, step.target, prism.footprint)) {
+          return blocked("the furniture or obstacle of line " + std::to_string(prism.source_line));
+        }
+      }
+      if (uav && std::isfinite(step.altitude_meters)) altitude = step.altitude_meters;
+      from = step.target;
+    }
+  }
+  return Status::Ok();
+}
+
 Status PlaceRandomObstacles(const Scenario& scenario, std::mt19937_64* rng, World* world) {
   CHECK(rng != nullptr);
   CHECK(world != nullptr);
@@ -651,6 +723,7 @@ Status SimulateTeam(const Scenario& scenario, const TeamSimulatorOptions& option
   }
   if (!options.IsValid(&why)) return Status::Error("invalid team simulator options: " + why);
   result->world = scenario.world;
+  HETSLAM_RETURN_IF_ERROR(CheckRoutesClear(scenario, result->world));
   HETSLAM_RETURN_IF_ERROR(PlaceRandomObstacles(scenario, rng, &result->world));
   double t_limit = scenario.duration_limit_seconds;
   if (options.max_duration_seconds > 0.0) t_limit = std::min(t_limit, options.max_duration_seconds);

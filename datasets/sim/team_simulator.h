@@ -111,6 +111,15 @@ struct TeamSimulationResult {
 // An error naming the scenario line when they do not fit after many tries.
 Status PlaceRandomObstacles(const Scenario& scenario, std::mt19937_64* rng, World* world);
 
+// Whether every robot's planned route (start, then every waypoint, in straight legs) stays
+// clear of `world`: the simulator moves robots through anything (it has no collisions), so a
+// leg through a wall, a pillar or a shelf gives a log no robot could record. Blocked: a wall
+// (any robot; a UAV above the walls' top passes), a prism reaching below 0.3 m for wheeled and
+// humanoid robots (a table's legs and a floor obstacle block, its top does not), a prism
+// reaching above the leg's altitude minus 0.2 m for a UAV. An error naming the waypoint's line
+// and what is in the way.
+Status CheckRoutesClear(const Scenario& scenario, const World& world);
+
 // One 2D laser scan ray-cast in 3D from world_T_laser (beams in the laser's x-y plane, angles
 // of LaserOptions::BeamAnglesRadians), with the noise and dropouts of SimulateScan: two draws
 // per beam; no hit within range, a dropout or a noisy range outside (0, max) is written as the
@@ -120,8 +129,8 @@ LaserScan SimulateScan3D(const World& world, const LaserOptions& laser,
                          std::mt19937_64* rng, std::vector<Surface>* surfaces = nullptr,
                          int* num_no_return = nullptr);
 
-// Runs a team scenario (Scenario::IsTeam()). Errors: an invalid scenario or options, random
-// obstacles that do not fit.
+// Runs a team scenario (Scenario::IsTeam()). Errors: an invalid scenario or options, a route
+// through a wall or furniture (CheckRoutesClear), random obstacles that do not fit.
 Status SimulateTeam(const Scenario& scenario, const TeamSimulatorOptions& options,
                     std::mt19937_64* rng, TeamSimulationResult* result);
 

@@ -359,6 +359,44 @@ std::map<std::string, std::string> Generate(const Scenario& scenario, uint64_t s
   return ReadTree(dir);
 }
 
+// The simulator has no collisions, so a route leg through a wall or furniture would make a log
+// no robot could record: refused, naming the waypoint's line and what is in the way. A UAV
+// flies over what is lower than it, a ground robot under a table's top (not through its legs).
+TEST(TeamSimulatorTest, RoutesThroughWallsOrFurnitureAreRefused) {
+  const std::string room =
+      "box 5 5 10 10\n"                       // line 1: the room
+      "wall 5 0 5 4\n"                        // line 2: a wall with a gap above y = 4
+      "shelf 8 9.6 8 7.6 0.4 0.85 0.3 1.8\n"  // line 3
+      "obstacle 2 7 0.4 0.4 0.3\n"            // line 4
+      "table 2 2.5 1.2 0.8 0.74\n";           // line 5
+  const auto check = [&](const std::string& robot) {
+    const Scenario scenario = Parse(room + robot);
+    return CheckRoutesClear(scenario, scenario.world);
+  };
+  // Through the wall below its gap (the waypoint is on line 8).
+  Status status = check("robot_begin r wheeled\n  start 3 2 0\n  waypoint 7 2\nrobot_end\n");
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), ::testing::HasSubstr("test.scenario:8: robot 'r'"));
+  EXPECT_THAT(status.message(), ::testing::HasSubstr("the wall of line 2"));
+  // Around it, through the gap: clear.
+  EXPECT_TRUE(check("robot_begin r wheeled\n  start 3 2 0\n  waypoint 4 5\n  waypoint 7 5\nrobot_end\n").ok());
+  // The floor obstacle: in a ground robot's way, under a UAV at 1.4 m.
+  status = check("robot_begin r humanoid\n  start 1 7 0\n  waypoint 3 7\nrobot_end\n");
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), ::testing::HasSubstr("furniture or obstacle of line 4"));
+  EXPECT_TRUE(check("robot_begin d uav\n  start 1 7 0\n  altitude 1.4\n  waypoint 3 7\nrobot_end\n").ok());
+  // The 1.8 m shelf: in a UAV's way at 1.4 m, not at 2.2 m (still under the 2.6 m walls).
+  status = check("robot_begin d uav\n  start 6 8.6 0\n  altitude 1.4\n  waypoint 9 8.6\nrobot_end\n");
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), ::testing::HasSubstr("furniture or obstacle of line 3"));
+  EXPECT_TRUE(check("robot_begin d uav\n  start 6 8.6 0\n  altitude 2.2\n  waypoint 7.5 8.6\nrobot_end\n").ok());
+  // Under the table between its legs (its top is above a ground robot), but not through a leg.
+  EXPECT_TRUE(check("robot_begin r wheeled\n  start 0.8 2.5 0\n  waypoint 3.2 2.5\nrobot_end\n").ok());
+  status = check("robot_begin r wheeled\n  start 1.0 2.175 0\n  waypoint 3.0 2.175\nrobot_end\n");
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), ::testing::HasSubstr("furniture or obstacle of line 5"));
+}
+
 TEST(TeamSimulatorTest, SameSeedSameBytesForAWholeTeamDataset) {
   Scenario scenario;
   ASSERT_TRUE(ReadScenarioFile(ScenarioPath("team_two"), &scenario).ok());
