@@ -751,16 +751,19 @@ class BagReader {
   template <typename Message>
   boost::shared_ptr<Message> Instantiate(const rosbag::MessageInstance& m) {
     layout_error_.clear();
-    // The library deserializes only when the md5sum matches (null otherwise); then the lengths
-    // inside the message are checked first (SerializedLengthsError).
-    if (m.getMD5Sum() == ros::message_traits::MD5Sum<Message>::value()) {
-      std::vector<uint8_t> bytes(m.size());
-      ros::serialization::OStream stream(bytes.data(), static_cast<uint32_t>(bytes.size()));
-      m.write(stream);
-      layout_error_ = SerializedLengthsError(ros::message_traits::DataType<Message>::value(), bytes);
-      if (!layout_error_.empty()) return nullptr;
-    }
-    return m.instantiate<Message>();  // null when the type or its md5sum differs
+    // Another md5sum: the library's answer (null for a type this build does not know).
+    if (m.getMD5Sum() != ros::message_traits::MD5Sum<Message>::value()) return m.instantiate<Message>();
+    // The message's bytes, read once: the lengths inside them checked first
+    // (SerializedLengthsError), then deserialized from the same bytes.
+    std::vector<uint8_t> bytes(m.size());
+    ros::serialization::OStream out(bytes.data(), static_cast<uint32_t>(bytes.size()));
+    m.write(out);
+    layout_error_ = SerializedLengthsError(ros::message_traits::DataType<Message>::value(), bytes);
+    if (!layout_error_.empty()) return nullptr;
+    auto message = boost::make_shared<Message>();
+    ros::serialization::IStream in(bytes.data(), static_cast<uint32_t>(bytes.size()));
+    ros::serialization::deserialize(in, *message);
+    return message;
   }
 
   Status WrongType(int number, const rosbag::MessageInstance& m, const char* expected) {

@@ -101,10 +101,11 @@ void LoopCloser::WideSearch(const SubmapGraph& graph, const NodeId& node, double
   travel_since_wide_search_meters_ = 0.0;
   std::optional<WideCandidate> best;
   const double window = std::min(gate_meters, options_.wide_window_meters);
-  // The two matchers' tables are the largest buffers of the process (Intel: ~20 MB each) and
-  // never in use at once: the standard search's are freed for the wide search, the wide
-  // search's after it (wide searches are rare, at most one per wide_search_spacing_meters; the
-  // standard search runs every node and keeps its buffers).
+  // The matchers' tables are the largest buffers of the process (Intel: ~20 MB) and one set per
+  // thread (frontends/scan_matcher.h ReleaseScratch): freed before the wide search, so that
+  // its larger tables are not allocated next to the standard search's, and after it (wide
+  // searches are rare, at most one per wide_search_spacing_meters; the standard search and the
+  // front end, which run every node and scan, then grow them back to their own size).
   matcher_.ReleaseScratch();
   SearchSubmaps(graph, node, window, std::min(gate_radians, options_.wide_angular_window_radians), gate_meters,
                 gate_radians, options_.wide_min_score, window, nullptr, &best);

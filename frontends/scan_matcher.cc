@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "ceres/ceres.h"
@@ -534,13 +535,14 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     // degeneracy tests and closure weights downstream are calibrated on.
     double p[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};
     std::copy(p, p + 3, pose);
-    ceres::Problem values_problem(problem_options);
+    std::optional<ceres::Problem> values_problem;  // only when the refinement's cost is another
     if (options_.refine_interpolation != ScanCostInterpolation::kValues) {
-      values_problem.AddResidualBlock(
+      values_problem.emplace(problem_options);
+      values_problem->AddResidualBlock(
           CreateScanToLikelihoodFieldCost(field, points_robot, weights, ScanCostInterpolation::kValues), nullptr, pose);
     }
     ceres::CRSMatrix jacobian;
-    (options_.refine_interpolation == ScanCostInterpolation::kValues ? problem : values_problem)
+    (values_problem.has_value() ? *values_problem : problem)
         .Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &jacobian);
     Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
     for (int row = 0; row < jacobian.num_rows; ++row) {
