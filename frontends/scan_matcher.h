@@ -138,8 +138,8 @@ class ScanMatcher {
 
   // The search's table buffers are shared by every ScanMatcher of the calling thread (a front
   // end and a loop closer, or a team's robots, never search at once) and keep the size of the
-  // largest search so far (region cells × (branch_and_bound_depth + 1) floats: tens of MB for
-  // a loop closer's wide window). This frees them; the next search of any matcher of the thread
+  // largest search so far (region cells × (4 + 2 branch_and_bound_depth) bytes: a float for
+  // the leaves, 16 bits per coarser level; MBs for a loop closer's wide window). This frees them; the next search of any matcher of the thread
   // allocates them again. After a rare search over a large window.
   void ReleaseScratch();
   // Bytes the calling thread's table buffers hold (capacity).
