@@ -125,9 +125,22 @@ Status UnionOfLayers(const std::vector<GridLayer>& layers, const std::vector<std
   return Status::Ok();
 }
 
+namespace {
+
+// The union of `stems` read from `dir` (an error names a missing or malformed file).
+Status ReadUnion(const std::string& dir, const std::vector<std::string>& stems, GridLayer* layer) {
+  std::vector<GridLayer> layers(stems.size());
+  for (size_t i = 0; i < stems.size(); ++i) {
+    HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml((std::filesystem::path(dir) / (stems[i] + ".yaml")).string(), &layers[i]));
+  }
+  return UnionOfLayers(layers, stems, layer);
+}
+
+}  // namespace
+
 Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
                       const Pose2& world_T_map, const LayerScoreOptions& options,
-                      RunLayersReport* report) {
+                      RunLayersReport* report, const std::string& seen_dir) {
   CHECK(report != nullptr);
   namespace fs = std::filesystem;
   std::string error;
@@ -137,6 +150,7 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
   result.truth_dir = truth_dir;
   result.world_T_map = world_T_map;
   result.options = options;
+  result.seen_dir = seen_dir;
   std::string looked_for;
   for (const RunLayerSpec& spec : StandardRunLayers()) {
     RunLayerResult layer;
@@ -149,15 +163,14 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
     if (layer.present) {
       GridLayer run;
       HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml(layer.run_path, &run));
-      std::vector<GridLayer> truth_layers(spec.truth_stems.size());
-      for (size_t i = 0; i < spec.truth_stems.size(); ++i) {
-        const std::string truth_path =
-            (fs::path(truth_dir) / (spec.truth_stems[i] + ".yaml")).string();
-        HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml(truth_path, &truth_layers[i]));
-      }
       GridLayer truth;
-      HETSLAM_RETURN_IF_ERROR(UnionOfLayers(truth_layers, spec.truth_stems, &truth));
+      HETSLAM_RETURN_IF_ERROR(ReadUnion(truth_dir, spec.truth_stems, &truth));
       layer.score = ScoreLayer(run, world_T_map, truth, options);
+      if (!seen_dir.empty()) {
+        GridLayer seen;
+        HETSLAM_RETURN_IF_ERROR(ReadUnion(seen_dir, spec.truth_stems, &seen));
+        layer.seen = ScoreLayer(run, world_T_map, seen, options);
+      }
     }
     result.layers.push_back(std::move(layer));
   }
@@ -172,8 +185,10 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
 std::string FormatRunLayersTable(const RunLayersReport& report) {
   std::ostringstream out;
   char line[256];
-  std::snprintf(line, sizeof(line), "%-20s %-36s %9s %9s %21s %21s\n", "layer", "truth",
-                "precision", "recall", "run correct/occupied", "truth found/occupied");
+  const bool seen = !report.seen_dir.empty();
+  std::snprintf(line, sizeof(line), "%-20s %-36s %9s %9s %21s %21s%s\n", "layer", "truth",
+                "precision", "recall", "run correct/occupied", "truth found/occupied",
+                seen ? "  seen recall    seen found/occupied" : "");
   out << line;
   for (const RunLayerResult& layer : report.layers) {
     const std::string name = layer.spec.run_stem + ".pgm";
@@ -187,10 +202,19 @@ std::string FormatRunLayersTable(const RunLayersReport& report) {
           std::to_string(s.run_correct_cells) + "/" + std::to_string(s.run_occupied_cells);
       const std::string truth_counts =
           std::to_string(s.truth_found_cells) + "/" + std::to_string(s.truth_occupied_cells);
-      std::snprintf(line, sizeof(line), "%-20s %-36s %9s %9s %21s %21s\n", name.c_str(),
+      std::string seen_columns;
+      if (seen) {
+        const std::string seen_counts =
+            std::to_string(layer.seen.truth_found_cells) + "/" + std::to_string(layer.seen.truth_occupied_cells);
+        char columns[64];
+        std::snprintf(columns, sizeof(columns), "  %11s %22s", FormatNumber("%.4f", layer.seen.recall()).c_str(),
+                      seen_counts.c_str());
+        seen_columns = columns;
+      }
+      std::snprintf(line, sizeof(line), "%-20s %-36s %9s %9s %21s %21s%s\n", name.c_str(),
                     truth.c_str(), FormatNumber("%.4f", s.precision()).c_str(),
                     FormatNumber("%.4f", s.recall()).c_str(), run_counts.c_str(),
-                    truth_counts.c_str());
+                    truth_counts.c_str(), seen_columns.c_str());
     }
     out << line;
   }
@@ -200,18 +224,24 @@ std::string FormatRunLayersTable(const RunLayersReport& report) {
 Status WriteRunLayersCsv(const RunLayersReport& report, const std::string& path) {
   std::ostringstream csv;
   csv << "layer,truth,status,precision,recall,run_occupied,run_correct,truth_occupied,"
-         "truth_found,tolerance_cells\n";
+         "truth_found,tolerance_cells,seen_recall,seen_occupied,seen_found\n";
   for (const RunLayerResult& layer : report.layers) {
     csv << layer.spec.run_stem << "," << JoinTruth(layer.spec, "+") << ",";
     if (!layer.present) {
-      csv << "absent,,,,,,," << report.options.tolerance_cells << "\n";
+      csv << "absent,,,,,,," << report.options.tolerance_cells << ",,,\n";
       continue;
     }
     const LayerScore& s = layer.score;
     csv << "scored," << FormatNumber("%.6f", s.precision()) << ","
         << FormatNumber("%.6f", s.recall()) << "," << s.run_occupied_cells << ","
         << s.run_correct_cells << "," << s.truth_occupied_cells << "," << s.truth_found_cells
-        << "," << report.options.tolerance_cells << "\n";
+        << "," << report.options.tolerance_cells << ",";
+    if (report.seen_dir.empty()) {
+      csv << ",,\n";
+    } else {
+      csv << FormatNumber("%.6f", layer.seen.recall()) << "," << layer.seen.truth_occupied_cells << ","
+          << layer.seen.truth_found_cells << "\n";
+    }
   }
   const std::string text = csv.str();
   return WriteFileBytes(path, text.data(), text.size());

@@ -39,6 +39,9 @@ namespace hetslam {
 
 // File stems (without .pgm / .yaml) of the true layers and of the truth folder of a dataset.
 constexpr char kTruthLayersFolder[] = "truth_layers";
+// A robot's seen layers (DIR/<robot>/seen_layers of a simulated team dataset): the true layers
+// restricted to the cells its laser returned from, same stems and grid.
+constexpr char kSeenLayersFolder[] = "seen_layers";
 constexpr char kWallsLayer[] = "walls";
 constexpr char kFurnitureLayer[] = "furniture";
 constexpr char kFloorObstaclesLayer[] = "floor_obstacles";
@@ -84,11 +87,15 @@ struct RunLayerResult {
   bool present = false;  // the run folder has <run_stem>.yaml
   std::string run_path;  // <run_dir>/<run_stem>.yaml
   LayerScore score;      // when present
+  // When present and seen layers were given: the score against the seen true layers, of which
+  // only the recall is reported (the run's cells outside them are not wrong).
+  LayerScore seen;
 };
 
 struct RunLayersReport {
   std::string run_dir;
   std::string truth_dir;
+  std::string seen_dir;  // empty: no seen layers
   Pose2 world_T_map;
   LayerScoreOptions options;
   std::vector<RunLayerResult> layers;  // StandardRunLayers() order, absent ones included
@@ -97,18 +104,22 @@ struct RunLayersReport {
 // Scores every layer of StandardRunLayers() present in `run_dir` against the true layers of
 // `truth_dir`. The true layers a present run layer needs must exist (an error names the
 // missing file); a run folder with none of the run layers is an error naming the files looked
-// for. A malformed map is an error naming its file.
+// for. A malformed map is an error naming its file. `seen_dir` non-empty: a robot's seen layers
+// (kSeenLayersFolder, same stems), each present run layer is also scored against their union
+// (RunLayerResult::seen: recall of what the robot's laser returned from).
 Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
                       const Pose2& world_T_map, const LayerScoreOptions& options,
-                      RunLayersReport* report);
+                      RunLayersReport* report, const std::string& seen_dir = "");
 
 // A fixed-width table, one row per layer (absent layers say so):
 //   layer  truth  precision  recall  run_correct/run_occupied  truth_found/truth_occupied
+// and, with seen layers, seen recall and seen_found/seen_occupied.
 std::string FormatRunLayersTable(const RunLayersReport& report);
 
 // The report as CSV with the header
 //   layer,truth,status,precision,recall,run_occupied,run_correct,truth_occupied,truth_found,
-//   tolerance_cells
+//   tolerance_cells,seen_recall,seen_occupied,seen_found
+// (the last three empty without seen layers)
 // (truth = the true layers joined by '+', status = scored or absent, empty numbers and
 // "nan" precision/recall where there is nothing to count). An error names the file.
 Status WriteRunLayersCsv(const RunLayersReport& report, const std::string& path);

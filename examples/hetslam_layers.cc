@@ -33,6 +33,11 @@ DEFINE_string(run_dir, "",
 DEFINE_string(truth_layers, "",
               "Folder of the true layers, world frame: a simulated team dataset's "
               "DIR/truth_layers (walls, furniture, floor_obstacles .pgm + .yaml). Required.");
+DEFINE_string(seen_layers, "",
+              "Optional folder of the robot's seen layers (a simulated team dataset's "
+              "DIR/<robot>/seen_layers: the true layers restricted to the cells its laser "
+              "returned from). Adds the recall against them: what could be mapped from that "
+              "log. Default: none.");
 DEFINE_string(trajectory, "",
               "The run's trajectory, `timestamp x y theta` per line in its map frame; aligned to "
               "--truth to place the maps in the world. Default: <run_dir>/trajectory.txt.");
@@ -49,7 +54,8 @@ DEFINE_int32(tolerance_cells, 1,
 DEFINE_string(out_csv, "",
               "Optional CSV file receiving one row per run layer (absent ones too): layer, truth, "
               "status, precision, recall, run_occupied, run_correct, truth_occupied, truth_found, "
-              "tolerance_cells.");
+              "tolerance_cells, seen_recall, seen_occupied, seen_found (the last three empty "
+              "without --seen_layers).");
 
 namespace hetslam {
 namespace {
@@ -99,7 +105,7 @@ int Run() {
 
   RunLayersReport report;
   status = ScoreRunLayers(FLAGS_run_dir, FLAGS_truth_layers, alignment.truth_T_estimate, options,
-                          &report);
+                          &report, FLAGS_seen_layers);
   if (!status.ok()) return Fail(status.message());
 
   const Pose2& w = alignment.truth_T_estimate;

@@ -367,7 +367,8 @@ SimulatedTag ToSimulatedTag(const TagSpec& tag) {
 
 // Samples every sensor of one robot from its truth.
 void SimulateSensors(const Scenario& scenario, const World& world, const RobotSpec& spec,
-                     double dt, std::mt19937_64* rng, RobotSimulation* out) {
+                     const TruthLayerOptions& truth_layers, double dt, std::mt19937_64* rng,
+                     RobotSimulation* out) {
   std::mt19937_64 laser_rng((*rng)());
   std::mt19937_64 marg_rng((*rng)());
   std::mt19937_64 odometry_rng((*rng)());
@@ -381,10 +382,21 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
     const TruthAt truth = SampleTruth(out->truth, dt, t);
     const Eigen::Isometry3d body_T_laser = spec.BodyTLaser(spec.HeadPitchRadians(t));
     std::vector<Surface> surfaces;
+    std::vector<RayHit> returned;
     int no_return = 0;
     LaserReading reading;
-    reading.scan = SimulateScan3D(world, spec.laser, truth.world_T_body * body_T_laser, t,
-                                  &laser_rng, &surfaces, &no_return);
+    const Eigen::Isometry3d world_T_laser = truth.world_T_body * body_T_laser;
+    reading.scan = SimulateScan3D(world, spec.laser, world_T_laser, t, &laser_rng, &surfaces,
+                                  &no_return, &returned);
+    for (size_t i = 0; i < returned.size(); ++i) {
+      const RayHit& hit = returned[i];
+      if (!hit.hit || (hit.surface != Surface::kWall && hit.prism_index < 0)) continue;
+      const double angle = reading.scan.angles_radians[i];
+      const Eigen::Vector3d end = world_T_laser * (hit.range_meters * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.0));
+      const TruthLayer layer = hit.prism_index >= 0 ? ClassifyPrism(world.prisms()[hit.prism_index], truth_layers)
+                                                    : TruthLayer::kWalls;
+      AddSeenPoint(end.head<2>(), layer, truth_layers, &out->seen);
+    }
     reading.scan.robot_T_sensor = body_T_laser;
     if (spec.kind == RobotKind::kHumanoid || log.mounts.empty()) {
       log.mounts.push_back(Stamped(t, body_T_laser));
@@ -671,7 +683,7 @@ Status PlaceRandomObstacles(const Scenario& scenario, std::mt19937_64* rng, Worl
 LaserScan SimulateScan3D(const World& world, const LaserOptions& laser,
                          const Eigen::Isometry3d& world_T_laser, double stamp_seconds,
                          std::mt19937_64* rng, std::vector<Surface>* surfaces,
-                         int* num_no_return) {
+                         int* num_no_return, std::vector<RayHit>* returned) {
   CHECK(rng != nullptr);
   std::string why;
   CHECK(laser.IsValid(&why)) << why;
@@ -690,6 +702,7 @@ LaserScan SimulateScan3D(const World& world, const LaserOptions& laser,
   world.CastRays3D(world_T_laser.translation(), directions, laser.max_range_meters, &hits);
   scan.ranges_meters.resize(n);
   if (surfaces != nullptr) surfaces->assign(n, Surface::kNone);
+  if (returned != nullptr) returned->assign(n, RayHit());
   int no_return = 0;
   for (size_t i = 0; i < n; ++i) {
     // Both numbers are drawn for every beam, so the stream does not depend on the geometry.
@@ -700,7 +713,11 @@ LaserScan SimulateScan3D(const World& world, const LaserOptions& laser,
       const double noisy = hits[i].range_meters + noise;
       if (scan.IsValidRange(noisy)) measured = noisy;
     }
-    if (measured == laser.max_range_meters) ++no_return;
+    if (measured == laser.max_range_meters) {
+      ++no_return;
+    } else if (returned != nullptr) {
+      (*returned)[i] = hits[i];
+    }
     scan.ranges_meters[i] = measured;
     if (surfaces != nullptr) (*surfaces)[i] = hits[i].surface;
   }
@@ -736,7 +753,7 @@ Status SimulateTeam(const Scenario& scenario, const TeamSimulatorOptions& option
     robot.image_noise_seed = (*rng)();
     SimulateMotion(spec, dt, t_limit, &robot);
     DifferentiateTruth(dt, &robot.truth);
-    SimulateSensors(scenario, result->world, spec, dt, &sensor_rng, &robot);
+    SimulateSensors(scenario, result->world, spec, options.truth_layers, dt, &sensor_rng, &robot);
     robot.log.params["control_rate_hz"] = Fixed(options.control_rate_hz, 3);
     result->robots.push_back(std::move(robot));
   }
@@ -914,6 +931,11 @@ Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
   files->truth_layers_directory = (root / kTruthLayersFolder).string();
   HETSLAM_RETURN_IF_ERROR(WriteTruthLayers(files->truth_layers_directory, truth_layers,
                                            options.truth_layers, &files->truth_layer_paths));
+  for (const RobotSimulation& robot : result.robots) {
+    HETSLAM_RETURN_IF_ERROR(WriteTruthLayers((root / robot.name / kSeenLayersFolder).string(),
+                                             SeenTruthLayers(truth_layers, robot.seen),
+                                             options.truth_layers, nullptr, robot.name));
+  }
 
   files->world_image_path = (root / "world.png").string();
   return WriteTeamWorldImage(files->world_image_path, scenario, result,

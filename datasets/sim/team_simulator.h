@@ -98,6 +98,7 @@ struct RobotSimulation {
   double path_length_meters = 0.0;  // horizontal distance travelled
   int num_no_return_beams = 0;
   std::map<Surface, int> beams_by_surface;  // what the returned beams hit (before noise)
+  SeenCells seen;  // the true layers' cells its returned beams ended on (truth_layers.h)
 };
 
 struct TeamSimulationResult {
@@ -123,11 +124,13 @@ Status CheckRoutesClear(const Scenario& scenario, const World& world);
 // One 2D laser scan ray-cast in 3D from world_T_laser (beams in the laser's x-y plane, angles
 // of LaserOptions::BeamAnglesRadians), with the noise and dropouts of SimulateScan: two draws
 // per beam; no hit within range, a dropout or a noisy range outside (0, max) is written as the
-// max range. `surfaces` (optional) receives what each beam hit before noise (kNone: nothing).
+// max range. `surfaces` (optional) receives what each beam hit before noise (kNone: nothing);
+// `returned` (optional) each beam's hit before noise when the beam returned (one not written
+// as the max range), else a RayHit with hit = false.
 LaserScan SimulateScan3D(const World& world, const LaserOptions& laser,
                          const Eigen::Isometry3d& world_T_laser, double stamp_seconds,
                          std::mt19937_64* rng, std::vector<Surface>* surfaces = nullptr,
-                         int* num_no_return = nullptr);
+                         int* num_no_return = nullptr, std::vector<RayHit>* returned = nullptr);
 
 // Runs a team scenario (Scenario::IsTeam()). Errors: an invalid scenario or options, a route
 // through a wall or furniture (CheckRoutesClear), random obstacles that do not fit.
@@ -146,7 +149,8 @@ struct TeamDatasetFiles {
 // Writes the dataset: <dir>/team.txt (robots and tag truth), <dir>/<robot>/log.txt,
 // <dir>/<robot>/images/NNNNNN.png (rendered by TagCamera when options.render_images),
 // <dir>/truth_layers/{walls,furniture,floor_obstacles}.{pgm,yaml} (the true map layers of
-// result.world, truth_layers.h) and <dir>/world.png. `directory` is created if missing.
+// result.world, truth_layers.h), <dir>/<robot>/seen_layers/ (the same three, restricted to
+// what that robot's laser returned from: SeenTruthLayers) and <dir>/world.png. `directory` is created if missing.
 // `comment_lines` go into the manifest and every log (e.g. scenario and seed).
 Status WriteTeamDataset(const std::string& directory, const Scenario& scenario,
                         const TeamSimulationResult& result, const TeamSimulatorOptions& options,

@@ -140,8 +140,49 @@ Status RasterizeTruthLayers(const World& world, const TruthLayerOptions& options
   return Status::Ok();
 }
 
+void AddSeenPoint(const Eigen::Vector2d& p_world, TruthLayer layer, const TruthLayerOptions& options,
+                  SeenCells* seen) {
+  CHECK(seen != nullptr);
+  CHECK(p_world.allFinite()) << "a seen end point must be finite";
+  const double r = options.resolution_meters;
+  const std::pair<int, int> cell(static_cast<int>(std::floor(SnapToLattice(p_world.x() / r))),
+                                 static_cast<int>(std::floor(SnapToLattice(p_world.y() / r))));
+  switch (layer) {
+    case TruthLayer::kWalls: seen->walls.insert(cell); break;
+    case TruthLayer::kFurniture: seen->furniture.insert(cell); break;
+    case TruthLayer::kFloorObstacles: seen->floor_obstacles.insert(cell); break;
+  }
+}
+
+namespace {
+
+GridLayer SeenPart(const GridLayer& truth, const std::set<std::pair<int, int>>& seen) {
+  GridLayer part = GridLayer::Filled(truth.geometry, CellState::kFree);
+  const double r = truth.geometry.resolution_meters();
+  // The grid's origin is a whole number of cells from the world origin.
+  const int x0 = static_cast<int>(std::lround(truth.geometry.origin().x() / r));
+  const int y0 = static_cast<int>(std::lround(truth.geometry.origin().y() / r));
+  for (const auto& [wx, wy] : seen) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const CellIndex c{wx - x0 + dx, wy - y0 + dy};
+        if (truth.geometry.Contains(c) && truth.at(c) == CellState::kOccupied) part.set(c, CellState::kOccupied);
+      }
+    }
+  }
+  return part;
+}
+
+}  // namespace
+
+TruthLayerMaps SeenTruthLayers(const TruthLayerMaps& maps, const SeenCells& seen) {
+  return {SeenPart(maps.walls, seen.walls), SeenPart(maps.furniture, seen.furniture),
+          SeenPart(maps.floor_obstacles, seen.floor_obstacles)};
+}
+
 Status WriteTruthLayers(const std::string& directory, const TruthLayerMaps& maps,
-                        const TruthLayerOptions& options, std::vector<std::string>* paths) {
+                        const TruthLayerOptions& options, std::vector<std::string>* paths,
+                        const std::string& seen_by) {
   std::error_code ec;
   std::filesystem::create_directories(directory, ec);
   if (ec) return Status::Error("cannot create '" + directory + "': " + ec.message());
@@ -164,7 +205,10 @@ Status WriteTruthLayers(const std::string& directory, const TruthLayerMaps& maps
         *entry.map, base,
         {std::string("hetslam simulator truth layer '") + TruthLayerName(entry.layer) +
              "', world frame (datasets/sim/truth_layers.h)",
-         "occupied: " + entry.rule}));
+         "occupied: " + entry.rule +
+             (seen_by.empty() ? std::string()
+                              : ", only the cells within one cell of an end point of " + seen_by +
+                                    "'s laser beams on them (SeenTruthLayers)")}));
     if (paths != nullptr) {
       paths->push_back(base + ".pgm");
       paths->push_back(base + ".yaml");

@@ -31,7 +31,9 @@
 #ifndef HETSLAM_DATASETS_SIM_TRUTH_LAYERS_H_
 #define HETSLAM_DATASETS_SIM_TRUTH_LAYERS_H_
 
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/map_io.h"
@@ -70,13 +72,31 @@ struct TruthLayerMaps {
 Status RasterizeTruthLayers(const World& world, const TruthLayerOptions& options,
                             TruthLayerMaps* maps);
 
+// What one robot's laser returned from, per true layer: the world-lattice cells (x = floor(px
+// / resolution), y likewise) of its beams' noise-free end points on walls, on furniture and on
+// floor obstacles (floor and ceiling hits, and beams without a return, are not kept). A true
+// cell no beam ever reached (the far side of an obstacle, a room the robot never looked into)
+// cannot be mapped from that log, so recall is also scored against the seen cells.
+struct SeenCells {
+  std::set<std::pair<int, int>> walls, furniture, floor_obstacles;
+};
+// Adds the end point `p_world` of a beam that hit `layer` (CHECK-fails on a non-finite point).
+void AddSeenPoint(const Eigen::Vector2d& p_world, TruthLayer layer, const TruthLayerOptions& options,
+                  SeenCells* seen);
+// `maps` restricted to their seen cells: a true cell stays occupied when an end point of its
+// layer lies in it or in one of its eight neighbours (an end point on an outline can round into
+// the next cell), every other cell is free. Same grid as `maps`.
+TruthLayerMaps SeenTruthLayers(const TruthLayerMaps& maps, const SeenCells& seen);
+
 // Writes <directory>/walls.pgm/.yaml, furniture.pgm/.yaml and floor_obstacles.pgm/.yaml
 // (core/map_io.h, WriteMapPgmYaml: occupied 0, free 254; the YAML origin is the world
 // position of the lower-left corner of the lower-left cell; comment lines at the top of each
 // YAML state the layer's rule and H). `directory` is created if missing. `paths` (optional)
 // receives the six file paths in that order.
+// `seen_by` non-empty: the maps are SeenTruthLayers of that robot, and the YAML comments say so.
 Status WriteTruthLayers(const std::string& directory, const TruthLayerMaps& maps,
-                        const TruthLayerOptions& options, std::vector<std::string>* paths);
+                        const TruthLayerOptions& options, std::vector<std::string>* paths,
+                        const std::string& seen_by = "");
 
 }  // namespace sim
 }  // namespace hetslam

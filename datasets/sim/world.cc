@@ -278,11 +278,12 @@ void World::CastRays3D(const Eigen::Vector3d& origin, const std::vector<Eigen::V
     CHECK(norm > 0.0 && std::isfinite(norm)) << "ray direction must be non-zero and finite";
     const Eigen::Vector3d d = directions[i] / norm;
     RayHit& best = (*hits)[i];
-    auto consider = [&best](double t, Surface surface, int line) {
+    auto consider = [&best](double t, Surface surface, int line, int prism_index = -1) {
       if (t < best.range_meters) {
         best.range_meters = t;
         best.surface = surface;
         best.source_line = line;
+        best.prism_index = prism_index;
       }
     };
     if (d.z() < 0.0 && origin.z() >= 0.0) consider(-origin.z() / d.z(), Surface::kFloor, 0);
@@ -295,7 +296,8 @@ void World::CastRays3D(const Eigen::Vector3d& origin, const std::vector<Eigen::V
                wall->source_line);
     }
     for (const Prism* prism : prisms) {
-      consider(RayPrismDistance(origin, d, *prism), prism->surface, prism->source_line);
+      consider(RayPrismDistance(origin, d, *prism), prism->surface, prism->source_line,
+               static_cast<int>(prism - prisms_.data()));
     }
     if (best.range_meters <= max_range_meters) {
       best.hit = true;

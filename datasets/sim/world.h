@@ -57,6 +57,7 @@ struct RayHit {
   double range_meters = std::numeric_limits<double>::infinity();
   Surface surface = Surface::kNone;
   int source_line = 0;
+  int prism_index = -1;  // into World::prisms() when a prism was hit, else -1
 };
 
 // Table geometry used by World::AddTable (metres).

@@ -254,12 +254,45 @@ TEST_F(ScoreRunLayersTest, ScoresThePresentLayersAndNamesTheAbsentOnes) {
   const std::string csv((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_EQ(
       "layer,truth,status,precision,recall,run_occupied,run_correct,truth_occupied,truth_found,"
-      "tolerance_cells\n"
-      "map,walls+furniture,scored,0.909091,1.000000,55,50,50,50,1\n"
-      "walls,walls,absent,,,,,,,1\n"
-      "floor_obstacles,floor_obstacles,absent,,,,,,,1\n"
-      "planner,walls+furniture+floor_obstacles,absent,,,,,,,1\n",
+      "tolerance_cells,seen_recall,seen_occupied,seen_found\n"
+      "map,walls+furniture,scored,0.909091,1.000000,55,50,50,50,1,,,\n"
+      "walls,walls,absent,,,,,,,1,,,\n"
+      "floor_obstacles,floor_obstacles,absent,,,,,,,1,,,\n"
+      "planner,walls+furniture+floor_obstacles,absent,,,,,,,1,,,\n",
       csv);
+}
+
+TEST_F(ScoreRunLayersTest, SeenLayersGiveTheRecallOfWhatTheRobotSaw) {
+  // The robot's laser returned from half the wall row and all the furniture; the run's map has
+  // only the first 15 wall cells: recall 25 / 50 of the truth, 25 / 30 of what was seen.
+  std::filesystem::create_directories(root_ + "/seen");
+  GridLayer walls = EmptyLayer(), furniture = EmptyLayer(), floor_obstacles = EmptyLayer();
+  MarkRow(&walls, 2, 0, 19);
+  MarkRow(&furniture, 15, 10, 19);
+  ASSERT_TRUE(WriteMapPgmYaml(walls, root_ + "/seen/walls").ok());
+  ASSERT_TRUE(WriteMapPgmYaml(furniture, root_ + "/seen/furniture").ok());
+  ASSERT_TRUE(WriteMapPgmYaml(floor_obstacles, root_ + "/seen/floor_obstacles").ok());
+  GridLayer map = EmptyLayer();
+  MarkRow(&map, 2, 0, 14);
+  MarkRow(&map, 15, 10, 19);
+  ASSERT_TRUE(WriteMapPgmYaml(map, root_ + "/run/map").ok());
+  RunLayersReport report;
+  const Status status = ScoreRunLayers(root_ + "/run", root_ + "/truth", Pose2(), LayerScoreOptions(), &report,
+                                       root_ + "/seen");
+  ASSERT_TRUE(status.ok()) << status.message();
+  const RunLayerResult& result = report.layers[0];
+  // Within one cell: wall cells 0..15 of the truth are found.
+  EXPECT_EQ(50, result.score.truth_occupied_cells);
+  EXPECT_EQ(26, result.score.truth_found_cells);
+  EXPECT_EQ(30, result.seen.truth_occupied_cells);
+  EXPECT_EQ(26, result.seen.truth_found_cells);
+  EXPECT_DOUBLE_EQ(1.0, result.score.precision());
+  EXPECT_THAT(FormatRunLayersTable(report), HasSubstr("26/30"));
+  const std::string csv_path = root_ + "/scores.csv";
+  ASSERT_TRUE(WriteRunLayersCsv(report, csv_path).ok());
+  std::ifstream in(csv_path);
+  const std::string csv((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(csv, HasSubstr("map,walls+furniture,scored,1.000000,0.520000,25,25,50,26,1,0.866667,30,26\n"));
 }
 
 TEST_F(ScoreRunLayersTest, PlannerLayerIsScoredAgainstAllThree) {

@@ -245,6 +245,57 @@ TEST(TruthLayersTest, TeamDatasetCarriesTheLayersOfItsWorld) {
   EXPECT_TRUE(occupied_near(expected.furniture, {4.0, 4.55}));        // the shelf's front
   EXPECT_TRUE(occupied_near(expected.furniture, {2.9, 1.0}));         // the table top's west side
   EXPECT_FALSE(occupied_near(expected.floor_obstacles, {4.0, 4.55}));
+
+  // The robot's seen layers: on the same grid, inside the true ones, not empty (the standing
+  // robot sees the walls in front of it), and not all of them (it never sees behind itself
+  // in one second).
+  ASSERT_EQ(1u, result.robots.size());
+  const std::string seen_dir = dir + "/" + result.robots[0].name + "/seen_layers";
+  for (const auto& [name, layer] : {std::make_pair("walls", &expected.walls),
+                                    std::make_pair("furniture", &expected.furniture),
+                                    std::make_pair("floor_obstacles", &expected.floor_obstacles)}) {
+    SCOPED_TRACE(name);
+    GridLayer seen;
+    const Status status = ReadMapPgmYaml(seen_dir + "/" + name + ".yaml", &seen);
+    ASSERT_TRUE(status.ok()) << status.message();
+    ASSERT_EQ(layer->cells.size(), seen.cells.size());
+    for (size_t i = 0; i < seen.cells.size(); ++i) {
+      if (seen.cells[i] == CellState::kOccupied) {
+        ASSERT_EQ(CellState::kOccupied, layer->cells[i]) << i;
+      }
+    }
+  }
+  GridLayer seen_walls;
+  ASSERT_TRUE(ReadMapPgmYaml(seen_dir + "/walls.yaml", &seen_walls).ok());
+  EXPECT_GT(seen_walls.CountCells(CellState::kOccupied), 20);
+  EXPECT_LT(seen_walls.CountCells(CellState::kOccupied), expected.walls.CountCells(CellState::kOccupied));
+}
+
+// A seen end point keeps the true cells of its layer within one cell of it, nothing else, and
+// only in its own layer.
+TEST(TruthLayersTest, SeenLayersKeepTheTrueCellsNearEndPointsOfTheirLayer) {
+  World world;
+  world.AddWall({0.0, 0.0}, {2.0, 0.0});
+  world.AddBoxPrism({1.05, 1.05}, {0.2, 0.2}, 0.0, 0.0, 0.2, Surface::kObstacle);
+  const TruthLayerOptions options = DecimetreOptions();
+  const TruthLayerMaps maps = Rasterize(world, options);
+  SeenCells seen;
+  AddSeenPoint({0.55, 0.0}, TruthLayer::kWalls, options, &seen);           // wall cell (5, 0)
+  AddSeenPoint({0.95, 1.05}, TruthLayer::kFloorObstacles, options, &seen);  // the box's west side
+  AddSeenPoint({1.55, 0.0}, TruthLayer::kFurniture, options, &seen);       // no furniture there
+  EXPECT_EQ(1u, seen.walls.size());
+  const TruthLayerMaps kept = SeenTruthLayers(maps, seen);
+  const GridGeometry& g = maps.walls.geometry;
+  const Eigen::Vector2i offset(static_cast<int>(std::lround(g.origin().x() / 0.1)),
+                               static_cast<int>(std::lround(g.origin().y() / 0.1)));
+  CellSet walls;
+  for (const auto& [x, y] : OccupiedCells(kept.walls)) walls.insert({x + offset.x(), y + offset.y()});
+  EXPECT_EQ(CellSet({{4, 0}, {5, 0}, {6, 0}}), walls);
+  EXPECT_EQ(0, kept.furniture.CountCells(CellState::kOccupied));
+  const CellSet obstacles = OccupiedCells(kept.floor_obstacles);
+  EXPECT_FALSE(obstacles.empty());
+  for (const auto& [x, y] : obstacles) EXPECT_LE(x + offset.x(), 10);  // the west side and its corners
+  EXPECT_LT(obstacles.size(), OccupiedCells(maps.floor_obstacles).size());
 }
 
 }  // namespace
