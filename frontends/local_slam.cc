@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "Eigen/Eigenvalues"
@@ -64,6 +65,8 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
     msg << "floor_attitude_tolerance_radians must be in [0, 0.5); ";
   if (!(floor_obstacle_max_height_meters >= 0 && floor_obstacle_min_drop_meters >= 0))
     msg << "floor obstacle height and drop must be >= 0; ";
+  if (!(floor_obstacle_min_height_above_floor_meters >= 0 && floor_obstacle_min_height_above_floor_meters <= 1))
+    msg << "floor_obstacle_min_height_above_floor_meters must be in [0, 1]; ";
   if (!(suspend_floor_fraction > 0 && suspend_floor_fraction <= 1)) msg << "suspend_floor_fraction must be in (0, 1]; ";
   if (!(degenerate_eigenvalue_ratio >= 0 && degenerate_eigenvalue_ratio < 1))
     msg << "degenerate_eigenvalue_ratio must be in [0, 1); ";
@@ -175,6 +178,68 @@ bool FacesFloor(const LocalSlamOptions& options, const ScanPoints& points) {
          points.floor_points > options.suspend_floor_fraction * points.valid_points;
 }
 
+bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line) {
+  constexpr int kMinPoints = 20;
+  constexpr double kMinSpanMeters = 0.3;
+  if (static_cast<int>(points.size()) < kMinPoints) return false;
+  FloorLine fit;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector3f& p : points) centre += p.head<2>().cast<double>();
+  centre /= static_cast<double>(points.size());
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector2d d = p.head<2>().cast<double>() - centre;
+    scatter += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> axes(scatter);
+  fit.centre = centre.cast<float>();
+  fit.direction = axes.eigenvectors().col(1).cast<float>();  // the larger eigenvalue's
+  float t_min = std::numeric_limits<float>::infinity(), t_max = -t_min;
+  for (const Eigen::Vector3f& p : points) {
+    const float t = fit.direction.dot(p.head<2>() - fit.centre);
+    t_min = std::min(t_min, t);
+    t_max = std::max(t_max, t);
+  }
+  if (t_max - t_min < kMinSpanMeters) return false;
+  float keep_within = std::numeric_limits<float>::infinity();
+  std::vector<float> absolute_residuals;
+  for (int round = 0; round < 5; ++round) {
+    double n = 0, st = 0, sz = 0, stt = 0, stz = 0;
+    for (const Eigen::Vector3f& p : points) {
+      if (std::abs(p.z() - fit.HeightAt(p.head<2>())) > keep_within) continue;
+      const double t = fit.direction.dot(p.head<2>() - fit.centre);
+      n += 1;
+      st += t;
+      sz += p.z();
+      stt += t * t;
+      stz += t * p.z();
+    }
+    const double denominator = n * stt - st * st;
+    if (n < kMinPoints || denominator <= 0.0) return false;
+    FloorLine next = fit;
+    next.slope = static_cast<float>((n * stz - st * sz) / denominator);
+    next.offset = static_cast<float>((sz - next.slope * st) / n);
+    double sum_sq = 0.0;
+    for (const Eigen::Vector3f& p : points) {
+      if (std::abs(p.z() - fit.HeightAt(p.head<2>())) > keep_within) continue;
+      const double residual = p.z() - next.HeightAt(p.head<2>());
+      sum_sq += residual * residual;
+    }
+    next.inliers = static_cast<int>(n);
+    next.rms = static_cast<float>(std::sqrt(sum_sq / n));
+    fit = next;
+    // The next round keeps the points within 3 sigma, sigma from the median absolute residual
+    // of all points (robust: the obstacles among them, all on one side, barely move it).
+    absolute_residuals.clear();
+    for (const Eigen::Vector3f& p : points) absolute_residuals.push_back(std::abs(p.z() - fit.HeightAt(p.head<2>())));
+    std::nth_element(absolute_residuals.begin(), absolute_residuals.begin() + absolute_residuals.size() / 2,
+                     absolute_residuals.end());
+    keep_within = std::max(0.01f, 3.f * 1.4826f * absolute_residuals[absolute_residuals.size() / 2]);
+  }
+  *line = fit;
+  return true;
+}
+
 ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
                              const std::optional<BodyAttitude>& attitude) {
   ScanPoints points;
@@ -194,14 +259,36 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   const float obstacle_min_drop = static_cast<float>(options.floor_obstacle_min_drop_meters);
   int previous_beam = -2;
   points.projected = attitude.has_value();
-  for (const ProjectedPoint& p : ProjectScan(scan, body)) {
+  const std::vector<ProjectedPoint> projected = ProjectScan(scan, body);
+  // The floor's tolerance grows with the distance from the sensor: an attitude error of
+  // floor_attitude_tolerance_radians lifts a far floor hit by distance * tan(error).
+  auto in_floor_band = [&](const ProjectedPoint& p) {
+    return attitude.has_value() && p.z_meters < floor_height + floor_slope * (p.p_robot - sensor_xy).norm();
+  };
+  auto low_obstacle_shape = [&](const ProjectedPoint& p) {
+    return obstacle_max_height > 0 && p.z_meters <= obstacle_max_height &&
+           p.z_meters < sensor_height - obstacle_min_drop && p.p_robot.norm() <= max_range;
+  };
+  // Low floor obstacles: heights above the floor this scan sees (FitFloorLine).
+  std::optional<FloorLine> floor_line;
+  const float min_above_floor = static_cast<float>(options.floor_obstacle_min_height_above_floor_meters);
+  if (attitude.has_value() && min_above_floor > 0) {
+    std::vector<Eigen::Vector3f> floor_hits;
+    for (const ProjectedPoint& p : projected) {
+      if (in_floor_band(p)) floor_hits.emplace_back(p.p_robot.x(), p.p_robot.y(), p.z_meters);
+    }
+    FloorLine line;
+    if (FitFloorLine(floor_hits, &line)) floor_line = line;
+  }
+  const float above_floor = floor_line.has_value() ? std::max(min_above_floor, 4.f * floor_line->rms) : 0.f;
+  for (const ProjectedPoint& p : projected) {
     ++points.valid_points;
-    // The floor's tolerance grows with the distance from the sensor: an attitude error of
-    // floor_attitude_tolerance_radians lifts a far floor hit by distance * tan(error).
-    const float floor_tolerance =
-        floor_height + floor_slope * (p.p_robot - sensor_xy).norm();
-    if (attitude.has_value() && p.z_meters < floor_tolerance) {
+    if (in_floor_band(p)) {
       ++points.floor_points;
+      if (floor_line.has_value() && p.z_meters - floor_line->HeightAt(p.p_robot) >= above_floor &&
+          low_obstacle_shape(p)) {
+        points.floor_obstacles.push_back(p.p_robot);
+      }
       continue;
     }
     if (p.p_robot.norm() > max_range) continue;

@@ -75,6 +75,14 @@ struct LocalSlamOptions {
   // in the localisation map, kept for the planner map. 0 = off.
   double floor_obstacle_max_height_meters = 0.35;
   double floor_obstacle_min_drop_meters = 0.15;
+  // Low floor obstacles (below the floor rule's band above): a tilted scan's floor hits lie on
+  // one line, their heights displaced from 0 only by the attitude's and the body height's
+  // error, linearly along it; the line fitted to them (robustly, FitFloorLine) is the floor as
+  // this scan sees it. A hit in the floor band at least this high above it (or 4 times its RMS
+  // residual, if more), and meeting the floor-obstacle rules above, is a floor obstacle too (a
+  // 5 cm box the band would call floor). It still counts as a floor hit for suspension
+  // (suspend_floor_fraction). 0 = off.
+  double floor_obstacle_min_height_above_floor_meters = 0.03;
   // Paper §III-A: when more than this fraction of a scan's valid beams hit the floor, the
   // laser faces the floor: the scan is neither matched nor inserted (suspended) and the
   // caller's prediction (the EKF) carries the pose. 1 = never suspend.
@@ -171,7 +179,7 @@ struct ScanPoints {
   std::vector<float> heights_meters; // one per point of `all`: height above the floor
   bool projected = false;            // 2.5D projection with an attitude (heights meaningful)
   int valid_points = 0;              // valid beams of the scan
-  int floor_points = 0;              // removed as floor hits
+  int floor_points = 0;              // removed as floor hits (with the low floor obstacles)
   std::vector<Eigen::Vector2f> floor_obstacles;  // robot frame; not in `all`
   std::vector<Eigen::Vector2f> matching;
   BodyAttitude attitude;             // of the projection (all 0 when not projected)
@@ -182,6 +190,28 @@ struct ScanPoints {
 
 ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
                              const std::optional<BodyAttitude>& attitude = std::nullopt);
+
+// The floor as one projected scan sees it (LocalSlamOptions::
+// floor_obstacle_min_height_above_floor_meters). A tilted scan's plane meets the floor in a line,
+// so its floor hits lie on one line of the ground plane (their projected x, y), and their
+// heights along it vary linearly (an attitude error tilts that line; a body height error lifts
+// it): z = offset + slope · t, t = direction · (p - centre), robot frame.
+struct FloorLine {
+  Eigen::Vector2f centre = Eigen::Vector2f::Zero();
+  Eigen::Vector2f direction = Eigen::Vector2f::UnitX();
+  float offset = 0.f;
+  float slope = 0.f;
+  float rms = 0.f;   // of the inliers' height residuals
+  int inliers = 0;
+  float HeightAt(const Eigen::Vector2f& p) const { return offset + slope * direction.dot(p - centre); }
+};
+// Fits `line` to `points` (x, y, z of a scan's floor hits): the direction is the principal axis
+// of their x, y; the heights by least squares, then four more times over the points within
+// 3 sigma (at least 1 cm) of the previous fit, sigma from the median absolute residual, so that
+// the low obstacles among them do not lift it.
+// False, `line` untouched, with fewer than 20 points (or inliers) or when they span less than
+// 0.3 m along the axis.
+bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line);
 
 // Paper §III-A/E: whether the laser faces the floor (more than suspend_floor_fraction of the
 // scan's valid beams hit it): then matching and map updates stop (LocalResult::suspended).

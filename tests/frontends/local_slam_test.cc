@@ -307,7 +307,17 @@ TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) 
   // (z <= 0.35 m and more than 0.15 m below the 0.5 m sensor), kept apart from the structure.
   EXPECT_GT(projected.floor_obstacles.size(), 0u);
   for (const Eigen::Vector2f& p : projected.floor_obstacles) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4);
-  EXPECT_EQ(181u, projected.all.size() + projected.floor_points + projected.floor_obstacles.size());
+  // Wall bottoms in the floor band (below 8 cm) are floor obstacles too (more than 3 cm above
+  // the floor line), and still counted as floor hits.
+  int low = 0;
+  for (const Eigen::Vector2f& p : projected.floor_obstacles) low += p.norm() > 0 && std::abs(p.y()) > 0.99;
+  options.floor_obstacle_min_height_above_floor_meters = 0.0;
+  const ScanPoints banded = PrepareScanPoints(options, scan, BodyAttitude());
+  options.floor_obstacle_min_height_above_floor_meters = 0.03;
+  EXPECT_EQ(projected.floor_points, banded.floor_points);
+  EXPECT_GT(projected.floor_obstacles.size(), banded.floor_obstacles.size());
+  EXPECT_EQ(181u, banded.all.size() + banded.floor_points + banded.floor_obstacles.size());
+  EXPECT_EQ(projected.all.size(), banded.all.size());
   options.floor_obstacle_max_height_meters = 0.0;  // off: every non-floor point is structure
   EXPECT_EQ(181u, PrepareScanPoints(options, scan, BodyAttitude()).all.size() + projected.floor_points);
   options.floor_obstacle_max_height_meters = 0.35;
@@ -318,6 +328,72 @@ TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) 
     EXPECT_GT(projected.heights_meters[i], 0.35);  // wall hits above the floor-obstacle band
   }
   for (const Eigen::Vector2f& p : projected.all) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4) << p.transpose();
+}
+
+// The same laser facing the floor of an open hall, a 5 cm box 0.55 m ahead (its face across
+// |y| <= 0.1 m), and a projection whose pitch is 1° off: the box's face is hit at 3.9 cm,
+// projected at ~4.9 cm, inside the floor band (8 cm), where the floor hits are lifted by up to
+// ~1 cm. Above the floor line fitted to the scan's floor hits, the face is a floor obstacle;
+// the floor is not.
+TEST(PrepareScanPointsTest, LowObstacleInTheFloorBandStandsAboveTheScansFloorLine) {
+  LaserScan scan;
+  scan.angles_radians = EvenlySpacedAngles(121, -M_PI / 3, M_PI / 180);
+  scan.range_max_meters = 10.0;
+  const double pitch = 40.0 * M_PI / 180.0, height = 0.5;
+  scan.robot_T_sensor = Eigen::Translation3d(0, 0, height) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY());
+  int box_beams = 0;
+  for (double angle : scan.angles_radians) {
+    const Eigen::Vector3d direction = scan.robot_T_sensor.linear() * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0);
+    double range = height / -direction.z();
+    const double to_face = 0.55 / direction.x();
+    const Eigen::Vector3d at_face = Eigen::Vector3d(0, 0, height) + to_face * direction;
+    if (to_face < range && std::abs(at_face.y()) <= 0.1 && at_face.z() <= 0.05) {
+      range = to_face;
+      ++box_beams;
+    }
+    scan.ranges_meters.push_back(range);
+  }
+  ASSERT_GE(box_beams, 10);
+  LocalSlamOptions options;
+  BodyAttitude off_by_a_degree;
+  off_by_a_degree.pitch_radians = M_PI / 180.0;
+  const ScanPoints points = PrepareScanPoints(options, scan, off_by_a_degree);
+  EXPECT_EQ(121, points.floor_points);  // every hit is in the floor band
+  EXPECT_TRUE(points.all.empty());
+  EXPECT_EQ(static_cast<size_t>(box_beams), points.floor_obstacles.size());
+  for (const Eigen::Vector2f& p : points.floor_obstacles) {
+    EXPECT_NEAR(0.55, p.x(), 0.02);
+    EXPECT_LE(std::abs(p.y()), 0.1f);
+  }
+  options.floor_obstacle_min_height_above_floor_meters = 0.0;  // off: the band calls it floor
+  EXPECT_TRUE(PrepareScanPoints(options, scan, off_by_a_degree).floor_obstacles.empty());
+}
+
+TEST(FitFloorLineTest, RecoversATiltedLineDespiteLowObstaclesAndRefusesTooFewOrTooShort) {
+  // Floor hits along y at x = 0.6, their heights tilted by 2 cm per metre and lifted 1 cm, with
+  // +-2 mm noise; a fifth of them are an obstacle's face 4 to 6 cm higher.
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 100; ++i) {
+    const float y = -1.f + 0.02f * i;
+    const float noise = 0.002f * ((i * 37) % 5 - 2) / 2.f;
+    const float lift = (i >= 40 && i < 60) ? 0.04f + 0.001f * (i - 40) : 0.f;
+    points.emplace_back(0.6f, y, 0.01f + 0.02f * y + noise + lift);
+  }
+  FloorLine line;
+  ASSERT_TRUE(FitFloorLine(points, &line));
+  EXPECT_NEAR(0.01, line.HeightAt({0.6f, 0.f}), 0.002);
+  EXPECT_NEAR(0.03, line.HeightAt({0.6f, 1.f}), 0.003);
+  EXPECT_EQ(80, line.inliers);
+  EXPECT_LT(line.rms, 0.003f);
+
+  FloorLine untouched;
+  untouched.offset = 7.f;
+  std::vector<Eigen::Vector3f> few(points.begin(), points.begin() + 19);
+  EXPECT_FALSE(FitFloorLine(few, &untouched));
+  std::vector<Eigen::Vector3f> short_span;
+  for (int i = 0; i < 30; ++i) short_span.emplace_back(0.6f, 0.005f * i, 0.f);  // 14.5 cm
+  EXPECT_FALSE(FitFloorLine(short_span, &untouched));
+  EXPECT_EQ(7.f, untouched.offset);
 }
 
 // A wall 1 m to the side seen at grazing angles: neighbouring beams' end points lie up to
