@@ -17,7 +17,8 @@ namespace {
 // frame of `to`, falls within k cells (in x and in y) of an occupied cell of `to`. The
 // neighbourhood may reach past the edge of `to`: a cell just outside still matches the
 // occupied cell on the edge.
-void CountMatches(const GridLayer& from, const Pose2& to_T_from, const GridLayer& to, int k,
+// `inside_matches`: a cell falling on an unknown cell of `to` (inside a true footprint) matches.
+void CountMatches(const GridLayer& from, const Pose2& to_T_from, const GridLayer& to, int k, bool inside_matches,
                   int* occupied, int* matched) {
   *occupied = 0;
   *matched = 0;
@@ -28,7 +29,7 @@ void CountMatches(const GridLayer& from, const Pose2& to_T_from, const GridLayer
       if (from.at({x, y}) != CellState::kOccupied) continue;
       ++*occupied;
       const CellIndex c = h.WorldToCell(to_T_from * g.CellCenter({x, y}));
-      bool found = false;
+      bool found = inside_matches && h.Contains(c) && to.at(c) == CellState::kUnknown;
       for (int ny = std::max(0, c.y - k); ny <= std::min(h.height() - 1, c.y + k) && !found; ++ny) {
         for (int nx = std::max(0, c.x - k); nx <= std::min(h.width() - 1, c.x + k); ++nx) {
           if (to.at({nx, ny}) == CellState::kOccupied) {
@@ -94,9 +95,9 @@ LayerScore ScoreLayer(const GridLayer& run, const Pose2& world_T_map, const Grid
   CHECK_EQ(run.cells.size(), static_cast<size_t>(run.geometry.num_cells()));
   CHECK_EQ(truth.cells.size(), static_cast<size_t>(truth.geometry.num_cells()));
   LayerScore score;
-  CountMatches(run, world_T_map, truth, options.tolerance_cells, &score.run_occupied_cells,
-               &score.run_correct_cells);
-  CountMatches(truth, world_T_map.inverse(), run, options.tolerance_cells,
+  CountMatches(run, world_T_map, truth, options.tolerance_cells, /*inside_matches=*/true,
+               &score.run_occupied_cells, &score.run_correct_cells);
+  CountMatches(truth, world_T_map.inverse(), run, options.tolerance_cells, /*inside_matches=*/false,
                &score.truth_occupied_cells, &score.truth_found_cells);
   return score;
 }
@@ -118,7 +119,11 @@ Status UnionOfLayers(const std::vector<GridLayer>& layers, const std::vector<std
                            "' are not on the same grid (size, resolution or origin differ)");
     }
     for (size_t c = 0; c < result.cells.size(); ++c) {
-      if (layers[i].cells[c] == CellState::kOccupied) result.cells[c] = CellState::kOccupied;
+      if (layers[i].cells[c] == CellState::kOccupied) {
+        result.cells[c] = CellState::kOccupied;
+      } else if (layers[i].cells[c] == CellState::kUnknown && result.cells[c] == CellState::kFree) {
+        result.cells[c] = CellState::kUnknown;
+      }
     }
   }
   *union_layer = std::move(result);

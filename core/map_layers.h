@@ -15,11 +15,17 @@
 // Each `X.pgm` is read through its `X.yaml` (core/map_io.h, ReadMapPgmYaml); a run file that is
 // absent is reported as absent, not as an error.
 //
+// A true layer's unknown cells (map_server's 205) lie inside a true footprint (a box's or a
+// table top's interior): occupied by the object, but not on its outline, which is all a level
+// 2D laser can see; a beam from above (a tilted head, a UAV) hits them. A run cell that falls
+// on one is correct; they are not counted for recall.
+//
 // Metric: occupied cells only, with a tolerance of k cells (default 1). world_T_map maps the
 // run's map frame into the world (AlignTrajectory of core/trajectory_metrics.h, the ATE
 // alignment of the run's trajectory onto the truth). A run cell is correct when the truth cell
 // containing world_T_map * (its centre) has an occupied truth cell within k cells in x and in y
-// (its (2k+1)² neighbourhood on the truth grid); precision = correct run cells / run occupied
+// (its (2k+1)² neighbourhood on the truth grid), or is itself unknown (inside a footprint,
+// above); precision = correct run cells / run occupied
 // cells. Symmetrically a truth cell is found when the run cell containing map_T_world * (its
 // centre) has an occupied run cell in its (2k+1)² neighbourhood on the run grid; recall =
 // found truth cells / truth occupied cells. A neighbourhood may reach past the other grid's
@@ -76,8 +82,8 @@ struct LayerScore {
 LayerScore ScoreLayer(const GridLayer& run, const Pose2& world_T_map, const GridLayer& truth,
                       const LayerScoreOptions& options);
 
-// The union of layers on one grid: a cell is occupied when it is occupied in any layer, free
-// otherwise. An error when `layers` is empty or the grids differ (size, resolution, origin
+// The union of layers on one grid: a cell is occupied when it is occupied in any layer, else
+// unknown when unknown in any (inside a footprint), free otherwise. An error when `layers` is empty or the grids differ (size, resolution, origin
 // beyond 1e-6 of a cell); `names` (one per layer) name them in the message.
 Status UnionOfLayers(const std::vector<GridLayer>& layers, const std::vector<std::string>& names,
                      GridLayer* union_layer);

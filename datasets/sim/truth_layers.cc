@@ -70,6 +70,27 @@ void RasterizeOutline(const std::vector<Eigen::Vector2d>& polygon, GridLayer* la
   }
 }
 
+// Marks unknown the free cells whose centre lies strictly inside the convex, counter-clockwise
+// `polygon` (after every outline is drawn: an outline cell stays occupied).
+void MarkInterior(const std::vector<Eigen::Vector2d>& polygon, GridLayer* layer) {
+  const GridGeometry& g = layer->geometry;
+  Eigen::AlignedBox2d box;
+  for (const Eigen::Vector2d& p : polygon) box.extend(p);
+  const CellIndex lo = g.WorldToCell(box.min()), hi = g.WorldToCell(box.max());
+  for (int y = std::max(0, lo.y); y <= std::min(g.height() - 1, hi.y); ++y) {
+    for (int x = std::max(0, lo.x); x <= std::min(g.width() - 1, hi.x); ++x) {
+      const Eigen::Vector2d c = g.CellCenter({x, y});
+      bool inside = true;
+      for (size_t i = 0; i < polygon.size() && inside; ++i) {
+        const Eigen::Vector2d edge = polygon[(i + 1) % polygon.size()] - polygon[i];
+        const Eigen::Vector2d to_c = c - polygon[i];
+        inside = edge.x() * to_c.y() - edge.y() * to_c.x() > 0.0;
+      }
+      if (inside && layer->at({x, y}) == CellState::kFree) layer->set({x, y}, CellState::kUnknown);
+    }
+  }
+}
+
 }  // namespace
 
 bool TruthLayerOptions::IsValid(std::string* error) const {
@@ -135,6 +156,10 @@ Status RasterizeTruthLayers(const World& world, const TruthLayerOptions& options
     RasterizeOutline(prism.footprint, ClassifyPrism(prism, options) == TruthLayer::kFurniture
                                           ? &result.furniture
                                           : &result.floor_obstacles);
+  }
+  for (const Prism& prism : world.prisms()) {
+    MarkInterior(prism.footprint, ClassifyPrism(prism, options) == TruthLayer::kFurniture ? &result.furniture
+                                                                                          : &result.floor_obstacles);
   }
   *maps = std::move(result);
   return Status::Ok();
@@ -205,7 +230,7 @@ Status WriteTruthLayers(const std::string& directory, const TruthLayerMaps& maps
         *entry.map, base,
         {std::string("hetslam simulator truth layer '") + TruthLayerName(entry.layer) +
              "', world frame (datasets/sim/truth_layers.h)",
-         "occupied: " + entry.rule +
+         "occupied: " + entry.rule + (entry.layer == TruthLayer::kWalls ? "" : "; unknown: inside a footprint") +
              (seen_by.empty() ? std::string()
                               : ", only the cells within one cell of an end point of " + seen_by +
                                     "'s laser beams on them (SeenTruthLayers)")}));

@@ -26,8 +26,11 @@
 // cells by grid traversal, a point on a cell boundary belonging to the cell above / to the
 // right (core/grid_geometry.h: cells are half-open), a segment through a cell corner stepping
 // diagonally. Positions within 1e-6 cells of a grid line are taken to be on it, so that
-// geometry on whole multiples of the resolution rasterises as written. Every other cell is
-// free: the truth is known everywhere.
+// geometry on whole multiples of the resolution rasterises as written. A cell whose centre lies
+// strictly inside a footprint and that no outline marks is unknown in the prism's layer
+// (map_server's 205): occupied by the object, but only a beam from above can hit it there
+// (core/map_layers.h counts a run cell on it as correct, and does not ask for it in recall).
+// Every other cell is free: the truth is known everywhere.
 #ifndef HETSLAM_DATASETS_SIM_TRUTH_LAYERS_H_
 #define HETSLAM_DATASETS_SIM_TRUTH_LAYERS_H_
 

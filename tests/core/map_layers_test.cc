@@ -82,6 +82,33 @@ TEST(ScoreLayerTest, ExtraCellsCostPrecisionMissingCellsCostRecall) {
   EXPECT_DOUBLE_EQ(11.0 / 20.0, score.recall());
 }
 
+// A box seen from above: the run marks its top inside the true outline. Cells on the truth's
+// unknown interior are correct; they are not asked for in recall; a unknown run cell is no
+// evidence for anything.
+TEST(ScoreLayerTest, CellsInsideATrueFootprintAreCorrectButNotRequired) {
+  GridLayer truth = EmptyLayer();
+  MarkRow(&truth, 10, 10, 19);
+  MarkRow(&truth, 14, 10, 19);
+  for (int y = 11; y <= 13; ++y) {
+    truth.set({10, y}, CellState::kOccupied);
+    truth.set({19, y}, CellState::kOccupied);
+    for (int x = 11; x <= 18; ++x) truth.set({x, y}, CellState::kUnknown);
+  }
+  GridLayer run = EmptyLayer();
+  MarkRow(&run, 10, 10, 19);  // the outline's near side
+  MarkRow(&run, 12, 11, 18);  // the top's middle row, 2 cells from the outline
+  run.set({25, 25}, CellState::kOccupied);  // wrong
+  const LayerScore score = ScoreLayer(run, Pose2(), truth, LayerScoreOptions());
+  EXPECT_EQ(19, score.run_occupied_cells);
+  EXPECT_EQ(18, score.run_correct_cells);
+  EXPECT_EQ(26, score.truth_occupied_cells);
+  EXPECT_EQ(16, score.truth_found_cells);  // the near side and the sides; the far side is not seen
+  GridLayer union_layer;
+  ASSERT_TRUE(UnionOfLayers({EmptyLayer(), truth}, {"walls", "furniture"}, &union_layer).ok());
+  EXPECT_EQ(24, union_layer.CountCells(CellState::kUnknown));
+  EXPECT_EQ(26, union_layer.CountCells(CellState::kOccupied));
+}
+
 TEST(ScoreLayerTest, NothingToCountIsNan) {
   GridLayer truth = EmptyLayer();
   MarkRow(&truth, 10, 5, 14);

@@ -96,10 +96,17 @@ TEST(TruthLayersTest, WallBoxAndLowObstacleGoToTheirLayersOnTheExpectedCells) {
   const CellSet floor_obstacles = {{1, 7}, {2, 7}, {1, 8}, {2, 8}};
   EXPECT_EQ(floor_obstacles, OccupiedCells(maps.floor_obstacles));
 
-  // Every other cell is free: the truth is known everywhere.
-  for (const GridLayer* layer : {&maps.walls, &maps.furniture, &maps.floor_obstacles}) {
-    EXPECT_EQ(0, layer->CountCells(CellState::kUnknown));
+  // The box's interior (cell centres strictly inside, off the outline) is unknown: occupied by
+  // the box, seen only from above. Every other cell is free: the truth is known everywhere.
+  CellSet interior;
+  for (int y = 0; y < g.height(); ++y) {
+    for (int x = 0; x < g.width(); ++x) {
+      if (maps.furniture.at({x, y}) == CellState::kUnknown) interior.insert({x, y});
+    }
   }
+  EXPECT_EQ(CellSet({{4, 5}, {5, 5}, {6, 5}}), interior);
+  EXPECT_EQ(0, maps.walls.CountCells(CellState::kUnknown));
+  EXPECT_EQ(0, maps.floor_obstacles.CountCells(CellState::kUnknown));  // all outline
 }
 
 TEST(TruthLayersTest, FloorObstacleRuleIsTheTopHeightAgainstH) {
