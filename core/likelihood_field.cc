@@ -24,14 +24,15 @@ LikelihoodField::Segment LikelihoodField::SegmentOf(const OccupancyGrid& grid, i
 }
 
 void LikelihoodField::SetPublished(int i, const Segment& s) {
-  int32_t& index = published_index_[i];
   if (s.point.x() != s.point.x()) {  // NaN: withdraw
-    if (index >= 0) {
-      free_segments_.push_back(index);
-      index = -1;
+    const int32_t current = published_index_.GetLinear(i);
+    if (current >= 0) {
+      free_segments_.push_back(current);
+      published_index_.RefLinear(i) = -1;
     }
     return;
   }
+  int32_t& index = published_index_.RefLinear(i);
   if (index < 0) {
     if (free_segments_.empty()) {
       index = static_cast<int32_t>(segments_.size());
@@ -90,7 +91,7 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
   std::vector<float>().swap(values_);
   geometry_ = kept;
   frozen_ = true;
-  std::vector<int32_t>().swap(published_index_);
+  published_index_ = TiledIndex();
   std::vector<Segment>().swap(segments_);
   std::vector<int32_t>().swap(free_segments_);
   std::vector<float>().swap(squared_distances_);
@@ -100,7 +101,7 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
 size_t LikelihoodField::MemoryBytes() const {
   return values_.capacity() * sizeof(float) + frozen_values_.MemoryBytes() +
          squared_distances_.capacity() * sizeof(float) +
-         stale_cells_.capacity() * sizeof(int) + published_index_.capacity() * sizeof(int32_t) +
+         stale_cells_.capacity() * sizeof(int) + published_index_.MemoryBytes() +
          segments_.capacity() * sizeof(Segment) + free_segments_.capacity() * sizeof(int32_t);
 }
 
@@ -110,7 +111,7 @@ void LikelihoodField::Resize(const GridGeometry& g) {
   radius_cells_ = static_cast<int>(std::ceil(options_.max_distance_meters / r - 1e-9));
   std::vector<float> values(g.num_cells(), 0.f);
   std::vector<float> squared_distances(g.num_cells(), kInfinity);
-  std::vector<int32_t> published_index(g.num_cells(), -1);
+  TiledIndex published_index(g.width(), g.height());
   if (geometry_.num_cells() > 0) {
     CHECK_EQ(g.resolution_meters(), geometry_.resolution_meters()) << "resolution changed";
     const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
@@ -121,14 +122,14 @@ void LikelihoodField::Resize(const GridGeometry& g) {
         const int to = (y + dy) * g.width() + (x + dx);
         values[to] = values_[from];
         squared_distances[to] = squared_distances_[from];
-        published_index[to] = published_index_[from];
       }
     }
+    published_index_.ForEach([&](int x, int y, int32_t index) { published_index.Ref(x + dx, y + dy) = index; });
   }
   geometry_ = g;
   values_.swap(values);
   squared_distances_.swap(squared_distances);
-  published_index_.swap(published_index);
+  published_index_ = std::move(published_index);
 }
 
 float LikelihoodField::ValueFromSquaredDistance(float squared_distance) const {
@@ -140,9 +141,16 @@ float LikelihoodField::RecomputeSquaredDistance(const CellIndex& c) const {
   const int x0 = std::max(0, c.x - radius_cells_), x1 = std::min(geometry_.width() - 1, c.x + radius_cells_);
   const int y0 = std::max(0, c.y - radius_cells_), y1 = std::min(geometry_.height() - 1, c.y + radius_cells_);
   for (int y = y0; y <= y1; ++y) {
-    const int32_t* index = published_index_.data() + static_cast<size_t>(y) * geometry_.width();
-    for (int x = x0; x <= x1; ++x) {
-      if (index[x] >= 0) best = std::min(best, SquaredDistance(c, {x, y}, segments_[index[x]]));
+    // Tile by tile: a tile without published points is skipped whole.
+    for (int x = x0; x <= x1;) {
+      const int end = std::min(x1 + 1, (x | (TiledIndex::kTileSize - 1)) + 1);
+      const int32_t* index = published_index_.TileRow(x, y);
+      if (index != nullptr) {
+        for (int k = 0; k < end - x; ++k) {
+          if (index[k] >= 0) best = std::min(best, SquaredDistance(c, {x + k, y}, segments_[index[k]]));
+        }
+      }
+      x = end;
     }
   }
   return best;

@@ -36,6 +36,7 @@
 #include "Eigen/Core"
 #include "core/grid_geometry.h"
 #include "core/sparse_tiles.h"
+#include "core/tiled_index.h"
 #include "core/occupancy_grid.h"
 
 namespace hetslam {
@@ -153,8 +154,11 @@ class LikelihoodField {
   float ValueFromSquaredDistance(float squared_distance) const;
   // Min d^2 over the published points in c's window (+inf when there is none).
   float RecomputeSquaredDistance(const CellIndex& c) const;
-  bool HasPublished(int i) const { return published_index_[i] >= 0; }
-  const Segment& Published(int i) const { return HasPublished(i) ? segments_[published_index_[i]] : kUnpublished; }
+  bool HasPublished(int i) const { return published_index_.GetLinear(i) >= 0; }
+  const Segment& Published(int i) const {
+    const int32_t index = published_index_.GetLinear(i);
+    return index >= 0 ? segments_[index] : kUnpublished;
+  }
   // Publishes `s` for cell i (kUnpublished, NaN point: withdraws it).
   void SetPublished(int i, const Segment& s);
   static const Segment kUnpublished;
@@ -173,8 +177,9 @@ class LikelihoodField {
   std::vector<int> stale_cells_;  // scratch of ApplyChanges
   // Published segment per cell, its point relative to the cell's own minimum corner; relative
   // storage makes values independent of growth. Only occupied cells publish, a few percent:
-  // the segments sit in a pool, indexed per cell (-1: none; 4 bytes a cell instead of 20).
-  std::vector<int32_t> published_index_;
+  // the segments sit in a pool, indexed per cell (-1: none) in tiles that exist only where
+  // some cell publishes (core/tiled_index.h).
+  TiledIndex published_index_;
   std::vector<Segment> segments_;
   std::vector<int32_t> free_segments_;  // released entries of segments_, reused first
 };

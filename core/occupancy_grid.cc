@@ -107,7 +107,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   const int n = g.num_cells();
   std::vector<float> log_odds(n, 0.f);
   std::vector<uint8_t> observed(n, 0);
-  std::vector<int32_t> hit_index(n, -1);
+  TiledIndex hit_index(g.width(), g.height());
   std::vector<uint16_t> last_update(n, 0);
   std::vector<uint8_t> labels(labels_.empty() ? 0 : n, 0);
   std::vector<uint8_t> height_min(height_min_.empty() ? 0 : n, 255), height_max(height_max_.empty() ? 0 : n, 0);
@@ -120,7 +120,6 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
       const int to = (y + dy) * g.width() + (x + dx);
       log_odds[to] = log_odds_[from];
       observed[to] = observed_[from];
-      hit_index[to] = hit_index_[from];
       last_update[to] = last_update_[from];
       if (!labels.empty()) labels[to] = labels_[from];
       if (!height_min.empty()) {
@@ -129,6 +128,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
       }
     }
   }
+  hit_index_.ForEach([&](int x, int y, int32_t value) { hit_index.Ref(x + dx, y + dy) = value; });
   if (observed_max_.x >= observed_min_.x) {
     observed_min_ = {observed_min_.x + dx, observed_min_.y + dy};
     observed_max_ = {observed_max_.x + dx, observed_max_.y + dy};
@@ -136,7 +136,7 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   geometry_ = g;
   log_odds_.swap(log_odds);
   observed_.swap(observed);
-  hit_index_.swap(hit_index);
+  hit_index_ = std::move(hit_index);
   last_update_.swap(last_update);
   labels_.swap(labels);
   height_min_.swap(height_min);
@@ -161,10 +161,11 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
   const bool now_occupied = IsOccupied(i);
   if (was_occupied && !now_occupied) {
     // The cell turned free (paper §III-B): its hit point is forgotten.
-    if (hit_index_[i] >= 0) {
-      hits_[hit_index_[i]] = HitAccumulator();
-      free_hits_.push_back(hit_index_[i]);
-      hit_index_[i] = -1;
+    const int32_t hit = hit_index_.GetLinear(i);
+    if (hit >= 0) {
+      hits_[hit] = HitAccumulator();
+      free_hits_.push_back(hit);
+      hit_index_.RefLinear(i) = -1;
     }
   }
   if ((was_occupied != now_occupied || (delta > 0 && now_occupied)) && changed_cells != nullptr) {
@@ -224,16 +225,17 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     const bool first_this_scan = last_update_[i] != scan_counter_;
     if (first_this_scan) UpdateCell(i, hit, changed_cells);
     if (IsOccupied(i)) {
-      if (hit_index_[i] < 0) {
+      int32_t& hit_index = hit_index_.Ref(c.x, c.y);
+      if (hit_index < 0) {
         if (free_hits_.empty()) {
-          hit_index_[i] = static_cast<int32_t>(hits_.size());
+          hit_index = static_cast<int32_t>(hits_.size());
           hits_.emplace_back();
         } else {
-          hit_index_[i] = free_hits_.back();
+          hit_index = free_hits_.back();
           free_hits_.pop_back();
         }
       }
-      HitAccumulator& acc = hits_[hit_index_[i]];
+      HitAccumulator& acc = hits_[hit_index];
       acc.sum += (p - geometry_.CellMinCorner(c)).cast<float>();
       ++acc.count;
       if (lines != nullptr && (*lines)[k].half_length > 0.f) {
@@ -318,7 +320,7 @@ void OccupancyGrid::Freeze(int margin_cells) {
   frozen_ = true;
   std::vector<float>().swap(log_odds_);
   std::vector<uint8_t>().swap(observed_);
-  std::vector<int32_t>().swap(hit_index_);
+  hit_index_ = TiledIndex();
   std::vector<HitAccumulator>().swap(hits_);
   std::vector<int32_t>().swap(free_hits_);
   std::vector<uint16_t>().swap(last_update_);
@@ -327,7 +329,7 @@ void OccupancyGrid::Freeze(int margin_cells) {
 }
 
 size_t OccupancyGrid::MemoryBytes() const {
-  return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_index_.capacity() * sizeof(int32_t) +
+  return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_index_.MemoryBytes() +
          hits_.capacity() * sizeof(HitAccumulator) + free_hits_.capacity() * sizeof(int32_t) +
          last_update_.capacity() * sizeof(uint16_t) + labels_.capacity() + height_min_.capacity() +
          height_max_.capacity() + frozen_states_.MemoryBytes() + frozen_labels_.MemoryBytes();
@@ -341,20 +343,23 @@ float OccupancyGrid::LogOdds(int i) const {
 Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
   CHECK(!frozen_) << "HitPoint on a frozen grid";
   const CellIndex c = geometry_.FromLinearIndex(i);
-  if (hit_index_[i] < 0 || hits_[hit_index_[i]].count == 0) return geometry_.CellCenter(c);
-  const HitAccumulator& acc = hits_[hit_index_[i]];
+  const int32_t hit = hit_index_.Get(c.x, c.y);
+  if (hit < 0 || hits_[hit].count == 0) return geometry_.CellCenter(c);
+  const HitAccumulator& acc = hits_[hit];
   return geometry_.CellMinCorner(c) + (acc.sum / static_cast<float>(acc.count)).cast<double>();
 }
 
 ScanLine OccupancyGrid::Line(int i) const {
   CHECK(!frozen_) << "Line on a frozen grid";
   ScanLine line;
-  if (!has_lines_ || hit_index_[i] < 0 || hits_[hit_index_[i]].count == 0) return line;
-  const Eigen::Vector3f& sum = hits_[hit_index_[i]].line_sum;
+  if (!has_lines_) return line;
+  const int32_t hit = hit_index_.GetLinear(i);
+  if (hit < 0 || hits_[hit].count == 0) return line;
+  const Eigen::Vector3f& sum = hits_[hit].line_sum;
   if (!(sum.z() > 0.f) || sum.head<2>().norm() < kMinLineCoherence * sum.z()) return line;
   const float theta = 0.5f * std::atan2(sum.y(), sum.x());  // in (-π/2, π/2]: direction.x >= 0
   line.direction = Eigen::Vector2f(std::cos(theta), std::sin(theta));
-  line.half_length = sum.z() / static_cast<float>(hits_[hit_index_[i]].count);
+  line.half_length = sum.z() / static_cast<float>(hits_[hit].count);
   return line;
 }
 

@@ -18,6 +18,7 @@
 #include "Eigen/Core"
 #include "core/grid_geometry.h"
 #include "core/sparse_tiles.h"
+#include "core/tiled_index.h"
 #include "core/se2.h"
 
 namespace hetslam {
@@ -145,8 +146,9 @@ class OccupancyGrid {
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
   int HitCount(int linear_index) const {
-    if (frozen_ || hit_index_[linear_index] < 0) return 0;
-    return static_cast<int>(hits_[hit_index_[linear_index]].count);
+    if (frozen_) return 0;
+    const int32_t hit = hit_index_.GetLinear(linear_index);
+    return hit < 0 ? 0 : static_cast<int>(hits_[hit].count);
   }
   // The surface through an occupied cell's hit point: its hits' lines averaged (directions as
   // axes, doubled angles, weighted by half length), with half_length 0 when the cell has no
@@ -204,7 +206,7 @@ class OccupancyGrid {
   std::vector<uint8_t> observed_;
   // What an occupied cell accumulates from its hits. Only occupied cells accumulate (a cell
   // turning free forgets), a few percent of the cells: they are kept in a pool, indexed per
-  // cell (4 bytes a cell instead of 24).
+  // cell in tiles that exist only where some cell has one (core/tiled_index.h).
   struct HitAccumulator {
     // Hit point sum relative to the cell's minimum corner (metres); relative storage keeps
     // float precision and survives growth unchanged.
@@ -214,7 +216,7 @@ class OccupancyGrid {
     // direction), nothing for a hit without one.
     Eigen::Vector3f line_sum = Eigen::Vector3f::Zero();
   };
-  std::vector<int32_t> hit_index_;      // per cell: index into hits_, -1 for none
+  TiledIndex hit_index_;                // per cell: index into hits_, -1 for none
   std::vector<HitAccumulator> hits_;
   std::vector<int32_t> free_hits_;      // released entries of hits_, reused first
   bool has_lines_ = false;              // an insertion with lines happened
