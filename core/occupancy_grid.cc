@@ -108,7 +108,6 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   std::vector<float> log_odds(n, 0.f);
   std::vector<uint8_t> observed(n, 0);
   TiledIndex hit_index(g.width(), g.height());
-  std::vector<uint16_t> last_update(n, 0);
   std::vector<uint8_t> labels(labels_.empty() ? 0 : n, 0);
   std::vector<uint8_t> height_min(height_min_.empty() ? 0 : n, 255), height_max(height_max_.empty() ? 0 : n, 0);
   // Offset of the old grid inside the new one, in cells.
@@ -120,7 +119,6 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
       const int to = (y + dy) * g.width() + (x + dx);
       log_odds[to] = log_odds_[from];
       observed[to] = observed_[from];
-      last_update[to] = last_update_[from];
       if (!labels.empty()) labels[to] = labels_[from];
       if (!height_min.empty()) {
         height_min[to] = height_min_[from];
@@ -137,14 +135,14 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   log_odds_.swap(log_odds);
   observed_.swap(observed);
   hit_index_ = std::move(hit_index);
-  last_update_.swap(last_update);
+  // No cell is marked between scans: the marks start clear at the new size.
+  std::vector<uint64_t>((static_cast<size_t>(n) + 63) / 64, 0).swap(updated_this_scan_);
   labels_.swap(labels);
   height_min_.swap(height_min);
   height_max_.swap(height_max);
 }
 
 void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cells) {
-  last_update_[i] = scan_counter_;
   const bool was_occupied = IsOccupied(i);
   log_odds_[i] = std::clamp(log_odds_[i] + delta, static_cast<float>(options_.min_log_odds),
                             static_cast<float>(options_.max_log_odds));
@@ -203,11 +201,6 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     height_max_.assign(geometry_.num_cells(), 0);
   }
   const int wall_span_steps = static_cast<int>(std::lround(options_.wall_min_height_span_meters / 0.02));
-  ++scan_counter_;
-  if (scan_counter_ == 0) {  // wrapped after 65535 scans: restart the stamps
-    std::fill(last_update_.begin(), last_update_.end(), 0);
-    scan_counter_ = 1;
-  }
   const float hit = static_cast<float>(options_.hit_log_odds);
   const float miss = static_cast<float>(options_.miss_log_odds);
   // End points first, so that a ray never clears a cell this same scan hits.
@@ -222,8 +215,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
       height_max_[i] = std::max(height_max_[i], h);
       if (height_max_[i] - height_min_[i] >= wall_span_steps) labels_[i] |= 1u << kWallLabelBit;
     }
-    const bool first_this_scan = last_update_[i] != scan_counter_;
-    if (first_this_scan) UpdateCell(i, hit, changed_cells);
+    if (MarkUpdated(i)) UpdateCell(i, hit, changed_cells);
     if (IsOccupied(i)) {
       int32_t& hit_index = hit_index_.Ref(c.x, c.y);
       if (hit_index < 0) {
@@ -265,7 +257,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     const int max_steps = std::abs(end_cell.x - start_cell.x) + std::abs(end_cell.y - start_cell.y);
     for (int n = 0; n < max_steps && !(c == end_cell); ++n) {
       const int i = geometry_.LinearIndex(c);
-      if (last_update_[i] != scan_counter_) UpdateCell(i, miss, changed_cells);
+      if (MarkUpdated(i)) UpdateCell(i, miss, changed_cells);
       if (t_max_x < t_max_y) {
         t_max_x += t_delta_x;
         c.x += step_x;
@@ -275,6 +267,8 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
       }
     }
   }
+  for (const int i : updated_cells_) updated_this_scan_[static_cast<size_t>(i) >> 6] = 0;
+  updated_cells_.clear();
   return true;
 }
 
@@ -323,7 +317,8 @@ void OccupancyGrid::Freeze(int margin_cells) {
   hit_index_ = TiledIndex();
   std::vector<HitAccumulator>().swap(hits_);
   std::vector<int32_t>().swap(free_hits_);
-  std::vector<uint16_t>().swap(last_update_);
+  std::vector<uint64_t>().swap(updated_this_scan_);
+  std::vector<int>().swap(updated_cells_);
   std::vector<uint8_t>().swap(height_min_);
   std::vector<uint8_t>().swap(height_max_);
 }
@@ -331,7 +326,8 @@ void OccupancyGrid::Freeze(int margin_cells) {
 size_t OccupancyGrid::MemoryBytes() const {
   return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_index_.MemoryBytes() +
          hits_.capacity() * sizeof(HitAccumulator) + free_hits_.capacity() * sizeof(int32_t) +
-         last_update_.capacity() * sizeof(uint16_t) + labels_.capacity() + height_min_.capacity() +
+         updated_this_scan_.capacity() * sizeof(uint64_t) + updated_cells_.capacity() * sizeof(int) +
+         labels_.capacity() + height_min_.capacity() +
          height_max_.capacity() + frozen_states_.MemoryBytes() + frozen_labels_.MemoryBytes();
 }
 

@@ -181,8 +181,8 @@ class OccupancyGrid {
   // layer, over the observed box grown by `margin_cells` (clipped to the grid) instead of the
   // grid, whose growth slack and border margin hold only unknown cells, in 8 × 8 tiles of
   // one byte a cell where a tile that is all unknown (labels: all 0) is not stored
-  // (core/sparse_tiles.h; instead of 11 bytes a cell: log-odds, observed flag, hit index,
-  // per-scan stamp, and heights). The
+  // (core/sparse_tiles.h; instead of log-odds, observed flag, per-scan mark, heights and the
+  // tiled hit index). The
   // geometry becomes that box (same lattice, origin moved by whole cells), so linear indices
   // change; world positions, states and labels do not (every cell left out was unknown, and
   // StateAt still says so). Idempotent. Afterwards State, StateAt, IsOccupied and LabelMask work; InsertScan, EnsureContains, AddCellObservation, HitPoint, Line, LogOdds
@@ -220,9 +220,18 @@ class OccupancyGrid {
   std::vector<HitAccumulator> hits_;
   std::vector<int32_t> free_hits_;      // released entries of hits_, reused first
   bool has_lines_ = false;              // an insertion with lines happened
-  // Scan counter stamps so that a cell is updated at most once per scan (16 bits: the stamps
-  // restart when the counter wraps, see InsertScan).
-  std::vector<uint16_t> last_update_;
+  // A cell is updated at most once per scan: InsertScan marks the cells it updates (one bit a
+  // cell) and clears the marks of the cells it listed when it is done.
+  bool MarkUpdated(int i) {
+    uint64_t& word = updated_this_scan_[static_cast<size_t>(i) >> 6];
+    const uint64_t bit = uint64_t{1} << (i & 63);
+    if (word & bit) return false;
+    word |= bit;
+    updated_cells_.push_back(i);
+    return true;
+  }
+  std::vector<uint64_t> updated_this_scan_;
+  std::vector<int> updated_cells_;
   std::vector<uint8_t> labels_;  // label layer; empty until the first labelled insertion
   // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); empty
   // until the first insertion with heights.
@@ -231,7 +240,6 @@ class OccupancyGrid {
   // out all-unknown (all-0) 8 × 8 blocks; every array above is then empty.
   SparseTiles<uint8_t> frozen_states_;
   SparseTiles<uint8_t> frozen_labels_;
-  uint16_t scan_counter_ = 0;
   bool frozen_ = false;
   int num_scans_refused_ = 0;  // see InsertScan
   CellIndex observed_min_{1, 1};
