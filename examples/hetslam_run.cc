@@ -485,8 +485,8 @@ std::string Summary(const OnlineEstimator& estimator) {
     out += line;
   }
   const ParticleFilterStats& p = estimator.particle_filter().stats();
-  size_t active_bytes = 0;
-  for (const ActiveSubmap& submap : estimator.particle_filter().state().active) active_bytes += submap.map->MemoryBytes();
+  // Finish() freed the active submaps; their size then.
+  const size_t active_bytes = s.active_submap_bytes_at_finish;
   const size_t finished_bytes = estimator.graph().FinishedSubmapBytes(estimator.options().robot);
   std::snprintf(line, sizeof(line),
                 "particles: mean %.3f per scan, at most %d; %d spawns, %d collapses, %d resamples, %d scans weighted "

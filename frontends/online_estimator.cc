@@ -412,6 +412,9 @@ void OnlineEstimator::Finish() {
   // Particles still alive: the best one's deferred scans become nodes.
   for (LocalResult& result : local_.Collapse()) AddNode(std::move(result));
   if (options_.loop_closure && graph_->num_nodes(options_.robot) > 0) Solve(options_.max_iterations_final);
+  for (const ActiveSubmap& submap : local_.state().active) stats_.active_submap_bytes_at_finish += submap.map->MemoryBytes();
+  local_.ReleaseActiveSubmaps();
+  ScanMatcher::ReleaseScratch();
 }
 
 Pose2 OnlineEstimator::CurrentPose() const {

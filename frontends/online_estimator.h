@@ -141,6 +141,7 @@ struct OnlineEstimatorStats {
   int projected_scans = 0;          // projected with an attitude (2.5D)
   int scans_without_attitude = 0;   // the stream has attitudes, but none near the scan: level
   int ekf_predicted_scans = 0;      // scans predicted by the EKF
+  size_t active_submap_bytes_at_finish = 0;  // LaserMap::MemoryBytes of the active submaps Finish() freed
   int marg_samples = 0;
   int marg_errors = 0;              // samples the MARG filter refused
   int marg_restarts = 0;            // MARG filter restarted after a gap in the samples
@@ -182,7 +183,10 @@ class OnlineEstimator {
   // Processes one measurement. Errors (the measurement is ignored, the estimator unchanged)
   // as described above. After Finish(), every Add is an error.
   Status Add(const Measurement& measurement);
-  // Final solve (loop closure on). Idempotent.
+  // Final solve (loop closure on), then frees what only further scans would use: the active
+  // submaps (their bytes are kept in stats().active_submap_bytes_at_finish; the graph's nodes
+  // and finished submaps stay, so trajectories and rendered maps are unchanged) and this
+  // thread's branch-and-bound tables. Idempotent.
   void Finish();
 
   // The latest pose estimate (robot frame = world frame of a lone robot): the EKF's, else the

@@ -361,6 +361,11 @@ int ParticleLocalSlam::CollapseChoice() const {
   return undisturbed;
 }
 
+void ParticleLocalSlam::ReleaseActiveSubmaps() {
+  for (Particle& particle : particles_) std::vector<ActiveSubmap>().swap(particle.state.active);
+  std::vector<ActiveSubmap>().swap(spawn_submaps_);
+}
+
 std::vector<LocalResult> ParticleLocalSlam::Collapse() {
   Particle kept = std::move(particles_[CollapseChoice()]);
   kept.undisturbed = false;

@@ -181,6 +181,9 @@ class ParticleLocalSlam {
 
   // Collapses to the best particle now; returns its deferred results (scan order) to commit.
   std::vector<LocalResult> Collapse();
+  // Drops every particle's active submaps (the memory of the maps being built): after the last
+  // scan, when nothing will be matched against them again. state().active is empty afterwards.
+  void ReleaseActiveSubmaps();
 
   int num_particles() const { return static_cast<int>(particles_.size()); }
   // The best particle's state and its deferred poses (local frame, scan order).

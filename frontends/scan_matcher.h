@@ -141,7 +141,7 @@ class ScanMatcher {
   // largest search so far (region cells × (4 + 2 branch_and_bound_depth) bytes: a float for
   // the leaves, 16 bits per coarser level; MBs for a loop closer's wide window). This frees them; the next search of any matcher of the thread
   // allocates them again. After a rare search over a large window.
-  void ReleaseScratch();
+  static void ReleaseScratch();
   // Bytes the calling thread's table buffers hold (capacity).
   size_t ScratchBytes() const;
 
