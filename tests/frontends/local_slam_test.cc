@@ -281,14 +281,24 @@ TEST(NarrowSearchTrustedTest, OnlyAfterSmallMotionOrWithOdometry) {
 namespace hetslam {
 namespace {
 
-// A laser 0.5 m above the floor, pitched 40° down, 181 beams over ±90° in a 2 m-wide corridor
-// (walls at y = ±1): beams within about ±45° of straight ahead hit the floor, the outer ones the walls.
-TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) {
+constexpr double kPitchedLaserHeight = 0.5;
+
+// A laser kPitchedLaserHeight above the floor, pitched 40° down, with `num_beams` beams 1° apart
+// from `first_angle` (no ranges yet).
+LaserScan PitchedLaserScan(int num_beams, double first_angle) {
   LaserScan scan;
-  scan.angles_radians = EvenlySpacedAngles(181, -M_PI / 2, M_PI / 180);
+  scan.angles_radians = EvenlySpacedAngles(num_beams, first_angle, M_PI / 180);
   scan.range_max_meters = 10.0;
-  const double pitch = 40.0 * M_PI / 180.0, height = 0.5;
-  scan.robot_T_sensor = Eigen::Translation3d(0, 0, height) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY());
+  scan.robot_T_sensor = Eigen::Translation3d(0, 0, kPitchedLaserHeight) *
+                        Eigen::AngleAxisd(40.0 * M_PI / 180.0, Eigen::Vector3d::UnitY());
+  return scan;
+}
+
+// The pitched laser, 181 beams over ±90° in a 2 m-wide corridor (walls at y = ±1): beams within
+// about ±45° of straight ahead hit the floor, the outer ones the walls.
+TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) {
+  LaserScan scan = PitchedLaserScan(181, -M_PI / 2);
+  const double height = kPitchedLaserHeight;
   for (double angle : scan.angles_radians) {
     const Eigen::Vector3d direction = scan.robot_T_sensor.linear() * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0);
     const double to_floor = direction.z() < 0 ? height / -direction.z() : 1e9;
@@ -330,17 +340,14 @@ TEST(PrepareScanPointsTest, WithAnAttitudeFloorHitsAreDroppedAndWallsProjected) 
   for (const Eigen::Vector2f& p : projected.all) EXPECT_NEAR(1.0, std::abs(p.y()), 1e-4) << p.transpose();
 }
 
-// The same laser facing the floor of an open hall, a 5 cm box 0.55 m ahead (its face across
+// The pitched laser facing the floor of an open hall, a 5 cm box 0.55 m ahead (its face across
 // |y| <= 0.1 m), and a projection whose pitch is 1° off: the box's face is hit at 3.9 cm,
 // projected at ~4.9 cm, inside the floor band (8 cm), where the floor hits are lifted by up to
 // ~1 cm. Above the floor line fitted to the scan's floor hits, the face is a floor obstacle;
 // the floor is not.
 TEST(PrepareScanPointsTest, LowObstacleInTheFloorBandStandsAboveTheScansFloorLine) {
-  LaserScan scan;
-  scan.angles_radians = EvenlySpacedAngles(121, -M_PI / 3, M_PI / 180);
-  scan.range_max_meters = 10.0;
-  const double pitch = 40.0 * M_PI / 180.0, height = 0.5;
-  scan.robot_T_sensor = Eigen::Translation3d(0, 0, height) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY());
+  LaserScan scan = PitchedLaserScan(121, -M_PI / 3);
+  const double height = kPitchedLaserHeight;
   int box_beams = 0;
   for (double angle : scan.angles_radians) {
     const Eigen::Vector3d direction = scan.robot_T_sensor.linear() * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0);
