@@ -23,6 +23,10 @@
 # its truth: what the merger itself got wrong). "-" where the pair never got that far (a pair
 # linked through a third robot has no link of its own). Then the worst of each column per
 # team and pair over the seeds.
+# Then, when build/examples/hetslam_layers exists, the merged map against the true layers: one
+# row per team and seed, run/merged_map.pgm scored as a map.pgm (walls + furniture; precision
+# and recall within one cell, hetslam_layers --help) after aligning the first robot's trajectory
+# (the common frame) to its truth; its output in run/merged_layers/, then worst / mean per team.
 # Exit status: 0 when every run finished, 1 otherwise, 2 on a usage error.
 set -uo pipefail
 
@@ -99,6 +103,33 @@ for team in "${teams[@]}"; do
   done
 done
 
+# The merged map as the run's map.pgm, aligned by the first robot of the manifest.
+merged_rows=$(mktemp)
+trap 'rm -f "$rows" "$merged_rows"' EXIT
+if [ -x "$build/examples/hetslam_layers" ]; then
+  for team in "${teams[@]}"; do
+    for seed in "${seeds[@]}"; do
+      dir="$out_root/$team/seed-$seed"
+      [ -f "$dir/run/merged_map.yaml" ] || continue
+      first=$(awk '$1 == "robot" { print $2; exit }' "$dir/sim/team.txt")
+      scored="$dir/run/merged_layers"
+      rm -rf "$scored"
+      mkdir -p "$scored"
+      cp "$dir/run/merged_map.pgm" "$scored/map.pgm"
+      sed 's/^image:.*/image: map.pgm/' "$dir/run/merged_map.yaml" >"$scored/map.yaml"
+      if "$build/examples/hetslam_layers" --run_dir="$scored" --truth_layers="$dir/sim/truth_layers" \
+          --trajectory="$dir/run/$first/trajectory.txt" --truth="$dir/sim/$first/log.txt" \
+          --out_csv="$scored/layers.csv" >"$scored/layers.log" 2>&1; then
+        awk -F, -v team="$team" -v seed="$seed" '$1 == "map" && $3 == "scored" { print team, seed, $4, $5 }' \
+          "$scored/layers.csv" >>"$merged_rows"
+      else
+        echo "run_teams.sh: hetslam_layers failed on the merged map, see $scored/layers.log" >&2
+        status=1
+      fi
+    done
+  done
+fi
+
 fmt() { if [ "$1" = "-" ]; then printf '%-16s' "-"; else printf '%-16s' "$(printf '%.3f m %.2f°' "$1" "$2")"; fi; }
 printf '%-11s %4s %-12s %-16s %-16s %-16s %-16s\n' team seed pair first_link second_constraint final final_as_built
 while read -r team seed pair f1 f2 s1 s2 e1 e2 b1 b2; do
@@ -115,5 +146,15 @@ if [ "${#seeds[@]}" -gt 1 ]; then
     END { for (id in ids) { line = sprintf("%-24s", id);
             for (c = 1; c <= 4; ++c) { k = id " " c; line = line sprintf(" %-16s", (k in seen) ? sprintf("%.3f m %.2f°", wm[k], wd[k]) : "-") }
             print line } }' "$rows" | sort
+fi
+if [ -s "$merged_rows" ]; then
+  echo
+  echo "merged map (merged_map.pgm) against walls + furniture, within one cell:"
+  printf '%-11s %4s %9s %9s\n' team seed precision recall
+  awk '{ printf "%-11s %4s %9.3f %9.3f\n", $1, $2, $3, $4 }' "$merged_rows"
+  awk '{ if (!($1 in n)) order[++k] = $1; n[$1]++; sp[$1] += $3; sr[$1] += $4
+         if (!($1 in wp) || $3 < wp[$1]) wp[$1] = $3; if (!($1 in wr) || $4 < wr[$1]) wr[$1] = $4 }
+       END { for (i = 1; i <= k; ++i) { t = order[i]
+               printf "%-11s worst / mean over %d: precision %.3f / %.3f, recall %.3f / %.3f\n", t, n[t], wp[t], sp[t] / n[t], wr[t], sr[t] / n[t] } }' "$merged_rows"
 fi
 exit $status
