@@ -169,7 +169,8 @@ DEFINE_double(degenerate_sigma, 0.1, "Standard deviation (metres) of a degenerat
               "EKF update: there the EKF's prediction (commands, odometry) carries the pose and its covariance grows.");
 DEFINE_int32(max_particles, 6, "Rao-Blackwellized particle filter (paper §III-A): particles spawned under ambiguity (the "
              "first match after suspended matching failed, or with --spawn_on_degenerate a degenerate match under an "
-             "uncertain prediction), drawn from the prediction's covariance, weighted by their scans against the "
+             "uncertain prediction: drawn from the prediction's covariance; or two at the modes of an ambiguous match, "
+             "see --spawn_on_second_mode), weighted by their scans against the "
              "submaps as they were at the spawn and the earlier map, resampled, collapsed when the ambiguity is gone. "
              "1 = the single-particle pipeline. Counts over time go to particles.txt.");
 DEFINE_uint64(particle_seed, 1, "Seed of the particle filter's draws (same log, flags and seed: same output bytes).");
@@ -177,7 +178,8 @@ DEFINE_double(spawn_min_sigma, 0.05, "Spawn particles only when the prediction's
               "weak direction of a degenerate match, else its largest) is at least this (see --max_particles).");
 DEFINE_bool(spawn_on_degenerate, false, "Also spawn particles along the weak direction of a degenerate match (a "
             "corridor) when the prediction is uncertain there (see --spawn_min_sigma). Off: particles spawn only when "
-            "the first match after suspended matching failed or scored below 0.5.");
+            "the first match after suspended matching failed or scored below 0.5, or at a second mode (see "
+            "--spawn_on_second_mode).");
 DEFINE_bool(spawn_on_second_mode, true, "Also spawn particles when a wide search of the front end's matcher (the "
             "prediction was not trusted: a gap between scans, a sharp turn without odometry) finds a second mode, a pose "
             "farther than --second_mode_exclusion (metres in x or y) or --second_mode_exclusion_deg from the best that "
