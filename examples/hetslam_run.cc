@@ -79,10 +79,10 @@ DEFINE_double(angular_velocity_fraction, 0.0, "Fraction of the last scan-to-scan
               "constant_velocity, in [0, 1.5].");
 DEFINE_double(resolution, 0.05, "Grid cell size in metres (paper: 5 cm).");
 DEFINE_double(sigma, 0.10, "Likelihood field p_hit ~ exp(-d / sigma): sigma in metres.");
-DEFINE_string(refine_interpolation, "values", "What the front end's Ceres refinement of a scan match interpolates "
-              "between cell centres: values (the likelihood field's values; a wall is pulled towards the nearest "
-              "cell centre, by up to half a cell) or distances (each cell centre's distance to the nearest surface, "
-              "so the kernel peaks on the wall itself; see factors/scan_cost.h).");
+DEFINE_string(refine_interpolation, "distances", "What the front end's Ceres refinement of a scan match interpolates "
+              "between cell centres: distances (each cell centre's distance to the nearest surface, so the kernel "
+              "peaks on the wall itself; see factors/scan_cost.h), the default, or values (the likelihood field's "
+              "values; a wall is pulled towards the nearest cell centre, by up to half a cell).");
 DEFINE_double(field_max_distance, 0.3, "Likelihood field window radius in metres (beyond it p_hit = 0).");
 DEFINE_double(linear_window, 1.2, "Scan matcher search window, ± metres around the prediction in x and y.");
 DEFINE_double(angular_window_deg, 40.0, "Scan matcher search window, ± degrees around the predicted heading.");
@@ -169,7 +169,8 @@ DEFINE_double(degenerate_sigma, 0.1, "Standard deviation (metres) of a degenerat
               "EKF update: there the EKF's prediction (commands, odometry) carries the pose and its covariance grows.");
 DEFINE_int32(max_particles, 6, "Rao-Blackwellized particle filter (paper §III-A): particles spawned under ambiguity (the "
              "first match after suspended matching failed, or with --spawn_on_degenerate a degenerate match under an "
-             "uncertain prediction), drawn from the prediction's covariance, weighted by their scans against the "
+             "uncertain prediction: drawn from the prediction's covariance; or two at the modes of an ambiguous match, "
+             "see --spawn_on_second_mode), weighted by their scans against the "
              "submaps as they were at the spawn and the earlier map, resampled, collapsed when the ambiguity is gone. "
              "1 = the single-particle pipeline. Counts over time go to particles.txt.");
 DEFINE_uint64(particle_seed, 1, "Seed of the particle filter's draws (same log, flags and seed: same output bytes).");
@@ -177,7 +178,20 @@ DEFINE_double(spawn_min_sigma, 0.05, "Spawn particles only when the prediction's
               "weak direction of a degenerate match, else its largest) is at least this (see --max_particles).");
 DEFINE_bool(spawn_on_degenerate, false, "Also spawn particles along the weak direction of a degenerate match (a "
             "corridor) when the prediction is uncertain there (see --spawn_min_sigma). Off: particles spawn only when "
-            "the first match after suspended matching failed or scored below 0.5.");
+            "the first match after suspended matching failed or scored below 0.5, or at a second mode (see "
+            "--spawn_on_second_mode).");
+DEFINE_bool(spawn_on_second_mode, true, "Also spawn particles when a wide search of the front end's matcher (the "
+            "prediction was not trusted: a gap between scans, a sharp turn without odometry) finds a second mode, a pose "
+            "farther than --second_mode_exclusion (metres in x or y) or --second_mode_exclusion_deg from the best that "
+            "scores at least --second_mode_score_ratio of it, and one of the two slides the robot sideways by at least "
+            "three --sideslip_sigma: one particle goes on at each mode, weighted by its scans and, without a motion "
+            "source, by its sideslip (see --max_particles).");
+DEFINE_double(sideslip_sigma, 0.1, "Without a motion source, while several particles live: standard deviation (metres) "
+              "of a robot's sideways slide between scans in the particles' weights (a robot drives and turns; it does "
+              "not slide sideways). 0 = off (a holonomic robot), which also stops --spawn_on_second_mode.");
+DEFINE_double(second_mode_exclusion, 0.5, "See --spawn_on_second_mode (metres, > 0).");
+DEFINE_double(second_mode_exclusion_deg, 20.0, "See --spawn_on_second_mode (degrees, > 0).");
+DEFINE_double(second_mode_score_ratio, 0.9, "See --spawn_on_second_mode, in (0, 1].");
 DEFINE_bool(insert_while_ambiguous, false, "While several particles live, insert each particle's scans into its own "
             "copy of the active submaps at once (each extra particle then costs both submaps whole); off: every particle "
             "matches against the submaps as they were at the spawn, and the kept particle's scans go in at the "
@@ -272,6 +286,9 @@ std::string FlagsNamedIn(const std::string& message) {
       {"max_particles", "--max_particles"},
       {"spawn_min_sigma_meters", "--spawn_min_sigma"},
       {"max_ambiguous_scans", "--max_ambiguous_scans"},
+      {"second_mode_exclusion_meters", "--second_mode_exclusion"},
+      {"second_mode_score_ratio", "--second_mode_score_ratio"},
+      {"sideslip_sigma_meters", "--sideslip_sigma"},
       {"max_submaps_per_search", "--loop_max_submaps"},
       {"motion_filter_distance_meters", "--motion_filter_distance"},
       {"motion_filter_angle_radians", "--motion_filter_angle_deg"},
@@ -365,6 +382,11 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->particles.max_ambiguous_scans = FLAGS_max_ambiguous_scans;
   estimator->particles.spawn_on_degenerate = FLAGS_spawn_on_degenerate;
   estimator->particles.insert_while_ambiguous = FLAGS_insert_while_ambiguous;
+  estimator->particles.spawn_on_second_mode = FLAGS_spawn_on_second_mode;
+  estimator->particles.second_mode_exclusion_meters = FLAGS_second_mode_exclusion;
+  estimator->particles.second_mode_exclusion_radians = FLAGS_second_mode_exclusion_deg * M_PI / 180.0;
+  estimator->particles.second_mode_score_ratio = FLAGS_second_mode_score_ratio;
+  estimator->particles.sideslip_sigma_meters = FLAGS_sideslip_sigma;
   estimator->use_odometry = FLAGS_use_odometry;
   estimator->use_commands = FLAGS_use_commands && !FLAGS_use_odometry;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &estimator->attitude_source) ||
@@ -489,10 +511,10 @@ std::string Summary(const OnlineEstimator& estimator) {
   const size_t active_bytes = s.active_submap_bytes_at_finish;
   const size_t finished_bytes = estimator.graph().FinishedSubmapBytes(estimator.options().robot);
   std::snprintf(line, sizeof(line),
-                "particles: mean %.3f per scan, at most %d; %d spawns, %d collapses, %d resamples, %d scans weighted "
-                "against the earlier map; one extra particle at most %.2f MiB (the map: %.1f MiB, finished submaps %.1f "
-                "MiB and active ones %.1f MiB)\n",
-                p.mean_particles(), p.max_particles, p.spawns, p.collapses, p.resamples, p.global_scorings,
+                "particles: mean %.3f per scan, at most %d; %d spawns (%d at a second mode), %d collapses, %d resamples, %d "
+                "scans weighted against the earlier map; one extra particle at most %.2f MiB (the map: %.1f MiB, finished "
+                "submaps %.1f MiB and active ones %.1f MiB)\n",
+                p.mean_particles(), p.max_particles, p.spawns, p.mode_spawns, p.collapses, p.resamples, p.global_scorings,
                 p.max_extra_particle_bytes / 1048576.0, (finished_bytes + active_bytes) / 1048576.0,
                 finished_bytes / 1048576.0, active_bytes / 1048576.0);
   out += line;

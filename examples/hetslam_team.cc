@@ -69,9 +69,9 @@ DEFINE_int32(overlap_min_matches, 3, "Scans of different places (1.5 m apart) wh
              "map-overlap link. At least 2.");
 DEFINE_double(overlap_max_conflict, 0.05, "Largest share of compared occupied cells that may land on the other "
               "robot's free space for a map-overlap link. In [0, 1].");
-DEFINE_string(refine_interpolation, "values", "What each robot's front end refines its scan matches on between cell "
-              "centres: values (the likelihood field's) or distances (to the nearest surface; see hetslam_run "
-              "--help and factors/scan_cost.h).");
+DEFINE_string(refine_interpolation, "distances", "What each robot's front end refines its scan matches on between "
+              "cell centres: distances (to the nearest surface; the default; see hetslam_run --help and "
+              "factors/scan_cost.h) or values (the likelihood field's).");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {

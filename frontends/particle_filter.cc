@@ -35,6 +35,17 @@ bool WithinSpread(const ParticleFilterOptions& options, const Pose2& a, const Po
          std::abs(Between(a, b).theta()) <= options.collapse_spread_radians;
 }
 
+// The front end's options, its matcher searching its wide windows for a second mode when the
+// filter spawns there.
+LocalSlamOptions WithSecondModeSearch(LocalSlamOptions local, const ParticleFilterOptions& options) {
+  if (options.spawn_on_second_mode && options.max_particles > 1) {
+    local.matcher.wide_second_mode_exclusion_meters = options.second_mode_exclusion_meters;
+    local.matcher.wide_second_mode_exclusion_radians = options.second_mode_exclusion_radians;
+    local.matcher.wide_second_mode_min_score_ratio = options.second_mode_score_ratio;
+  }
+  return local;
+}
+
 }  // namespace
 
 std::vector<double> NormalizedWeights(const std::vector<double>& log_weights) {
@@ -62,6 +73,17 @@ double EffectiveSampleSize(const std::vector<double>& weights) {
   double sum_squares = 0.0;
   for (double w : weights) sum_squares += w * w;
   return sum_squares > 0 ? 1.0 / sum_squares : 0.0;
+}
+
+double SideslipMeters(const Pose2& motion) {
+  Eigen::Vector2d t = motion.translation();
+  if (t.x() < 0) t = -t;  // reversing: the same cone about the backward heading
+  if (t.squaredNorm() == 0) return 0.0;
+  const double direction = std::atan2(t.y(), t.x());  // in [-pi/2, pi/2]
+  const double low = std::min(0.0, motion.theta()), high = std::max(0.0, motion.theta());
+  if (direction >= low && direction <= high) return 0.0;
+  const double away = direction < low ? low - direction : direction - high;
+  return t.norm() * std::sin(std::min(away, 0.5 * M_PI));
 }
 
 double UniformDraw(std::mt19937_64* rng) { return static_cast<double>((*rng)() >> 11) * 0x1.0p-53; }
@@ -106,12 +128,21 @@ bool ParticleFilterOptions::IsValid(std::string* error) const {
     msg << "collapse spreads must be >= 0; ";
   if (max_ambiguous_scans < 1) msg << "max_ambiguous_scans must be >= 1; ";
   if (!(global_margin_meters >= 0 && std::isfinite(global_margin_meters))) msg << "global_margin_meters must be >= 0; ";
+  if (!(second_mode_exclusion_meters > 0 && second_mode_exclusion_meters <= 50 && second_mode_exclusion_radians > 0 &&
+        second_mode_exclusion_radians <= M_PI))
+    msg << "second_mode_exclusion_meters must be in (0, 50] and second_mode_exclusion_radians in (0, pi]; ";
+  if (!(sideslip_sigma_meters >= 0 && std::isfinite(sideslip_sigma_meters)))
+    msg << "sideslip_sigma_meters must be >= 0; ";
+  if (!(mode_min_sideslip_sigmas >= 0 && std::isfinite(mode_min_sideslip_sigmas)))
+    msg << "mode_min_sideslip_sigmas must be >= 0; ";
+  if (!(second_mode_score_ratio > 0 && second_mode_score_ratio <= 1))
+    msg << "second_mode_score_ratio must be in (0, 1]; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
 
 ParticleLocalSlam::ParticleLocalSlam(const LocalSlamOptions& local_options, const ParticleFilterOptions& options)
-    : options_(options), slam_(local_options), particles_(1), rng_(options.seed) {
+    : options_(options), slam_(WithSecondModeSearch(local_options, options)), particles_(1), rng_(options.seed) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid ParticleFilterOptions: " << error;
 }
@@ -140,6 +171,63 @@ void ParticleLocalSlam::Spawn(const Eigen::Matrix3d& covariance, const Predictio
     predictions->push_back(p);
   }
   ++stats_.spawns;
+}
+
+bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints& points, LocalSlamState before,
+                                          std::vector<LocalResult>* results) {
+  const LocalResult& first = results->front();
+  const ScanMatchResult& match = first.match;
+  const double ratio = options_.second_mode_score_ratio;
+  if (!first.awaiting_insertion || !first.matched || !match.converged || !match.wide_search ||
+      match.second_mode_correlative_score <= 0 || match.second_mode_correlative_score < ratio * match.correlative_score ||
+      before.active.empty()) {
+    return false;
+  }
+  // The second mode is in the frame of the submap matched against (the oldest active one,
+  // unchanged by the match).
+  const LocalSlamOptions& local = slam_.options();
+  const double r = local.grid.resolution_meters;
+  const double step = local.matcher.max_angular_step_radians;
+  Prediction at_mode;
+  at_mode.pose = before.active.front().local_T_submap * match.second_mode_pose;
+  at_mode.external = false;
+  at_mode.measures_translation = false;
+  // A cell and a yaw step: the search stays near the mode (the narrow windows plus three of
+  // these), and a poor fit that leaves it counts as failed (outlier_max_score).
+  at_mode.covariance = Eigen::Vector3d(r * r, r * r, step * step).asDiagonal();
+  std::swap(*slam_.mutable_state(), before);
+  LocalResult second = slam_.Match(stamp_seconds, points, at_mode);
+  std::swap(*slam_.mutable_state(), before);
+  const Pose2 apart = Between(first.local_pose, second.local_pose);
+  const bool distinct = std::abs(apart.x()) > options_.second_mode_exclusion_meters ||
+                        std::abs(apart.y()) > options_.second_mode_exclusion_meters ||
+                        std::abs(apart.theta()) > options_.second_mode_exclusion_radians;
+  if (!second.awaiting_insertion || !second.match.converged || !distinct) {
+    return false;
+  }
+  // Only where the motion model can weigh the two modes: one of them slides the robot
+  // sideways. Two modes along the direction of travel (a corridor's length) are told apart by
+  // the scans alone, whose evidence there is noise: measured on ACES (15 spawns, mostly such)
+  // and Intel, the particles drifted apart along corridors and the kept one was often wrong
+  // (ACES 0.113 -> 8.7 m against GMapping, Intel's relations 0.022 -> 0.14 m).
+  const std::vector<StampedPose2>& recent_first = particles_[0].state.recent;
+  if (recent_first.size() < 2 || options_.sideslip_sigma_meters <= 0) return false;
+  const Pose2& previous = recent_first[recent_first.size() - 2].pose;
+  const double sideslip = std::max(SideslipMeters(Between(previous, first.local_pose)),
+                                   SideslipMeters(Between(previous, second.local_pose)));
+  if (sideslip < options_.sideslip_sigma_meters * options_.mode_min_sideslip_sigmas) return false;
+  // Two particles from this scan on; its results are deferred like every scan's while several
+  // live. Neither is the undisturbed one: the evidence alone picks at the collapse.
+  particles_[0].undisturbed = false;
+  Particle other = particles_[0];
+  other.state = std::move(before);
+  particles_.push_back(std::move(other));
+  spawn_submaps_ = particles_[0].state.active;
+  results->push_back(std::move(second));
+  ambiguous_scans_ = 0;
+  ++stats_.spawns;
+  ++stats_.mode_spawns;
+  return true;
 }
 
 ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points, const Prediction& prediction,
@@ -177,13 +265,36 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     spawn_covariance_.reset();
   }
 
-  const int n = num_particles();
+  int n = num_particles();
   std::vector<LocalResult> results(n);
+  // (c): the lone particle's scan is matched first and inserted only when it found no second
+  // mode; the state before the match (what the match changes: the recent poses and odometry)
+  // and the points are kept for a match at the second mode.
+  const bool mode_spawning = n == 1 && options_.spawn_on_second_mode && options_.max_particles > 1;
+  std::optional<LocalSlamState> before_match;
+  std::optional<ScanPoints> mode_points;
   for (int i = 0; i < n; ++i) {
     std::swap(*slam_.mutable_state(), particles_[i].state);
     // Several particles insert every scan: they must all insert the same ones (and the
     // deferred results are all nodes).
-    if (n == 1) {
+    if (mode_spawning) {
+      mode_points = points;
+      const LocalSlamState& state = slam_.state();
+      const std::vector<StampedPose2> recent = state.recent;
+      const std::optional<Pose2> last_odometry = state.last_odometry;
+      results[i] = slam_.Match(stamp_seconds, std::move(points), predictions[i]);
+      const ScanMatchResult& m = results[i].match;
+      if (results[i].awaiting_insertion && m.wide_search && m.converged &&
+          m.second_mode_correlative_score >= options_.second_mode_score_ratio * m.correlative_score) {
+        // A candidate: keep the state as it was before the match (sharing the maps: nothing is
+        // inserted while it lives).
+        before_match = slam_.state();
+        before_match->recent = recent;
+        before_match->last_odometry = last_odometry;
+      } else if (results[i].awaiting_insertion) {
+        slam_.Insert(&results[i]);
+      }
+    } else if (n == 1) {
       results[i] = slam_.AddScan(stamp_seconds, std::move(points), predictions[i]);
     } else if (options_.insert_while_ambiguous) {
       results[i] = slam_.AddScan(stamp_seconds, points, predictions[i], /*motion_filter=*/false);
@@ -195,6 +306,20 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
     std::swap(*slam_.mutable_state(), particles_[i].state);
     stats_.match_seconds += results[i].match_seconds;
     stats_.insert_seconds += results[i].insert_seconds;
+  }
+  if (before_match.has_value()) {
+    LocalSlamState before = std::move(*before_match);
+    before_match.reset();
+    if (SpawnAtSecondMode(stamp_seconds, *mode_points, std::move(before), &results)) {
+      step.spawned = true;
+      points = std::move(*mode_points);
+      n = num_particles();
+    } else {
+      std::swap(*slam_.mutable_state(), particles_[0].state);
+      slam_.Insert(&results[0]);
+      std::swap(*slam_.mutable_state(), particles_[0].state);
+      stats_.insert_seconds += results[0].insert_seconds;
+    }
   }
   stats_.particle_scans += n;
   stats_.max_particles = std::max(stats_.max_particles, n);
@@ -251,6 +376,14 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
                                         points.matching));
       }
       particles_[i].log_weight += ScanLogLikelihood(options_, score);
+      // The motion model where no motion source predicted the scan (see sideslip_sigma_meters).
+      const std::vector<StampedPose2>& recent = particles_[i].state.recent;
+      if (options_.sideslip_sigma_meters > 0 && !predictions[std::min<size_t>(i, predictions.size() - 1)].external &&
+          results[i].matched && results[i].match.converged && recent.size() >= 2) {
+        const double s = SideslipMeters(Between(recent[recent.size() - 2].pose, recent.back().pose)) /
+                         options_.sideslip_sigma_meters;
+        particles_[i].log_weight -= 0.5 * s * s;
+      }
     }
     ScoreAgainstGraph(points, results, graph, robot);
   }

@@ -386,6 +386,11 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
     msg << "motion penalties must be >= 0; ";
   if (!(second_mode_exclusion_meters >= 0 && second_mode_exclusion_meters <= 50 && second_mode_exclusion_radians >= 0))
     msg << "second-mode exclusions must be >= 0 (metres <= 50); ";
+  if (!(wide_second_mode_exclusion_meters >= 0 && wide_second_mode_exclusion_meters <= 50 &&
+        wide_second_mode_exclusion_radians >= 0))
+    msg << "wide second-mode exclusions must be >= 0 (metres <= 50); ";
+  if (!(wide_second_mode_min_score_ratio >= 0 && wide_second_mode_min_score_ratio <= 1))
+    msg << "wide_second_mode_min_score_ratio must be in [0, 1]; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -452,7 +457,8 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
   if (try_narrow_first && options_.narrow_linear_search_window_meters > 0.0 &&
       options_.narrow_angular_search_window_radians > 0.0) {
     ScanMatchResult narrow = MatchOnce(map, predicted, points_robot, weights, options_.narrow_linear_search_window_meters,
-                                       options_.narrow_angular_search_window_radians);
+                                       options_.narrow_angular_search_window_radians,
+                                       options_.second_mode_exclusion_meters, options_.second_mode_exclusion_radians);
     if (narrow.converged && narrow.score >= options_.narrow_accept_score &&
         !OnWindowBorder(predicted, narrow.pose, options_.narrow_linear_search_window_meters,
                         options_.narrow_angular_search_window_radians)) {
@@ -460,8 +466,17 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
     }
     narrow_candidates = narrow.candidates_scored;
   }
+  const bool wide_modes =
+      options_.wide_second_mode_exclusion_meters > 0 || options_.wide_second_mode_exclusion_radians > 0;
+  const double exclusion_meters =
+      wide_modes ? options_.wide_second_mode_exclusion_meters : options_.second_mode_exclusion_meters;
+  const double exclusion_radians =
+      wide_modes ? options_.wide_second_mode_exclusion_radians : options_.second_mode_exclusion_radians;
+  const double min_ratio = wide_modes ? options_.wide_second_mode_min_score_ratio : 0.0;
   ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, options_.linear_search_window_meters,
-                                     options_.angular_search_window_radians);
+                                     options_.angular_search_window_radians, exclusion_meters, exclusion_radians,
+                                     min_ratio);
+  result.wide_search = true;
   result.candidates_scored += narrow_candidates;
   const bool wider = options_.fallback_linear_search_window_meters > options_.linear_search_window_meters ||
                      options_.fallback_angular_search_window_radians > options_.angular_search_window_radians;
@@ -473,8 +488,10 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
     ScanMatchResult fallback =
         MatchOnce(map, predicted, points_robot, weights,
                   std::max(options_.linear_search_window_meters, options_.fallback_linear_search_window_meters),
-                  std::max(options_.angular_search_window_radians, options_.fallback_angular_search_window_radians));
+                  std::max(options_.angular_search_window_radians, options_.fallback_angular_search_window_radians),
+                  exclusion_meters, exclusion_radians, min_ratio);
     fallback.candidates_scored += result.candidates_scored;
+    fallback.wide_search = true;
     if (fallback.converged && (!result.converged || fallback.score > result.score)) return fallback;
   }
   return result;
@@ -486,13 +503,15 @@ ScanMatchResult ScanMatcher::MatchWithinWindow(const LaserMap& map, const Pose2&
                                                const std::vector<float>& weights) const {
   CHECK(linear_window_meters >= 0 && angular_window_radians >= 0 && angular_window_radians <= M_PI)
       << "bad window " << linear_window_meters << " m, " << angular_window_radians << " rad";
-  return MatchOnce(map, predicted, points_robot, weights, linear_window_meters, angular_window_radians);
+  return MatchOnce(map, predicted, points_robot, weights, linear_window_meters, angular_window_radians,
+                   options_.second_mode_exclusion_meters, options_.second_mode_exclusion_radians);
 }
 
 ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predicted,
                                        const std::vector<Eigen::Vector2f>& points_robot,
                                        const std::vector<float>& weights, double linear_window_meters,
-                                       double angular_window_radians) const {
+                                       double angular_window_radians, double second_mode_exclusion_meters,
+                                       double second_mode_exclusion_radians, double second_mode_min_score_ratio) const {
   CHECK(weights.empty() || weights.size() == points_robot.size())
       << weights.size() << " weights for " << points_robot.size() << " points";
   const LikelihoodField& field = map.field();
@@ -525,7 +544,7 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     }
   }
   result.candidates_scored = static_cast<int>(top.size());
-  const bool second_mode = options_.second_mode_exclusion_meters > 0 || options_.second_mode_exclusion_radians > 0;
+  const bool second_mode = second_mode_exclusion_meters > 0 || second_mode_exclusion_radians > 0;
   std::vector<Candidate> top_copy;
   if (second_mode) top_copy = top;
   Candidate best{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
@@ -545,9 +564,11 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   if (second_mode) {
     Exclusion exclusion;
     exclusion.around = &best;
-    exclusion.cells = static_cast<int>(std::floor(options_.second_mode_exclusion_meters / r));
-    exclusion.radians = options_.second_mode_exclusion_radians;
-    Candidate second{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
+    exclusion.cells = static_cast<int>(std::floor(second_mode_exclusion_meters / r));
+    exclusion.radians = second_mode_exclusion_radians;
+    // Blocks that cannot reach the least score asked for are pruned (the bound is an upper one).
+    Candidate second{-1, 0, 0,
+                     static_cast<float>(std::max(options_.min_correlative_score, second_mode_min_score_ratio * best.score))};
     BranchAndBound(context, std::move(top_copy), depth, &second, &result.candidates_scored, exclusion);
     if (second.yaw_index >= 0) {
       result.second_mode_correlative_score = second.score;

@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "datasets/sim/world.h"
 #include "gtest/gtest.h"
 #include "tests/frontends/sim_fixtures.h"
 
@@ -112,6 +113,111 @@ TEST(ParticleFilterOptionsTest, RejectsBadValues) {
   options = ParticleFilterOptions();
   options.collapse_weight = 1.5;
   EXPECT_FALSE(options.IsValid(&error));
+}
+
+TEST(SideslipTest, DrivingAndTurningIsNoSideslip) {
+  EXPECT_EQ(0.0, SideslipMeters(Pose2(1.0, 0.0, 0.0)));           // straight ahead
+  EXPECT_EQ(0.0, SideslipMeters(Pose2(-0.5, 0.0, 0.0)));          // straight back
+  EXPECT_EQ(0.0, SideslipMeters(Pose2(0.0, 0.0, 1.0)));           // a turn on the spot
+  EXPECT_EQ(0.0, SideslipMeters(Pose2(1.0, 0.1, 0.3)));           // an arc to the left (chord at 0.15 rad)
+  EXPECT_EQ(0.0, SideslipMeters(Pose2(1.0, -0.1, -0.3)));         // ... and to the right
+  EXPECT_EQ(0.0, SideslipMeters(Pose2(1.0, 0.25, 0.3)));          // turn, then drive (0.245 rad)
+  EXPECT_EQ(0.0, SideslipMeters(Pose2(-1.0, 0.1, -0.3)));         // reversing on an arc
+  EXPECT_NEAR(1.0, SideslipMeters(Pose2(0.0, 1.0, 0.0)), 1e-12);  // sideways
+  EXPECT_NEAR(1.0, SideslipMeters(Pose2(0.0, -1.0, 0.0)), 1e-12);
+  // 1 m ahead and 1 m to the right while turning 0.3 rad left: sqrt(2) m at pi/4 below the
+  // nearer bound (heading 0).
+  EXPECT_NEAR(std::sqrt(2.0) * std::sin(M_PI / 4), SideslipMeters(Pose2(1.0, -1.0, 0.3)), 1e-12);
+  // ... and 1 m to the left while turning 0.3 rad right: pi/4 above the heading before.
+  EXPECT_NEAR(std::sqrt(2.0) * std::sin(M_PI / 4), SideslipMeters(Pose2(1.0, 1.0, -0.3)), 1e-12);
+}
+
+// A scan in a bare rectangular room fits two places: its pose and the half-turn about the
+// room's centre. Without a motion source the front end's wide search finds both; with
+// spawn_on_second_mode a particle goes on at each, and the motion model (the half-turn mode
+// slides the robot sideways) settles it on the truth at once.
+struct ModeRun {
+  std::vector<ParticleStep> steps;
+  ParticleFilterStats stats;
+  std::vector<Pose2> particle_poses;  // at the second scan, before any collapse
+};
+
+ModeRun RunInBareRoom(const ParticleFilterOptions& options, const Pose2& first, const Pose2& second) {
+  sim::World world;
+  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 4.0), 0.0);
+  LocalSlamOptions local;
+  local.matcher.translation_penalty_per_square_meter = 0.0;  // the two modes score alike
+  local.matcher.branch_and_bound_depth = 6;
+  local.matcher.linear_search_window_meters = 2.5;
+  local.matcher.angular_search_window_radians = M_PI;
+  local.matcher.fallback_linear_search_window_meters = 0.0;
+  local.matcher.fallback_angular_search_window_radians = 0.0;
+  ParticleLocalSlam filter(local, options);
+  SubmapGraph graph{SubmapGraphOptions()};
+  ModeRun run;
+  double stamp = 0.0;
+  for (const Pose2& truth : {first, second}) {
+    ScanPoints points;
+    for (int i = 0; i < 360; ++i) {
+      const double angle = -M_PI + i * M_PI / 180.0;
+      double range = 0.0;
+      if (!world.CastRay(truth.translation(), truth.theta() + angle, 20.0, &range)) continue;
+      points.all.emplace_back(static_cast<float>(range * std::cos(angle)), static_cast<float>(range * std::sin(angle)));
+    }
+    points.labels.assign(points.all.size(), PointLabel::kStructure);
+    points.heights_meters.assign(points.all.size(), 0.0f);
+    points.valid_points = static_cast<int>(points.all.size());
+    points.matching = VoxelFilter(points.all, 0.1f);
+    // The front end's own prediction (no motion source); the first scan sets the frame.
+    Prediction prediction = filter.Predict(std::nullopt);
+    if (stamp == 0.0) prediction.pose = first;
+    run.steps.push_back(filter.AddScan(stamp, std::move(points), prediction, std::nullopt, graph, 0));
+    if (stamp > 0.0) run.particle_poses = filter.Poses();
+    stamp += 1.0;
+  }
+  run.stats = filter.stats();
+  return run;
+}
+
+TEST(ParticleLocalSlamTest, SpawnsAtASecondModeAndTheMotionModelSettlesIt) {
+  const Pose2 first(-0.8, 0.6, -1.5);
+  const Pose2 second = first * Pose2(0.4, 0.02, 0.1);  // an arc: no sideslip
+  const Pose2 half_turn = Pose2(0.0, 0.0, M_PI) * second;
+  ASSERT_EQ(0.0, SideslipMeters(Between(first, second)));
+  ASSERT_GT(SideslipMeters(Between(first, half_turn)), 0.5) << "the wrong mode must slide sideways";
+  const auto near = [](const Pose2& a, const Pose2& b) {
+    return (a.translation() - b.translation()).norm() < 0.03 && std::abs(WrapAngle(a.theta() - b.theta())) < 0.02;
+  };
+
+  ParticleFilterOptions options;
+  options.spawn_on_second_mode = true;
+  const ModeRun run = RunInBareRoom(options, first, second);
+  ASSERT_EQ(2u, run.steps.size());
+  EXPECT_TRUE(run.steps[1].spawned);
+  EXPECT_EQ(2, run.steps[1].particles);
+  EXPECT_EQ(1, run.stats.mode_spawns);
+  // Decided at once: collapsed on the truth, the scan committed there.
+  EXPECT_TRUE(run.steps[1].collapsed);
+  ASSERT_EQ(1u, run.steps[1].committed.size());
+  EXPECT_TRUE(near(run.steps[1].committed[0].local_pose, second)) << run.steps[1].committed[0].local_pose;
+  ASSERT_EQ(1u, run.particle_poses.size());
+
+  // With a motion model too loose to tell them apart, both modes stay alive (they score
+  // alike): the spawn found them.
+  options.sideslip_sigma_meters = 100.0;
+  options.mode_min_sideslip_sigmas = 0.0;
+  const ModeRun undecided = RunInBareRoom(options, first, second);
+  EXPECT_TRUE(undecided.steps[1].spawned);
+  ASSERT_EQ(2u, undecided.particle_poses.size());
+  EXPECT_TRUE((near(undecided.particle_poses[0], second) && near(undecided.particle_poses[1], half_turn)) ||
+              (near(undecided.particle_poses[1], second) && near(undecided.particle_poses[0], half_turn)))
+      << undecided.particle_poses[0] << " " << undecided.particle_poses[1];
+
+  // Off: one particle, whichever mode scored best.
+  options.spawn_on_second_mode = false;
+  const ModeRun off = RunInBareRoom(options, first, second);
+  EXPECT_EQ(0, off.stats.spawns);
+  EXPECT_EQ(1, off.steps[1].particles);
 }
 
 // The ring of rooms (tests/frontends/sim_fixtures.h), fed as scans with the true motion as an

@@ -239,6 +239,49 @@ TEST(ScanMatcherSecondModeTest, TellsASymmetricRoomFromAnAsymmetricOne) {
   EXPECT_GT(margins[1], 0.05) << "with the pillar the truth stands out";
 }
 
+// The wide second mode: Match's full-window search looks for a second mode when
+// wide_second_mode_exclusion_* is set (the bare room's half-turn), its narrow first try does not.
+TEST(ScanMatcherSecondModeTest, WideSearchesAloneLookForASecondMode) {
+  ScanMatcherOptions options;
+  options.translation_penalty_per_square_meter = 0.0;
+  options.branch_and_bound_depth = 6;
+  options.linear_search_window_meters = 2.5;
+  options.angular_search_window_radians = M_PI;
+  options.fallback_linear_search_window_meters = 0.0;
+  options.fallback_angular_search_window_radians = 0.0;
+  options.narrow_linear_search_window_meters = 0.4;
+  options.narrow_angular_search_window_radians = 10.0 * M_PI / 180.0;
+  options.narrow_accept_score = 0.4;
+  options.wide_second_mode_exclusion_meters = 0.5;
+  options.wide_second_mode_exclusion_radians = 0.35;
+  sim::World world;
+  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 4.0), 0.0);
+  std::mt19937 rng(3);
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
+    map.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world, pose, 0.01, &rng));
+  }
+  const Pose2 truth(-1.0, 0.5, 0.3);
+  const Pose2 half_turn = Pose2(0.0, 0.0, M_PI) * truth;
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.01, &rng);
+  const ScanMatcher matcher(options);
+  const auto near = [](const Pose2& a, const Pose2& b) {
+    return (a.translation() - b.translation()).norm() < 0.1 && std::abs(WrapAngle(a.theta() - b.theta())) < 0.05;
+  };
+  // Close to the truth: the narrow try settles it, no second mode is searched.
+  const ScanMatchResult narrow = matcher.Match(map, truth * Pose2(0.1, -0.05, 0.03), scan);
+  ASSERT_TRUE(narrow.converged) << narrow.message;
+  EXPECT_FALSE(narrow.wide_search);
+  EXPECT_EQ(0.0, narrow.second_mode_correlative_score);
+  // Without the narrow try: the full window, both modes.
+  const ScanMatchResult wide = matcher.Match(map, Pose2(0.0, 0.0, 0.0), scan, {}, /*try_narrow_first=*/false);
+  ASSERT_TRUE(wide.converged) << wide.message;
+  EXPECT_TRUE(wide.wide_search);
+  EXPECT_TRUE(near(wide.pose, truth) || near(wide.pose, half_turn)) << wide.pose;
+  EXPECT_TRUE(near(wide.second_mode_pose, near(wide.pose, truth) ? half_turn : truth)) << wide.second_mode_pose;
+  EXPECT_GT(wide.second_mode_correlative_score, 0.9 * wide.correlative_score);
+}
+
 TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   ScanMatcherOptions options;
   std::string error;
