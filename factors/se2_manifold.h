@@ -33,6 +33,7 @@
 #ifndef HETSLAM_FACTORS_SE2_MANIFOLD_H_
 #define HETSLAM_FACTORS_SE2_MANIFOLD_H_
 
+#include "Eigen/Core"
 #include "ceres/manifold.h"
 
 namespace hetslam {
@@ -58,6 +59,38 @@ class Se2Manifold final : public ceres::Manifold {
 
 // A new Se2Manifold; the caller (or the ceres::Problem it is given to) owns it.
 ceres::Manifold* CreateSe2Manifold();
+
+// SE(2) poses [x, y, yaw] whose translation along one world direction is held: the tangent is
+// [d, dyaw], moving the translation by d along the free direction (the held one turned by
+// +90°) and the yaw by dyaw. For a match that cannot place a scan along a direction (a
+// corridor, a single wall: the degeneracy tests of frontends/local_slam.h) while another
+// source (a motion model) knows where the robot is along it: the scan decides across it and in
+// yaw only, so a pull along the flat direction cannot leak into the other two.
+class Se2HeldDirectionManifold final : public ceres::Manifold {
+ public:
+  static constexpr int kAmbientSize = 3;  // [x, y, yaw]
+  static constexpr int kTangentSize = 2;  // [along the free direction, dyaw]
+
+  // `held_direction`: world frame, non-zero (normalised here).
+  explicit Se2HeldDirectionManifold(const Eigen::Vector2d& held_direction);
+
+  int AmbientSize() const override { return kAmbientSize; }
+  int TangentSize() const override { return kTangentSize; }
+
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  // 3x2 row-major [f_x 0; f_y 0; 0 1], f the free direction.
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  // The part of y - x along the free direction (what is along the held one is dropped) and the
+  // wrapped yaw difference.
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  // 2x3 row-major [f_x f_y 0; 0 0 1].
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+
+  const Eigen::Vector2d& free_direction() const { return free_; }
+
+ private:
+  Eigen::Vector2d free_;  // unit, world frame
+};
 
 }  // namespace hetslam
 

@@ -162,7 +162,12 @@ Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicte
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(translational);
     const Eigen::Vector2d values = eigen.eigenvalues();  // ascending
     if (values(1) > 0 && values(0) < options.degenerate_eigenvalue_ratio * values(1)) {
-      weak = eigen.eigenvectors().col(0).normalized();
+      // The score profile's flattest direction, when there is one: the information's weakest
+      // eigenvector is mostly the noise of the hits (on a single wall 45 to 65 degrees off
+      // it, against 1 to 6 for the profile's), and holding a wrong direction moves the pose
+      // across the wall by the search's pull along it.
+      weak = match.weak_direction.squaredNorm() > 0 ? Eigen::Vector2d(match.weak_direction.normalized())
+                                                    : Eigen::Vector2d(eigen.eigenvectors().col(0).normalized());
     }
   }
   if (weak.squaredNorm() == 0) return match.pose;
@@ -451,19 +456,26 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
       result.match = matcher_.Match(*target.map, predicted_submap, points.matching, points.matching_weights,
                                     prediction.external || NarrowSearchTrusted(options_, state.recent));
     }
-    // The wall weights were looked up where this prediction puts the points in this submap:
-    // they mean nothing to a later match (loop closure) against another submap.
-    points.matching_weights.clear();
     if (result.match.converged) {
-      // Along a flat direction the prediction is kept, when it measures the motion there.
+      // Along a flat direction the prediction is kept, when it measures the motion there; the
+      // scan then places the pose across that direction and in yaw from there, so the search's
+      // pull along it (a sparsely mapped wall's dots fit best where earlier scans were taken)
+      // does not leak into the other two.
       Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();
-      const Pose2 submap_T_robot =
+      Pose2 submap_T_robot =
           prediction.external && prediction.measures_translation
               ? DegeneracyAwarePose(options_, predicted_submap, result.match, &result.degenerate, &weak_direction)
               : result.match.pose;
+      if (result.degenerate) {
+        submap_T_robot = matcher_.RefineHoldingDirection(*target.map, submap_T_robot, weak_direction, points.matching,
+                                                         points.matching_weights);
+      }
       result.local_pose = target.local_T_submap * submap_T_robot;
       result.weak_direction = target.local_T_submap.rotation() * weak_direction;
     }
+    // The wall weights were looked up where this prediction puts the points in this submap:
+    // they mean nothing to a later match (loop closure) against another submap.
+    points.matching_weights.clear();
   }
   result.match_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - match_start).count();
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;

@@ -99,9 +99,13 @@ struct LocalSlamOptions {
   // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps
   // the prediction along the weak direction and takes the match's correction only along the
   // strong one (solution remapping; there the score is flat and the matched position is
-  // noise). Applied only to external predictions that measure translation (odometry, the EKF
-  // with live commands: see Prediction): the front end's own extrapolation, or the EKF on MARG
-  // rates alone, carries no position information of its own. 0 = off.
+  // noise), then refines the pose across it and in yaw with the translation along it held
+  // (ScanMatcher::RefineHoldingDirection). The direction held is the score profile's flattest
+  // (below) whenever the match has one, also when this test fired: the information's weakest
+  // eigenvector is mostly the noise of the hits (on a single wall 45 to 65 degrees off).
+  // Applied only to external predictions that measure translation (odometry, the EKF with live
+  // commands: see Prediction): the front end's own extrapolation, or the EKF on MARG rates
+  // alone, carries no position information of its own. 0 = off.
   double degenerate_eigenvalue_ratio = 0.3;
   // ... or when the score is flat along its flattest direction (of 16): shifted 0.1 to 0.3 m
   // along it, the scan loses less than this fraction of what it loses along the steepest

@@ -9,6 +9,7 @@
 
 #include "ceres/ceres.h"
 #include "factors/scan_cost.h"
+#include "factors/se2_manifold.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -412,6 +413,33 @@ size_t ScanMatcher::ScratchBytes() const { return ThreadScratch().Bytes(); }
 ScanMatcher::ScanMatcher(const ScanMatcherOptions& options) : options_(options) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid ScanMatcherOptions: " << error;
+}
+
+Pose2 ScanMatcher::RefineHoldingDirection(const LaserMap& map, const Pose2& start, const Eigen::Vector2d& held_direction,
+                                          const std::vector<Eigen::Vector2f>& points_robot,
+                                          const std::vector<float>& weights) const {
+  CHECK(weights.empty() || weights.size() == points_robot.size())
+      << weights.size() << " weights for " << points_robot.size() << " points";
+  if (points_robot.empty() || !(held_direction.squaredNorm() > 0)) return start;
+  const LikelihoodField& field = map.field();
+  double pose[3] = {start.x(), start.y(), start.theta()};
+  ceres::Problem problem;
+  problem.AddResidualBlock(CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation),
+                           nullptr, pose);
+  problem.SetManifold(pose, new Se2HeldDirectionManifold(held_direction));
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options_.max_ceres_iterations;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  const Pose2 refined(pose[0], pose[1], pose[2]);
+  const double r = field.geometry().resolution_meters();
+  if (!summary.IsSolutionUsable() || !((refined.translation() - start.translation()).norm() < 4 * r)) return start;
+  return BilinearScore(field, refined, points_robot, weights) >= BilinearScore(field, start, points_robot, weights)
+             ? refined
+             : start;
 }
 
 ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& predicted,

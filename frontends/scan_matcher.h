@@ -145,6 +145,17 @@ class ScanMatcher {
                                     double linear_window_meters, double angular_window_radians,
                                     const std::vector<float>& weights = {}) const;
 
+  // Refines `start` (world_T_robot) by the likelihood field's cost with the translation along
+  // `held_direction` (map frame, non-zero) kept at `start`'s: across it and in yaw the scan
+  // decides (factors/se2_manifold.h Se2HeldDirectionManifold). For a match that is flat along
+  // that direction while a motion source knows the position there (LocalSlam's degeneracy
+  // handling): a search's pull along the flat direction cannot leak into the other two. The
+  // refined pose is returned only when it scores (bilinear) at least as well as `start` and
+  // moved less than four cells; otherwise `start`.
+  Pose2 RefineHoldingDirection(const LaserMap& map, const Pose2& start, const Eigen::Vector2d& held_direction,
+                               const std::vector<Eigen::Vector2f>& points_robot,
+                               const std::vector<float>& weights = {}) const;
+
   // Exhaustive evaluation of every discrete candidate (for tests of the branch and bound);
   // returns the best as `pose` with its correlative score.
   ScanMatchResult BruteForceSearch(const LaserMap& map, const Pose2& predicted,

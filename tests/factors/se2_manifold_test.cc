@@ -1,5 +1,6 @@
 #include "factors/se2_manifold.h"
 
+#include <cmath>
 #include <random>
 
 #include "ceres/jet.h"
@@ -98,6 +99,45 @@ TEST(Se2ManifoldTest, InvariantsHoldNearPlusMinusPi) {
       y << -3.0, 4.0, yaw_y;
       EXPECT_THAT_MANIFOLD_INVARIANTS_HOLD(manifold, x, delta, y, kTolerance);
     }
+  }
+}
+
+// Held along (1, 1)/sqrt(2): Plus moves along (-1, 1)/sqrt(2) and the yaw only, and Minus drops
+// what lies along the held direction.
+TEST(Se2HeldDirectionManifoldTest, MovesAcrossTheHeldDirectionOnly) {
+  const Se2HeldDirectionManifold manifold(Eigen::Vector2d(2.0, 2.0));  // normalised inside
+  EXPECT_EQ(3, manifold.AmbientSize());
+  EXPECT_EQ(2, manifold.TangentSize());
+  const double x[3] = {1.0, 2.0, 0.5};
+  const double delta[2] = {std::sqrt(2.0), 0.25};
+  double y[3];
+  ASSERT_TRUE(manifold.Plus(x, delta, y));
+  EXPECT_NEAR(0.0, y[0], 1e-12);
+  EXPECT_NEAR(3.0, y[1], 1e-12);
+  EXPECT_NEAR(0.75, y[2], 1e-12);
+  // (1, 1) along the held direction is dropped, (-1, 1) across it is kept.
+  const double z[3] = {1.0 + 1.0 - 1.0, 2.0 + 1.0 + 1.0, 0.4};
+  double d[2];
+  ASSERT_TRUE(manifold.Minus(z, x, d));
+  EXPECT_NEAR(std::sqrt(2.0), d[0], 1e-12);
+  EXPECT_NEAR(-0.1, d[1], 1e-12);
+}
+
+TEST(Se2HeldDirectionManifoldTest, InvariantsHoldAtSeededRandomPoints) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> xy(-100.0, 100.0);
+  std::uniform_real_distribution<double> yaw(-M_PI + 0.01, M_PI - 0.01);
+  std::uniform_real_distribution<double> small(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Se2HeldDirectionManifold manifold(Eigen::Vector2d(small(rng), small(rng)) + Eigen::Vector2d(0.0, 1.5));
+    Vector x(3), delta(2), y(3);
+    x << xy(rng), xy(rng), yaw(rng);
+    delta << small(rng), small(rng);
+    // y on x's manifold leaf (along the held direction nothing moves): Plus(x, Minus(y, x)) == y.
+    const Eigen::Vector2d free = manifold.free_direction();
+    const double across = xy(rng);
+    y << x(0) + across * free.x(), x(1) + across * free.y(), yaw(rng);
+    EXPECT_THAT_MANIFOLD_INVARIANTS_HOLD(manifold, x, delta, y, 1e-8);
   }
 }
 

@@ -128,53 +128,67 @@ TEST(DegenerateWorldsTest, SingleWallWithCommandsIsLowConfidence) {
   for (size_t i = 0; i < run.trajectory.size(); ++i) ASSERT_TRUE(Finite(run.trajectory[i].pose)) << "scan " << i;
 }
 
-// What the issue asks and the pipeline does not do yet (found by this test; disabled so that
-// the default set passes, see the README, "Hostile input"): along the wall the pose should
-// follow the commands (the simulator integrates the same commands exactly), across it and in
-// yaw the laser, and no step should exceed the motion. Measured: max errors 25.9 m along,
-// 4.2 m across, 0.041 rad. Three causes, found by printing per scan the prediction, its
-// covariance, the match, both degeneracy tests and the held direction:
-// - The far wall is dotted in the map (beams 1 degree apart hit it up to 1.3 m apart at 12 m)
-//   and a scan's dots fit best where earlier scans were taken: matches are pulled back along
-//   the wall by 0.05 to 0.5 m. The held pose takes the match's correction projected on the
-//   strong direction, so a held direction at an angle e to the wall moves the pose across it
-//   by e times the pull-back. The eigenvalue test's direction
-//   (LocalSlamOptions::degenerate_eigenvalue_ratio) is 45 to 65 degrees off (a likelihood
-//   field's J^T J at its optimum is mostly noise), the score profile's 1 to 3 degrees. With
-//   the eigenvalue test off: 0.61 m along, 0.77 m across.
-// - At every submap switch the estimate moves about 1 cm across the wall. A submap's cell
-//   lattice is anchored at the robot's pose, which stays 2 m from the wall, so the wall lies
-//   at the same sub-cell offset in every submap and the map's sub-cell bias there repeats
-//   (with the leak above removed: towards the wall at 2 m, away from it at 2.0375 m, none at
-//   2.025 m). One submap for the whole run, eigenvalue test off: 0.03 m across.
-// - In the first submap (the first 2 s, accelerating) both tests sit at their thresholds
-//   (profile drop ratio about 0.3, eigenvalue ratio 0.3 to 0.4): the matches judged well
-//   constrained reset the pose to the pulled-back match, 0.6 m along by 2 s.
-// Submap origins snapped to whole cells plus densify_max_gap_meters = 0.5 pass at every wall
-// distance tried (2 to 3.01 m: at most 0.009 m along, 0.029 m across, 0.018 rad), but densify
-// 0.5 takes MIT CSAIL 17 m from GMapping (0.17 m now) and the snap flips ACES (4.1 m; 0.09 m
-// with the lattice shifted by 1 cm).
-TEST(DegenerateWorldsTest, DISABLED_SingleWallWithCommandsFollowsThePrediction) {
-  const SingleWallRun run = RunSingleWall(/*commands=*/true);
-  ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
-  double max_along = 0.0, max_across = 0.0, max_yaw = 0.0;
+// Max errors of the single wall with commands, motion since the first scan against the
+// simulator's, and the largest step between scans beyond the top speed (0.6 m/s).
+struct SingleWallErrors {
+  double along = 0.0, across = 0.0, yaw = 0.0, excess_step = 0.0;
+};
+
+SingleWallErrors SingleWallErrorsOf(const SingleWallRun& run) {
+  SingleWallErrors e;
   for (size_t i = 0; i < run.trajectory.size(); ++i) {
     const Pose2& p = run.trajectory[i].pose;
     // The first pose is the frame's origin: compare motion since the start.
     const Pose2 estimated = Between(run.trajectory.front().pose, p);
     const Pose2 truth = Between(run.simulation.truth.front().pose, run.simulation.truth[i].pose);
-    max_along = std::max(max_along, std::abs(estimated.x() - truth.x()));
-    max_across = std::max(max_across, std::abs(estimated.y() - truth.y()));
-    max_yaw = std::max(max_yaw, std::abs(WrapAngle(estimated.theta() - truth.theta())));
+    e.along = std::max(e.along, std::abs(estimated.x() - truth.x()));
+    e.across = std::max(e.across, std::abs(estimated.y() - truth.y()));
+    e.yaw = std::max(e.yaw, std::abs(WrapAngle(estimated.theta() - truth.theta())));
     if (i > 0) {
       const double dt = run.trajectory[i].stamp_seconds - run.trajectory[i - 1].stamp_seconds;
       const double step = (p.translation() - run.trajectory[i - 1].pose.translation()).norm();
-      EXPECT_LE(step, 0.6 * dt + 0.05) << "scan " << i << ": a jump beyond the motion";
+      e.excess_step = std::max(e.excess_step, step - 0.6 * dt);
     }
   }
-  EXPECT_LT(max_along, 0.3);
-  EXPECT_LT(max_across, 0.05);
-  EXPECT_LT(max_yaw, 0.02);
+  return e;
+}
+
+// With the commands the estimate follows them along the wall and never steps beyond the motion
+// (before the held direction came from the score's profile and the scan was refined with it
+// held: max errors 8.2 m along and 1.5 m across, steps of 0.34 m in 0.1 s). What is left is
+// drift: the heading drifts by about 0.001 rad a second (measured 0.062 rad after 28 m, 0.11 rad
+// with noise-free ranges), and the across-wall error with it (1.15 m), most of it at submap
+// changes: not divergence, but not the 5 cm below either.
+TEST(DegenerateWorldsTest, SingleWallWithCommandsFollowsTheCommandsAlongTheWall) {
+  const SingleWallRun run = RunSingleWall(/*commands=*/true);
+  ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
+  const SingleWallErrors e = SingleWallErrorsOf(run);
+  std::printf("single wall, commands: max errors %.3f m along, %.3f m across, %.4f rad; step beyond top speed %.3f m\n",
+              e.along, e.across, e.yaw, e.excess_step);
+  EXPECT_LE(e.excess_step, 0.05) << "a jump beyond the motion";
+  EXPECT_LT(e.along, 0.6);  // measured 0.457 m after 28 m
+  EXPECT_LT(e.yaw, 0.1);    // measured 0.062 rad
+  EXPECT_LT(e.across, 1.5); // measured 1.15 m
+}
+
+// What the issue asks and the pipeline does not do yet (disabled so that the default set
+// passes, see the README, "Hostile input"): along the wall the pose should follow the commands
+// (the simulator integrates the same commands exactly), across it and in yaw the laser. Measured
+// now: max errors 0.46 m along, 1.15 m across, 0.062 rad. The heading drifts by about 0.001 rad
+// a second, 0.008 rad of it in the first second (the robot accelerating, the first submap
+// holding a few scans of a dotted far wall), the rest mostly at submap changes; the across error
+// follows the heading. Tried and not enough (max across error): noise-free ranges 1.48 m (the
+// drift is not the noise), a 6 m laser 0.88 m, 361 beams 0.76 m, submap origins snapped to whole
+// cells 1.18 m (and axis-aligned 0.75 m), densify_max_gap_meters = 0.5 0.65 m, miss log-odds
+// -0.1 instead of -0.4 (grazing rays clearing the far wall) 0.58 m, submaps of 200 scans 0.37 m.
+TEST(DegenerateWorldsTest, DISABLED_SingleWallWithCommandsFollowsThePrediction) {
+  const SingleWallRun run = RunSingleWall(/*commands=*/true);
+  ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
+  const SingleWallErrors e = SingleWallErrorsOf(run);
+  EXPECT_LE(e.excess_step, 0.05) << "a jump beyond the motion";
+  EXPECT_LT(e.along, 0.3);
+  EXPECT_LT(e.across, 0.05);
+  EXPECT_LT(e.yaw, 0.02);
 }
 
 // The laser alone (no motion source): along the wall nothing tells where the robot is. The run is
@@ -206,7 +220,7 @@ TEST(DegenerateWorldsTest, SingleWallWithoutMotionSourceIsLowConfidenceAndBounde
     }
   }
   // Bounded, not accurate: the across-wall error grows slowly with the distance driven
-  // (measured 0.29 m after 28 m, yaw within max_yaw below).
+  // (measured 0.093 m after 28 m, yaw 0.006 rad).
   EXPECT_LT(max_across, 0.5);
   EXPECT_LT(max_yaw, 0.05);
   EXPECT_LT(max_excess_step, 0.3);

@@ -194,6 +194,33 @@ TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes)
 
 // The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
 // as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
+// One straight wall (y = 0, 30 m): a scan from 2 m away is flat along it. Started 0.3 m
+// along and 4 cm across off, turned 1°, the refinement holding the along direction puts the
+// pose back on the wall's distance and heading and leaves it 0.3 m along, where it started.
+TEST(ScanMatcherRefineHoldingDirectionTest, PlacesAcrossAndInYawKeepsAlong) {
+  sim::World world;
+  world.AddWall(Eigen::Vector2d(-15.0, 0.0), Eigen::Vector2d(15.0, 0.0));
+  std::mt19937 rng(5);
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  for (double x = -1.0; x <= 1.0; x += 0.25) {
+    const Pose2 pose(x, 2.0, 0.0);
+    map.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world, pose, 0.01, &rng));
+  }
+  const Pose2 truth(0.1, 2.0, 0.0);
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.01, &rng);
+  const ScanMatcher matcher{ScanMatcherOptions()};
+  const Pose2 start(truth.x() + 0.3, truth.y() + 0.04, truth.theta() + M_PI / 180.0);
+  const Pose2 refined = matcher.RefineHoldingDirection(map, start, Eigen::Vector2d::UnitX(), scan);
+  EXPECT_NEAR(start.x(), refined.x(), 1e-9) << "held along the wall";
+  EXPECT_NEAR(truth.y(), refined.y(), 0.01) << refined;
+  EXPECT_NEAR(truth.theta(), refined.theta(), 0.2 * M_PI / 180.0) << refined;
+  // A direction at 45°: the pose moves only along (-1, 1)/sqrt(2) (and in yaw).
+  const Pose2 diagonal = matcher.RefineHoldingDirection(map, start, Eigen::Vector2d(1.0, 1.0), scan);
+  EXPECT_NEAR(0.0, (diagonal.translation() - start.translation()).dot(Eigen::Vector2d(1.0, 1.0)), 1e-9);
+  // Nothing to match: the start comes back.
+  EXPECT_EQ(start.ToVector(), matcher.RefineHoldingDirection(map, start, Eigen::Vector2d::UnitX(), {}).ToVector());
+}
+
 TEST(ScanMatcherSecondModeTest, TellsASymmetricRoomFromAnAsymmetricOne) {
   ScanMatcherOptions options;
   options.translation_penalty_per_square_meter = 0.0;
