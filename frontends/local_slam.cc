@@ -511,6 +511,13 @@ void LocalSlam::Insert(LocalResult* result_ptr, bool motion_filter) {
     state.active.push_back(std::move(submap));
   }
   for (ActiveSubmap& submap : state.active) {
+    // A filtered scan refines the submap until it holds a submap's worth of them: a robot
+    // standing still then stops changing its map, and a scan that cannot move along a wall
+    // (laser only) does not sharpen the wall's end at the laser's range into a feature.
+    if (result.filtered) {
+      if (options_.scans_per_submap > 0 && submap.num_filtered >= options_.scans_per_submap) continue;
+      ++submap.num_filtered;
+    }
     const Pose2 submap_T_node = submap.local_T_submap.inverse() * result.local_pose;
     // Labels and heights (the label layer, walls) only for 2.5D-projected scans: a level
     // scan's points are all structure at one height.

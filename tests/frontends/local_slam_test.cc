@@ -160,6 +160,7 @@ LaserScan RoomScan(const Pose2& robot, double stamp_seconds) {
 TEST(LocalSlamTest, MotionFilterLeavesOutScansThatAddNothing) {
   LocalSlamOptions options;
   options.motion_filter_distance_meters = 0.05;
+  options.motion_filter_angle_radians = 1.0 * M_PI / 180;
   options.scans_per_submap = 4;  // a new submap every 2 inserted scans
   options.prediction = MotionPrediction::kStationary;
   LocalSlam slam(options);
@@ -181,8 +182,10 @@ TEST(LocalSlamTest, MotionFilterLeavesOutScansThatAddNothing) {
   }
   EXPECT_EQ(1, slam.state().num_inserted);
   EXPECT_EQ(1, slam.state().next_submap_index);
-  // The filtered scans went into the map: its cells were updated by every one of them.
-  EXPECT_EQ(101, slam.state().active.front().map->num_scans_inserted());
+  // The filtered scans went into the map until it held scans_per_submap of them; then the map
+  // stopped changing.
+  EXPECT_EQ(1 + options.scans_per_submap, slam.state().active.front().map->num_scans_inserted());
+  EXPECT_EQ(options.scans_per_submap, slam.state().active.front().num_filtered);
 
   // 4 cm is nothing new, 6 cm is.
   EXPECT_TRUE(add(Pose2(0.04, 0, 0)).filtered);
@@ -222,6 +225,7 @@ TEST(LocalSlamTest, PoorMatchOutsideThePredictionCovarianceIsRefused) {
     LocalSlamOptions options;
     options.prediction = MotionPrediction::kStationary;
     options.outlier_max_score = outlier_max_score;
+    options.motion_filter_distance_meters = 0;  // the second scan is at the first's pose
     LocalSlam slam(options);
     ASSERT_TRUE(slam.AddScan(0.0, PrepareScanPoints(options, RoomScan(Pose2(0, 0, 0), 0.0)), slam.Predict(std::nullopt))
                     .inserted);
