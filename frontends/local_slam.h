@@ -158,7 +158,7 @@ struct LocalSlamOptions {
   // that much later. A robot standing still, or a humanoid's sway, then adds nothing; a
   // tilting head's new heights still go in. 0 distance = off (every scan is a node). The
   // default, 1 cm and 0.5°, lets in every scan of a moving robot: of the four real logs only
-  // FR079 filters (385 of 4791 scans), and a robot standing still makes one node. 0.05 m made
+  // FR079 filters (396 of 4791 scans), and a robot standing still makes one node. 0.05 m made
   // 3-5x fewer nodes on the humanoids with the scenarios' ATE equal or better except uav_flight
   // (0.074 -> 0.082 m) and team_three's nao (0.019 -> 0.024 m), but Intel (1 of 910 scans
   // filtered: 1.6 cm and 0.4° from the last) fell into a front-end failure the graph does not
