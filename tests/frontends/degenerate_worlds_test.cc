@@ -260,12 +260,9 @@ robot 0.6 45
   EXPECT_TRUE(Finite(estimator.CurrentPose()));
 }
 
-// A robot standing in a 6 m x 4 m room, scanned once an hour for five hours, no motion input:
-// the front end has no rate to extrapolate a gap with, and every scan matches where the robot
-// stands (well constrained: a room fixes x, y and yaw). The hour between scans moves nothing.
-TEST(DegenerateWorldsTest, OneScanPerHourInARoomStaysPut) {
-  sim::Scenario scenario;
-  ASSERT_TRUE(sim::ParseScenario(R"(
+// A 6 m x 4 m room with a box in one corner; the robot stands at (0, 0) (scans are simulated at
+// a chosen pose, not driven).
+constexpr char kRoom[] = R"(
 wall -3 -2 3 -2
 wall 3 -2 3 2
 wall 3 2 -3 2
@@ -274,9 +271,14 @@ box 1.5 1.2 0.4 0.3
 waypoint 0 0
 laser 270 271 12 0.01 0 10
 robot 0.6 45
-)",
-                                 "room", &scenario)
-                  .ok());
+)";
+
+// A robot standing in a 6 m x 4 m room, scanned once an hour for five hours, no motion input:
+// the front end has no rate to extrapolate a gap with, and every scan matches where the robot
+// stands (well constrained: a room fixes x, y and yaw). The hour between scans moves nothing.
+TEST(DegenerateWorldsTest, OneScanPerHourInARoomStaysPut) {
+  sim::Scenario scenario;
+  ASSERT_TRUE(sim::ParseScenario(kRoom, "room", &scenario).ok());
   const Pose2 truth(0.4, -0.3, 0.2);
   std::mt19937_64 rng(7);
   const OnlineEstimatorOptions options = TestOptions();
@@ -311,18 +313,7 @@ robot 0.6 45
 // the filter: 600 nodes and 30 submaps). The pose stays where the robot stands.
 TEST(DegenerateWorldsTest, RobotStandingStillWithTheMotionFilterDoesNotGrow) {
   sim::Scenario scenario;
-  ASSERT_TRUE(sim::ParseScenario(R"(
-wall -3 -2 3 -2
-wall 3 -2 3 2
-wall 3 2 -3 2
-wall -3 2 -3 -2
-box 1.5 1.2 0.4 0.3
-waypoint 0 0
-laser 270 271 12 0.01 0 10
-robot 0.6 45
-)",
-                                 "room", &scenario)
-                  .ok());
+  ASSERT_TRUE(sim::ParseScenario(kRoom, "room", &scenario).ok());
   const Pose2 truth(0.4, -0.3, 0.2);
   std::mt19937_64 rng(11);
   OnlineEstimatorOptions options;
