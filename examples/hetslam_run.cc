@@ -158,8 +158,12 @@ DEFINE_double(suspend_floor_fraction, 0.2, "With an attitude: when more than thi
 DEFINE_double(wall_weight, 1.0, "Paper III-E, walls weigh more in scan matching: w in [1, 100]. With w > 1 each submap "
               "also keeps the likelihood field of its wall cells (cells hit at heights spanning --wall_min_height_span: "
               "invariant under the 2.5D assumption), and the front end's matcher scores a point L + (w - 1) L_wall "
-              "where the candidate pose puts it (w on a wall, 1 on other structure). Logs without attitude have no "
+              "where the candidate pose puts it in the branch-and-bound search (w on a wall, 1 on other structure; see "
+              "--wall_weight_refinement). Logs without attitude have no "
               "walls: no effect there. 1 = off (the loop closer never weighs walls).");
+DEFINE_bool(wall_weight_refinement, false, "With --wall_weight > 1: weigh walls in the Ceres refinement too (a second "
+            "scan cost over the wall field), not only in the branch-and-bound search. Off: measured, it made "
+            "team_overlap's drone worse (README, map semantics).");
 DEFINE_double(wall_min_height_span, 0.3, "A cell hit at heights spanning at least this much (metres) is a wall.");
 DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a source that measures the motion (commands through "
               "the EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
@@ -354,6 +358,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->floor_obstacle_min_drop_meters = FLAGS_floor_obstacle_min_drop;
   options->suspend_floor_fraction = FLAGS_suspend_floor_fraction;
   options->matcher.wall_weight = FLAGS_wall_weight;
+  options->matcher.wall_weight_in_refinement = FLAGS_wall_weight_refinement;
   options->grid.wall_min_height_span_meters = FLAGS_wall_min_height_span;
   options->densify_max_gap_meters = FLAGS_densify_max_gap;
   options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;

@@ -90,8 +90,8 @@ struct LocalSlamOptions {
   // Paper §III-E: walls (cells hit at heights spanning grid.wall_min_height_span_meters: the
   // invariants of the 2.5D assumption) weigh more in matching: with matcher.wall_weight w > 1
   // every submap keeps the likelihood field of its wall cells (core/laser_map.h wall_field)
-  // and the matcher scores a point L + (w - 1) L_wall wherever the candidate pose puts it
-  // (frontends/scan_matcher.h). Maps without labels never hold a wall field: unchanged. Off
+  // and the matcher's search scores a point L + (w - 1) L_wall wherever the candidate pose puts
+  // it (frontends/scan_matcher.h; matcher.wall_weight_in_refinement for the refinement). Maps without labels never hold a wall field: unchanged. Off
   // (1) by default; see the README (map semantics) for the measurements.
   // Degenerate scans (a corridor's two parallel walls, a tilted head seeing side walls only):
   // when the smaller eigenvalue of the match's translational information (J^T J of the scan

@@ -585,9 +585,13 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   windows.angular_search_window_radians = angular_window_radians;
   const DiscretizedSearch s = Discretize(windows, map, predicted, points_robot, weights, block);
   Pyramid& pyramid = ThreadScratch();
-  const LikelihoodField* wall_field = WallFieldFor(options_, map);
+  // The search weighs walls; the refinement (cost, acceptance, information, profile) only with
+  // wall_weight_in_refinement (see the option).
+  const LikelihoodField* search_wall_field = WallFieldFor(options_, map);
+  const LikelihoodField* wall_field = options_.wall_weight_in_refinement ? search_wall_field : nullptr;
   const double wall_weight = options_.wall_weight;
-  BuildPyramid(map, s, depth, options_.free_space_penalty, wall_field, static_cast<float>(wall_weight), &pyramid);
+  BuildPyramid(map, s, depth, options_.free_space_penalty, search_wall_field, static_cast<float>(wall_weight),
+               &pyramid);
   const SearchContext context = MakeContext(options_, map, s, pyramid, weights, points_robot.size());
 
   std::vector<Candidate> top;

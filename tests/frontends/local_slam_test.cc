@@ -279,7 +279,9 @@ TEST(LocalSlamTest, WallWeightKeepsAWallFieldInSubmapsWithWalls) {
           const LaserMap& map = *result.finished->map;
           EXPECT_TRUE(map.grid().frozen());
           (map.wall_field() != nullptr ? finished_with_walls : finished_without_walls) = true;
-          if (map.wall_field() != nullptr) EXPECT_TRUE(map.wall_field()->frozen());
+          if (map.wall_field() != nullptr) {
+            EXPECT_TRUE(map.wall_field()->frozen());
+          }
         }
       }
       const bool expect_walls = wall_weight > 1 && with_attitude;

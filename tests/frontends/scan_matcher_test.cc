@@ -341,20 +341,24 @@ TEST_F(WallWeightTest, MatcherPrefersAligningWallsOverClutter) {
   for (int k = 0; k < 30; ++k) line.emplace_back(1.225f, -0.725f + 0.05f * k);
   const Pose2 predicted = Pose2::Identity();
   for (const bool frozen : {false, true}) {
-    LaserMap map = map_;
-    if (frozen) map.Freeze();
-    ScanMatcherOptions options;
-    const ScanMatchResult plain = ScanMatcher(options).Match(map, predicted, line);
-    options.wall_weight = 2.0;
-    const ScanMatchResult weighted = ScanMatcher(options).Match(map, predicted, line);
-    ASSERT_TRUE(plain.converged && weighted.converged) << plain.message << weighted.message;
-    EXPECT_NEAR(0.2, plain.pose.x(), 0.02) << "frozen " << frozen;         // on the box
-    EXPECT_NEAR(-0.2, weighted.pose.x(), 0.02) << "frozen " << frozen;     // on the wall
-    EXPECT_NEAR(0.0, WrapAngle(weighted.pose.theta()), 1.0 * M_PI / 180) << "frozen " << frozen;
-    // The search's objective counts the wall twice; `score` is the plain mean field value.
-    EXPECT_NEAR(1.0, plain.score, 0.02) << "frozen " << frozen;
-    EXPECT_NEAR(0.76, weighted.score, 0.03) << "frozen " << frozen;
-    EXPECT_NEAR(2 * weighted.score, weighted.correlative_score, 0.05) << "frozen " << frozen;
+    for (const bool in_refinement : {false, true}) {
+      SCOPED_TRACE(testing::Message() << "frozen " << frozen << ", in the refinement " << in_refinement);
+      LaserMap map = map_;
+      if (frozen) map.Freeze();
+      ScanMatcherOptions options;
+      options.wall_weight_in_refinement = in_refinement;
+      const ScanMatchResult plain = ScanMatcher(options).Match(map, predicted, line);
+      options.wall_weight = 2.0;
+      const ScanMatchResult weighted = ScanMatcher(options).Match(map, predicted, line);
+      ASSERT_TRUE(plain.converged && weighted.converged) << plain.message << weighted.message;
+      EXPECT_NEAR(0.2, plain.pose.x(), 0.02);  // on the box
+      EXPECT_NEAR(-0.2, weighted.pose.x(), 0.02);  // on the wall
+      EXPECT_NEAR(0.0, WrapAngle(weighted.pose.theta()), 1.0 * M_PI / 180);
+      // The search's objective counts the wall twice; `score` is the plain mean field value.
+      EXPECT_NEAR(1.0, plain.score, 0.02);
+      EXPECT_NEAR(0.76, weighted.score, 0.03);
+      EXPECT_NEAR(2 * weighted.score, weighted.correlative_score, 0.05);
+    }
   }
 }
 
