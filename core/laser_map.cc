@@ -66,8 +66,8 @@ std::vector<ScanLine> EstimateScanLines(const ScanLineOptions& options,
 }
 
 LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
-                   const LikelihoodFieldOptions& field_options)
-    : grid_(WithFieldMargin(grid_options, field_options)), field_(field_options) {}
+                   const LikelihoodFieldOptions& field_options, bool keep_wall_field)
+    : grid_(WithFieldMargin(grid_options, field_options)), field_(field_options), keep_wall_field_(keep_wall_field) {}
 
 bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                           const std::vector<Eigen::Vector2f>& points_robot, const std::vector<PointLabel>* labels,
@@ -92,6 +92,22 @@ bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
     return false;
   }
   field_.ApplyChanges(grid_, changed_cells_);
+  if (keep_wall_field_ && grid_.has_labels()) {
+    if (wall_field_.has_value()) {
+      wall_field_->ApplyChanges(grid_, changed_cells_);
+    } else {
+      // Created with the first wall cell (every cell that turns wall is hit, so listed), from
+      // the whole grid: from then on it follows the changes like field_.
+      constexpr uint8_t kWall = 1u << OccupancyGrid::kWallLabelBit;
+      const bool any_wall = std::any_of(changed_cells_.begin(), changed_cells_.end(), [&](int i) {
+        return grid_.IsOccupied(i) && (grid_.LabelMask(i) & kWall) != 0;
+      });
+      if (any_wall) {
+        wall_field_.emplace(field_.options(), kWall);
+        wall_field_->RebuildFrom(grid_);
+      }
+    }
+  }
   ++num_scans_inserted_;
   return true;
 }
@@ -102,6 +118,7 @@ void LaserMap::Freeze() {
   // cell; two more cells keep the border at 0 for the bicubic cost and bilinear scores.
   grid_.Freeze(field_.window_radius_cells() + 2);
   field_.Freeze(grid_.geometry());
+  if (wall_field_.has_value()) wall_field_->Freeze(grid_.geometry());
   std::vector<int>().swap(changed_cells_);
   std::vector<Eigen::Vector2d>().swap(points_world_);
   std::vector<uint8_t>().swap(labels_);
@@ -109,7 +126,8 @@ void LaserMap::Freeze() {
 }
 
 size_t LaserMap::MemoryBytes() const {
-  return grid_.MemoryBytes() + field_.MemoryBytes() + changed_cells_.capacity() * sizeof(int) +
+  return grid_.MemoryBytes() + field_.MemoryBytes() + (wall_field_.has_value() ? wall_field_->MemoryBytes() : 0) +
+         changed_cells_.capacity() * sizeof(int) +
          points_world_.capacity() * sizeof(Eigen::Vector2d) + labels_.capacity() + lines_.capacity() * sizeof(ScanLine);
 }
 

@@ -3,6 +3,7 @@
 #ifndef HETSLAM_CORE_LASER_MAP_H_
 #define HETSLAM_CORE_LASER_MAP_H_
 
+#include <optional>
 #include <vector>
 
 #include "Eigen/Core"
@@ -32,7 +33,9 @@ std::vector<ScanLine> EstimateScanLines(const ScanLineOptions& options,
 class LaserMap {
  public:
   // The grid's border margin is raised to cover the likelihood window so no window clips.
-  LaserMap(const OccupancyGridOptions& grid_options, const LikelihoodFieldOptions& field_options);
+  // `keep_wall_field`: also keep the likelihood field of the wall cells alone (wall_field()).
+  LaserMap(const OccupancyGridOptions& grid_options, const LikelihoodFieldOptions& field_options,
+           bool keep_wall_field = false);
 
   // Inserts points given in the robot frame, seen from `sensor_robot` (sensor origin in the
   // robot frame), with the robot at `world_T_robot`.
@@ -43,7 +46,8 @@ class LaserMap {
                   const std::vector<Eigen::Vector2f>& points_robot,
                   const std::vector<PointLabel>* labels = nullptr, const std::vector<float>* heights = nullptr);
 
-  // Keeps only what matching needs (cell states, labels, likelihood values) over the observed
+  // Keeps only what matching needs (cell states, labels, likelihood values, the wall field's
+  // values in the same compact 16-bit tiles: nothing stored away from walls) over the observed
   // box grown by the likelihood window and two cells (so the border values stay 0, as
   // factors/scan_cost.h assumes); no more insertion. See OccupancyGrid::Freeze.
   void Freeze();
@@ -52,11 +56,19 @@ class LaserMap {
 
   const OccupancyGrid& grid() const { return grid_; }
   const LikelihoodField& field() const { return field_; }
+  // Paper §III-E, walls weigh more in matching: with keep_wall_field, the likelihood field
+  // (same options) of the occupied cells carrying the wall label (OccupancyGrid::kWallLabelBit:
+  // hit across a height span), kept in step with field() on the same geometry and frozen with
+  // it, so that a matcher reads both at the same cell. Null until the first wall cell appears
+  // (a map without labels or walls never holds one), and without keep_wall_field.
+  const LikelihoodField* wall_field() const { return wall_field_.has_value() ? &*wall_field_ : nullptr; }
   int num_scans_inserted() const { return num_scans_inserted_; }
 
  private:
   OccupancyGrid grid_;
   LikelihoodField field_;
+  bool keep_wall_field_ = false;
+  std::optional<LikelihoodField> wall_field_;  // see wall_field()
   std::vector<int> changed_cells_;  // scratch
   std::vector<Eigen::Vector2d> points_world_;  // scratch
   std::vector<uint8_t> labels_;                // scratch

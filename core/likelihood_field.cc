@@ -62,7 +62,8 @@ bool LikelihoodFieldOptions::IsValid(std::string* error) const {
   return msg.str().empty();
 }
 
-LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options) : options_(options) {
+LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options, uint8_t surface_labels)
+    : options_(options), surface_labels_(surface_labels) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid LikelihoodFieldOptions: " << error;
 }
@@ -175,7 +176,7 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     const CellIndex o = geometry_.FromLinearIndex(i);
     const Segment old_s = Published(i);
     const bool had = HasPublished(i);
-    const bool has = grid.IsOccupied(i);
+    const bool has = IsSurface(grid, i);
     Segment new_s = kUnpublished;
     if (has) {
       new_s = SegmentOf(grid, i);
@@ -231,7 +232,7 @@ void LikelihoodField::RebuildAll() {
 
 void LikelihoodField::RebuildFrom(const OccupancyGrid& grid) {
   Resize(grid.geometry());
-  for (int i = 0; i < geometry_.num_cells(); ++i) SetPublished(i, grid.IsOccupied(i) ? SegmentOf(grid, i) : kUnpublished);
+  for (int i = 0; i < geometry_.num_cells(); ++i) SetPublished(i, IsSurface(grid, i) ? SegmentOf(grid, i) : kUnpublished);
   RebuildAll();
 }
 

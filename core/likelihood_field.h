@@ -24,6 +24,11 @@
 // keeps each cell's squared distance d^2 to its nearest published segment (the max of
 // exp(-d / sigma) is taken at the min of d, exp and sqrt being monotone), so updates compare
 // squared distances and evaluate exp only for the cells whose value changes.
+//
+// A field may be restricted to the occupied cells that carry a label (`surface_labels`, bits
+// of OccupancyGrid::LabelMask): with the wall bit it is the likelihood field of the walls alone
+// (paper §III-E), the second channel of a LaserMap's wall-weighted matching (core/laser_map.h
+// wall_field). The formula above then runs over those cells only; everything else is the same.
 #ifndef HETSLAM_CORE_LIKELIHOOD_FIELD_H_
 #define HETSLAM_CORE_LIKELIHOOD_FIELD_H_
 
@@ -61,11 +66,18 @@ struct LikelihoodFieldOptions {
 
 class LikelihoodField {
  public:
-  explicit LikelihoodField(const LikelihoodFieldOptions& options);
+  // `surface_labels`: 0, every occupied cell is a surface; else only the occupied cells whose
+  // label mask (OccupancyGrid::LabelMask) has one of these bits.
+  explicit LikelihoodField(const LikelihoodFieldOptions& options, uint8_t surface_labels = 0);
 
   const LikelihoodFieldOptions& options() const { return options_; }
   const GridGeometry& geometry() const { return geometry_; }
   int window_radius_cells() const { return radius_cells_; }
+  uint8_t surface_labels() const { return surface_labels_; }
+  // Whether occupied cell i of `grid` is a surface of this field (see surface_labels).
+  bool IsSurface(const OccupancyGrid& grid, int i) const {
+    return grid.IsOccupied(i) && (surface_labels_ == 0 || (grid.LabelMask(i) & surface_labels_) != 0);
+  }
 
   // Follows a growth of the grid: values keep their world positions. The grid's border
   // margin must be at least the window radius so that no window was clipped.
@@ -78,7 +90,7 @@ class LikelihoodField {
   // Rebuilds every value from scratch from the published hit points (the brute-force
   // reference used by tests; also valid after loading a grid).
   void RebuildAll();
-  // Publishes every occupied cell's current hit point and rebuilds.
+  // Publishes every surface cell's current hit point and rebuilds.
   void RebuildFrom(const OccupancyGrid& grid);
 
   // For a finished submap: frees the published hit points and squared distances and keeps the
@@ -168,6 +180,7 @@ class LikelihoodField {
   LikelihoodFieldOptions options_;
   GridGeometry geometry_;
   int radius_cells_ = 0;
+  uint8_t surface_labels_ = 0;
   bool frozen_ = false;
   std::vector<float> values_;             // empty once frozen
   SparseTiles<uint16_t> frozen_values_;  // empty until frozen

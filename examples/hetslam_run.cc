@@ -155,8 +155,15 @@ DEFINE_double(floor_obstacle_min_drop, 0.15, "See --floor_obstacle_max_height (m
               "error makes at the laser's range, so a level laser labels none).");
 DEFINE_double(suspend_floor_fraction, 0.2, "With an attitude: when more than this fraction of a scan's valid beams hit the "
               "floor, matching and map updates stop for that scan and the EKF carries the pose (paper III-A); 1 = never.");
-DEFINE_double(wall_weight, 1.0, "Scan-matching weight of points that land on wall cells (cells hit at heights spanning "
-              "--wall_min_height_span: invariant under the 2.5D assumption, paper III-E); other points weigh 1.");
+DEFINE_double(wall_weight, 1.0, "Paper III-E, walls weigh more in scan matching: w in [1, 100]. With w > 1 each submap "
+              "also keeps the likelihood field of its wall cells (cells hit at heights spanning --wall_min_height_span: "
+              "invariant under the 2.5D assumption), and the front end's matcher scores a point L + (w - 1) L_wall "
+              "where the candidate pose puts it in the branch-and-bound search (w on a wall, 1 on other structure; see "
+              "--wall_weight_refinement). Logs without attitude have no "
+              "walls: no effect there. 1 = off (the loop closer never weighs walls).");
+DEFINE_bool(wall_weight_refinement, false, "With --wall_weight > 1: weigh walls in the Ceres refinement too (a second "
+            "scan cost over the wall field), not only in the branch-and-bound search. Off: measured, it made "
+            "team_overlap's drone worse (README, map semantics).");
 DEFINE_double(wall_min_height_span, 0.3, "A cell hit at heights spanning at least this much (metres) is a wall.");
 DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a source that measures the motion (commands through "
               "the EKF, or odometry) and the smaller eigenvalue of its translational information is below this fraction "
@@ -296,6 +303,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"motion_filter_angle_radians", "--motion_filter_angle_deg"},
       {"motion_filter_attitude_radians", "--motion_filter_attitude_deg"},
       {"motion_filter_time_seconds", "--motion_filter_time"},
+      {"wall_weight", "--wall_weight"},
   };
   std::string flags;
   for (const auto& [field, flag] : kFlagOf) {
@@ -351,7 +359,8 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->floor_obstacle_max_height_meters = FLAGS_floor_obstacle_max_height;
   options->floor_obstacle_min_drop_meters = FLAGS_floor_obstacle_min_drop;
   options->suspend_floor_fraction = FLAGS_suspend_floor_fraction;
-  options->wall_weight = FLAGS_wall_weight;
+  options->matcher.wall_weight = FLAGS_wall_weight;
+  options->matcher.wall_weight_in_refinement = FLAGS_wall_weight_refinement;
   options->grid.wall_min_height_span_meters = FLAGS_wall_min_height_span;
   options->densify_max_gap_meters = FLAGS_densify_max_gap;
   options->degenerate_eigenvalue_ratio = FLAGS_degenerate_ratio;

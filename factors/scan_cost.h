@@ -9,8 +9,10 @@
 // the grid L takes the nearest border cell's value, which is 0 on a LaserMap's grid (its border
 // margin exceeds the likelihood window). Maximising the summed likelihood (eq. 1) is
 // minimising sum r_i^2. The 1/sqrt(N) keeps a scan's pull independent of its beam count. A
-// point with w_i = 0 (a floor obstacle) contributes nothing itself but still counts in N;
-// walls may carry w_i > 1 (paper §III-E).
+// point with w_i = 0 (a floor obstacle) contributes nothing itself but still counts in N.
+// Walls weigh more (paper §III-E) through a second cost of this kind over the same points and
+// the map's wall field (core/laser_map.h wall_field), weights sqrt(wall_weight - 1): both
+// fields are read where the candidate pose puts each point (frontends/scan_matcher.cc).
 //
 // No robust loss: the field is already bounded in [0, 1].
 //

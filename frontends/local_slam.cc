@@ -60,7 +60,6 @@ bool LocalSlamOptions::IsValid(std::string* error) const {
   if (!(frontier_margin_meters >= 0 && frontier_margin_meters <= 10)) msg << "frontier_margin_meters must be in [0, 10]; ";
   if (!(densify_max_gap_meters >= 0 && densify_max_gap_meters <= 10))
     msg << "densify_max_gap_meters must be in [0, 10] (got " << densify_max_gap_meters << "); ";
-  if (!(wall_weight > 0)) msg << "wall_weight must be > 0; ";
   if (!(floor_attitude_tolerance_radians >= 0 && floor_attitude_tolerance_radians < 0.5))
     msg << "floor_attitude_tolerance_radians must be in [0, 0.5); ";
   if (!(floor_obstacle_max_height_meters >= 0 && floor_obstacle_min_drop_meters >= 0))
@@ -405,23 +404,6 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
     if (prediction.external && prediction.measures_translation) {
       result.frontier_points = LeaveOutFrontierPoints(options_, *target.map, predicted_submap, &points);
     }
-    if (options_.wall_weight != 1.0 && target.map->grid().has_labels()) {
-      // Paper §III-E: points that land on wall cells (hit at several heights: invariant under
-      // the 2.5D assumption) weigh more; where the prediction puts them.
-      const OccupancyGrid& grid = target.map->grid();
-      points.matching_weights.assign(points.matching.size(), 1.0f);
-      bool any_wall = false;
-      for (size_t k = 0; k < points.matching.size(); ++k) {
-        const Eigen::Vector2d p = predicted_submap * points.matching[k].cast<double>();
-        const CellIndex c = grid.geometry().WorldToCell(p);
-        if (!grid.geometry().Contains(c)) continue;
-        if (grid.LabelMask(grid.geometry().LinearIndex(c)) & (1u << OccupancyGrid::kWallLabelBit)) {
-          points.matching_weights[k] = static_cast<float>(options_.wall_weight);
-          any_wall = true;
-        }
-      }
-      if (!any_wall) points.matching_weights.clear();
-    }
     if (prediction.covariance.has_value()) {
       const ScanMatcherOptions& m = options_.matcher;
       const Eigen::Matrix3d& covariance = *prediction.covariance;
@@ -506,7 +488,7 @@ void LocalSlam::Insert(LocalResult* result_ptr, bool motion_filter) {
   const int half = options_.scans_per_submap > 0 ? std::max(1, options_.scans_per_submap / 2) : 0;
   if (!result.filtered && (state.active.empty() || (half > 0 && state.active.back().num_scans >= half))) {
     ActiveSubmap submap{state.next_submap_index++, result.local_pose,
-                        std::make_shared<LaserMap>(options_.grid, options_.field), 0};
+                        std::make_shared<LaserMap>(options_.grid, options_.field, options_.matcher.wall_weight != 1.0), 0};
     result.new_submaps.push_back({submap.index, submap.local_T_submap});
     state.active.push_back(std::move(submap));
   }

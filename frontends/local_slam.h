@@ -87,13 +87,12 @@ struct LocalSlamOptions {
   // laser faces the floor: the scan is neither matched nor inserted (suspended) and the
   // caller's prediction (the EKF) carries the pose. 1 = never suspend.
   double suspend_floor_fraction = 0.2;
-  // Paper §III-E: matching points that land on wall cells of the map (cells hit at heights
-  // spanning grid.wall_min_height_span_meters: the invariants of the 2.5D assumption) get this
-  // weight, the others 1. The cell is looked up where the prediction puts the point, so the
-  // weights favour the prediction's alignment: measured on the simulated team (seeds 1-5), 2
-  // fixes a humanoid's worst seed but costs the UAVs several decimetres, so it is off (1) until
-  // the weight moves into the map's likelihood field.
-  double wall_weight = 1.0;
+  // Paper §III-E: walls (cells hit at heights spanning grid.wall_min_height_span_meters: the
+  // invariants of the 2.5D assumption) weigh more in matching: with matcher.wall_weight w > 1
+  // every submap keeps the likelihood field of its wall cells (core/laser_map.h wall_field)
+  // and the matcher's search scores a point L + (w - 1) L_wall wherever the candidate pose puts
+  // it (frontends/scan_matcher.h; matcher.wall_weight_in_refinement for the refinement). Maps without labels never hold a wall field: unchanged. Off
+  // (1) by default; see the README (map semantics) for the measurements.
   // Degenerate scans (a corridor's two parallel walls, a tilted head seeing side walls only):
   // when the smaller eigenvalue of the match's translational information (J^T J of the scan
   // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps

@@ -121,7 +121,7 @@ struct Pyramid {
 
 // Builds `pyramid` (its buffers are reused between calls and keep their capacity).
 void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, float free_space_penalty,
-                  Pyramid* pyramid) {
+                  const LikelihoodField* wall_field, float wall_weight, Pyramid* pyramid) {
   const int w = s.region_width, h = s.region_height;
   const size_t size = static_cast<size_t>(w) * h;
   pyramid->finest.resize(size);
@@ -192,6 +192,36 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       }
     } else {
       std::copy(value, value + n, out);
+    }
+  }
+  if (wall_field != nullptr) {
+    // Paper §III-E: T += (wall_weight - 1) L_wall, the wall channel at the same cell. Walls are
+    // some of the occupied cells and the window is the same, so L_wall is 0 where L is (up to
+    // the republish tolerance: each field publishes a moved hit point on its own), and the
+    // free-space penalty keeps its cells.
+    CHECK_EQ(wall_field->frozen(), frozen_field) << "a LaserMap's fields freeze together";
+    CHECK(wall_field->geometry().num_cells() == g.num_cells() && wall_field->geometry().origin() == g.origin())
+        << "the wall field's geometry differs from the field's";
+    const float extra = wall_weight - 1.f;
+    for (int y = 0; y < h; ++y) {
+      const int gy = s.region_min.y + y;
+      if (gy < 0 || gy >= g.height() || n == 0) continue;
+      float* out = pyramid->finest.data() + static_cast<size_t>(y) * w + x_begin;
+      const int gx0 = s.region_min.x + x_begin;
+      if (frozen_field) {
+        for (int x = 0; x < n;) {
+          const int gx = gx0 + x;
+          const int chunk = std::min(n - x, SparseTiles<uint16_t>::kTileSize - (gx & (SparseTiles<uint16_t>::kTileSize - 1)));
+          const uint16_t* q = wall_field->FrozenValuesTileRow(gx, gy);
+          if (q != nullptr) {
+            for (int k = 0; k < chunk; ++k) out[x + k] += extra * (kStep * q[k]);
+          }
+          x += chunk;
+        }
+      } else {
+        const float* wall = wall_field->values().data() + static_cast<size_t>(gy) * g.width() + gx0;
+        for (int x = 0; x < n; ++x) out[x] += extra * wall[x];
+      }
     }
   }
   if (depth == 0) return;
@@ -330,8 +360,11 @@ void BranchAndBound(const SearchContext& context, std::vector<Candidate> candida
   }
 }
 
+// The weighted mean over the points of L (bilinear) at `pose`; with a wall field, of
+// L + (wall_weight - 1) L_wall, both read at the same position (paper §III-E).
 double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std::vector<Eigen::Vector2f>& points,
-                     const std::vector<float>& weights) {
+                     const std::vector<float>& weights, const LikelihoodField* wall_field = nullptr,
+                     double wall_weight = 1.0) {
   const GridGeometry& g = field.geometry();
   double sum = 0.0;
   for (size_t i = 0; i < points.size(); ++i) {
@@ -340,10 +373,28 @@ double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std:
     const double fx = q.x() - x0, fy = q.y() - y0;
     float c[4];
     field.Values2x2(x0, y0, c);
-    const double v = (1 - fx) * (1 - fy) * c[0] + fx * (1 - fy) * c[1] + (1 - fx) * fy * c[2] + fx * fy * c[3];
+    double v = (1 - fx) * (1 - fy) * c[0] + fx * (1 - fy) * c[1] + (1 - fx) * fy * c[2] + fx * fy * c[3];
+    if (wall_field != nullptr) {
+      wall_field->Values2x2(x0, y0, c);
+      v += (wall_weight - 1.0) *
+           ((1 - fx) * (1 - fy) * c[0] + fx * (1 - fy) * c[1] + (1 - fx) * fy * c[2] + fx * fy * c[3]);
+    }
     sum += (weights.empty() ? 1.0 : weights[i]) * v;
   }
   return sum * InverseWeightSum(weights, points.size());
+}
+
+// The weights of the wall channel's residuals: sqrt(wall_weight - 1) times each point's weight.
+std::vector<float> WallResidualWeights(const std::vector<float>& weights, size_t num_points, double wall_weight) {
+  const float root = static_cast<float>(std::sqrt(wall_weight - 1.0));
+  std::vector<float> scaled(num_points, root);
+  for (size_t i = 0; i < weights.size(); ++i) scaled[i] *= weights[i];
+  return scaled;
+}
+
+// The map's wall field when `options` weigh walls and the map has one, else null.
+const LikelihoodField* WallFieldFor(const ScanMatcherOptions& options, const LaserMap& map) {
+  return options.wall_weight != 1.0 ? map.wall_field() : nullptr;
 }
 
 SearchContext MakeContext(const ScanMatcherOptions& options, const LaserMap& map, const DiscretizedSearch& s,
@@ -392,6 +443,7 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
     msg << "wide second-mode exclusions must be >= 0 (metres <= 50); ";
   if (!(wide_second_mode_min_score_ratio >= 0 && wide_second_mode_min_score_ratio <= 1))
     msg << "wide_second_mode_min_score_ratio must be in [0, 1]; ";
+  if (!(wall_weight >= 1 && wall_weight <= 100)) msg << "wall_weight must be in [1, 100] (got " << wall_weight << "); ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -451,7 +503,8 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
   if (points_robot.empty() || field.geometry().num_cells() == 0) return result;
   const DiscretizedSearch s = Discretize(options_, map, predicted, points_robot, weights, 1);
   Pyramid pyramid;
-  BuildPyramid(map, s, 0, options_.free_space_penalty, &pyramid);
+  BuildPyramid(map, s, 0, options_.free_space_penalty, WallFieldFor(options_, map),
+               static_cast<float>(options_.wall_weight), &pyramid);
   const SearchContext context = MakeContext(options_, map, s, pyramid, weights, points_robot.size());
   Candidate best{0, 0, 0, -std::numeric_limits<float>::infinity()};
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
@@ -560,7 +613,13 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   windows.angular_search_window_radians = angular_window_radians;
   const DiscretizedSearch s = Discretize(windows, map, predicted, points_robot, weights, block);
   Pyramid& pyramid = ThreadScratch();
-  BuildPyramid(map, s, depth, options_.free_space_penalty, &pyramid);
+  // The search weighs walls; the refinement (cost, acceptance, information, profile) only with
+  // wall_weight_in_refinement (see the option).
+  const LikelihoodField* search_wall_field = WallFieldFor(options_, map);
+  const LikelihoodField* wall_field = options_.wall_weight_in_refinement ? search_wall_field : nullptr;
+  const double wall_weight = options_.wall_weight;
+  BuildPyramid(map, s, depth, options_.free_space_penalty, search_wall_field, static_cast<float>(wall_weight),
+               &pyramid);
   const SearchContext context = MakeContext(options_, map, s, pyramid, weights, points_robot.size());
 
   std::vector<Candidate> top;
@@ -611,6 +670,17 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     ceres::Problem problem(problem_options);
     problem.AddResidualBlock(
         CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation), nullptr, pose);
+    // Paper §III-E: the wall channel as a second cost over the same points, each residual
+    // weighted sqrt(wall_weight - 1): summed, (1 - L)^2 + (wall_weight - 1)(1 - L_wall)^2 per
+    // point, wall_weight (1 - L)^2 on a wall (where L_wall = L), (1 - L)^2 away from walls
+    // (where L_wall = 0 and its term is constant).
+    std::vector<float> wall_weights;
+    if (wall_field != nullptr) {
+      wall_weights = WallResidualWeights(weights, points_robot.size(), wall_weight);
+      problem.AddResidualBlock(
+          CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, options_.refine_interpolation), nullptr,
+          pose);
+    }
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::DENSE_QR;
     solver_options.max_num_iterations = options_.max_ceres_iterations;
@@ -626,8 +696,8 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     // score (bilinear values, also when the refinement interpolated distances: measured, the
     // cost's own decrease as the test lets a sparse log's refinements wander, ACES 0.11 -> 4.1 m
     // against GMapping); otherwise the discrete pose is the better answer.
-    const bool better = BilinearScore(map.field(), refined, points_robot, weights) >=
-                        BilinearScore(map.field(), result.pose, points_robot, weights);
+    const bool better = BilinearScore(map.field(), refined, points_robot, weights, wall_field, wall_weight) >=
+                        BilinearScore(map.field(), result.pose, points_robot, weights, wall_field, wall_weight);
     if (summary.IsSolutionUsable() && better && (refined.translation() - result.pose.translation()).norm() < 4 * r) {
       result.pose = refined;
     }
@@ -640,6 +710,11 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
       values_problem.emplace(problem_options);
       values_problem->AddResidualBlock(
           CreateScanToLikelihoodFieldCost(field, points_robot, weights, ScanCostInterpolation::kValues), nullptr, pose);
+      if (wall_field != nullptr) {
+        values_problem->AddResidualBlock(
+            CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, ScanCostInterpolation::kValues),
+            nullptr, pose);
+      }
     }
     ceres::CRSMatrix jacobian;
     (values_problem.has_value() ? *values_problem : problem)
@@ -654,7 +729,7 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     // The score's profile in kDirections directions over a half turn: the flattest is the weak
     // one, its angle refined by a parabola through its neighbours' drops.
     constexpr int kDirections = 16;
-    const double at_match = BilinearScore(map.field(), result.pose, points_robot, weights);
+    const double at_match = BilinearScore(map.field(), result.pose, points_robot, weights, wall_field, wall_weight);
     std::array<double, kDirections> drops;
     for (int d = 0; d < kDirections; ++d) {
       const Eigen::Vector2d direction(std::cos(d * M_PI / kDirections), std::sin(d * M_PI / kDirections));
@@ -663,7 +738,8 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
         for (const double side : {-1.0, 1.0}) {
           const Pose2 shifted(result.pose.translation() + side * k * options_.profile_step_meters * direction,
                               result.pose.theta());
-          best_shifted = std::max(best_shifted, BilinearScore(map.field(), shifted, points_robot, weights));
+          best_shifted =
+              std::max(best_shifted, BilinearScore(map.field(), shifted, points_robot, weights, wall_field, wall_weight));
         }
       }
       drops[d] = at_match - best_shifted;

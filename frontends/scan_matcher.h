@@ -12,6 +12,17 @@
 // every candidate of a 2^h × 2^h block), visiting a small fraction of the candidates. The
 // search is exact with respect to that discretisation; Ceres then removes the discretisation
 // error. A failed, weak or window-border result is searched again over wider windows.
+//
+// Walls weigh more (paper §III-E, ScanMatcherOptions::wall_weight = w > 1, on a map that keeps
+// a wall field, core/laser_map.h): L above becomes L + (w - 1) L_wall in the tables T, with
+// L_wall the likelihood field of the map's wall cells alone read at the same cell, so a point
+// placed on a wall scores w, on other structure 1, at whatever pose the candidate puts it;
+// correlative_score is in those units. With wall_weight_in_refinement the refinement weighs
+// walls too: a second Ceres cost over the wall field (residual weights sqrt(w - 1), read at the
+// same interpolated position), and the acceptance test, `information` and the score profile
+// use the weighted objective (bilinear). `score` is always the mean of L, so the thresholds on
+// it (narrow_accept_score, fallback_below_score, the callers') keep their calibration. With
+// w = 1, or a map without a wall field, nothing changes.
 #ifndef HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 #define HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 
@@ -80,6 +91,16 @@ struct ScanMatcherOptions {
   // FR079, ACES improve; MIT CSAIL's two-mode match at scan 325, which used to decide it (12.2 m
   // against GMapping), is left to the particle filter (ParticleFilterOptions::spawn_on_second_mode).
   ScanCostInterpolation refine_interpolation = ScanCostInterpolation::kDistances;
+  // Paper §III-E: the weight of the map's wall channel, w in [1, 100] (see the top of this
+  // file); 1 = off. Needs a map built with LaserMap's keep_wall_field.
+  double wall_weight = 1.0;
+  // ... also in the refinement. Off: measured on the simulated team (seeds 1-5, w = 2), the
+  // wall field's pull in the refinement cost team_overlap's drone 0.018 -> 0.024 m (worst
+  // seed; every seed worse), with it in the search alone 0.019 m. Likely cause (not proven):
+  // the labelled wall cells are a patchy subset of a wall (a cell is a wall once hit across a
+  // height span), and the refinement's smooth kernel of a patchy field pulls along the wall
+  // towards the labelled patches, where the search's cell-wise scores barely do.
+  bool wall_weight_in_refinement = false;
   double profile_step_meters = 0.1;  // see ScanMatchResult::weak_direction_score_drop
   int max_ceres_iterations = 20;
 
@@ -89,14 +110,17 @@ struct ScanMatcherOptions {
 struct ScanMatchResult {
   Pose2 pose;                    // world_T_robot after matching
   bool converged = false;        // the search found a pose scoring >= min_correlative_score
-  double correlative_score = 0;  // weighted mean field value at the best discrete candidate
-  double score = 0;              // weighted mean field value (bilinear) at `pose`
+  // Weighted mean of the search's objective (L, or with a wall weight L + (w - 1) L_wall) at
+  // the best discrete candidate.
+  double correlative_score = 0;
+  double score = 0;              // weighted mean field value L (bilinear) at `pose`, no wall weight
   int iterations = 0;            // Ceres iterations
   double final_cost = 0;         // Ceres final cost
   int candidates_scored = 0;     // branch-and-bound work
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // J^T J of the scan cost at `pose`
-  // The score's profile around `pose` (with a refinement; zero without): the drop of a
-  // direction is `score` (bilinear) minus the best score at shifts of ±1 to ±3 profile steps
+  // The score's profile around `pose` (with a refinement; zero without), in the refinement's
+  // units (with wall_weight_in_refinement, L + (w - 1) L_wall): the drop of a direction is the
+  // objective (bilinear) at `pose` minus its best at shifts of ±1 to ±3 profile steps
   // (ScanMatcherOptions::profile_step_meters) along it; of sixteen directions 11.25° apart, the
   // one with the smallest drop (unit, map frame; its angle refined by a parabola through its
   // neighbours' drops), that drop and the largest. A weak drop near
@@ -119,7 +143,7 @@ struct ScanMatchResult {
 };
 
 // The weighted mean likelihood-field value (bilinear) of `points_robot` placed by `pose` in the
-// map: ScanMatchResult::score without a search. `weights` empty or one per point.
+// map: ScanMatchResult::score without a search (no wall weight). `weights` empty or one per point.
 double ScoreAt(const LaserMap& map, const Pose2& pose, const std::vector<Eigen::Vector2f>& points_robot,
                const std::vector<float>& weights = {});
 

@@ -93,6 +93,110 @@ TEST_P(LikelihoodFieldUpdateTest, IncrementalMatchesBruteForceOnRandomUpdates) {
 
 INSTANTIATE_TEST_SUITE_P(PointsAndSurfaces, LikelihoodFieldUpdateTest, ::testing::Values(0.0, 0.5));
 
+// Paper §III-E: a map that keeps a wall field holds, next to its likelihood field, the field
+// of the wall cells alone (cells hit across a height span). By hand: a wall at x = 1 m hit at
+// 0.2 m and 0.6 m (span 0.4 m >= 0.3 m) and a box face at x = 1.5 m hit at 0.2 m only; the
+// window is 0.3 m, so the box lies outside the wall's window.
+TEST(LikelihoodFieldTest, WallFieldIsTheFieldOfTheWallCellsAlone) {
+  LaserMap map(OccupancyGridOptions(), LikelihoodFieldOptions(), /*keep_wall_field=*/true);
+  std::vector<Eigen::Vector2f> wall, box;
+  for (int i = -6; i <= 6; ++i) {
+    wall.emplace_back(1.025f, i * 0.05f + 0.025f);
+    box.emplace_back(1.525f, i * 0.05f + 0.025f);
+  }
+  const std::vector<float> low(wall.size(), 0.2f), high(wall.size(), 0.6f);
+  map.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), box, nullptr, &low);
+  // Labels but no wall yet: no wall field (nothing to hold).
+  EXPECT_EQ(nullptr, map.wall_field());
+  map.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall, nullptr, &low);
+  EXPECT_EQ(nullptr, map.wall_field());
+  map.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall, nullptr, &high);
+  ASSERT_NE(nullptr, map.wall_field());
+  const LikelihoodField& walls = *map.wall_field();
+  const GridGeometry& g = map.grid().geometry();
+  EXPECT_EQ(g.origin(), walls.geometry().origin());
+  EXPECT_EQ(g.num_cells(), walls.geometry().num_cells());
+  const CellIndex wall_cell = g.WorldToCell({1.025, 0.025});
+  const CellIndex box_cell = g.WorldToCell({1.525, 0.025});
+  ASSERT_TRUE(map.grid().LabelMask(g.LinearIndex(wall_cell)) & (1u << OccupancyGrid::kWallLabelBit));
+  ASSERT_FALSE(map.grid().LabelMask(g.LinearIndex(box_cell)) & (1u << OccupancyGrid::kWallLabelBit));
+  // On the wall and in front of it both fields agree (the wall is the nearest surface).
+  EXPECT_NEAR(1.f, walls.Value(wall_cell), 1e-5);
+  EXPECT_FLOAT_EQ(map.field().Value(wall_cell), walls.Value(wall_cell));
+  EXPECT_FLOAT_EQ(map.field().Value(CellIndex{wall_cell.x - 3, wall_cell.y}),
+                  walls.Value(CellIndex{wall_cell.x - 3, wall_cell.y}));
+  // The box is structure (field 1 on it) but not a wall.
+  EXPECT_NEAR(1.f, map.field().Value(box_cell), 1e-5);
+  EXPECT_EQ(0.f, walls.Value(box_cell));
+  // Frozen together, on the same box.
+  LaserMap frozen = map;
+  frozen.Freeze();
+  ASSERT_NE(nullptr, frozen.wall_field());
+  EXPECT_TRUE(frozen.wall_field()->frozen());
+  EXPECT_EQ(frozen.field().geometry().origin(), frozen.wall_field()->geometry().origin());
+  const GridGeometry& f = frozen.grid().geometry();
+  EXPECT_NEAR(walls.Value(wall_cell), frozen.wall_field()->Value(f.WorldToCell({1.025, 0.025})),
+              LikelihoodField::kQuantizationStep);
+  EXPECT_EQ(0.f, frozen.wall_field()->Value(f.WorldToCell({1.525, 0.025})));
+}
+
+// Without keep_wall_field, or without labels (a level scan, every CARMEN log), no wall field.
+TEST(LikelihoodFieldTest, NoWallFieldWithoutTheOptionOrLabels) {
+  std::vector<Eigen::Vector2f> wall;
+  for (int i = -6; i <= 6; ++i) wall.emplace_back(1.025f, i * 0.05f + 0.025f);
+  const std::vector<float> low(wall.size(), 0.2f), high(wall.size(), 0.6f);
+  LaserMap without_option{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  without_option.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall, nullptr, &low);
+  without_option.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall, nullptr, &high);
+  EXPECT_EQ(nullptr, without_option.wall_field());
+  LaserMap without_labels(OccupancyGridOptions(), LikelihoodFieldOptions(), /*keep_wall_field=*/true);
+  without_labels.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall);
+  without_labels.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall);
+  EXPECT_EQ(nullptr, without_labels.wall_field());
+}
+
+// The wall field is exact under incremental updates: on seeded random scans with random hit
+// heights (cells turning wall, and cells turning free again), it equals a field of the wall
+// cells rebuilt from scratch.
+TEST(LikelihoodFieldTest, WallFieldIncrementalMatchesRebuildOnRandomUpdates) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> coord(-3.f, 3.f), height(0.1f, 1.0f);
+  std::uniform_real_distribution<double> pose_xy(-1.0, 1.0), pose_th(-M_PI, M_PI);
+  LikelihoodFieldOptions field_options;
+  // Every moved hit point republished: the field then equals one built from the grid's
+  // current hit points of its wall cells (which cells are walls is what is tested here).
+  field_options.republish_distance_meters = 0.0;
+  OccupancyGridOptions grid_options;
+  grid_options.growth_step_meters = 0.5;  // grow often, to exercise Resize
+  LaserMap map(grid_options, field_options, /*keep_wall_field=*/true);
+  constexpr uint8_t kWall = 1u << OccupancyGrid::kWallLabelBit;
+  int wall_cells = 0;
+  for (int scan = 0; scan < 40; ++scan) {
+    std::vector<Eigen::Vector2f> points;
+    std::vector<float> heights;
+    for (int i = 0; i < 40; ++i) {
+      points.emplace_back(coord(rng), coord(rng));
+      heights.push_back(height(rng));
+    }
+    for (int i = 0; i < 40; ++i) {
+      points.emplace_back(3.2f, -2.f + 0.1f * i);
+      heights.push_back(height(rng));
+    }
+    map.InsertScan(Pose2(pose_xy(rng), pose_xy(rng), pose_th(rng)), Eigen::Vector2d::Zero(), points, nullptr, &heights);
+    if (map.wall_field() == nullptr) continue;
+    LikelihoodField reference(field_options, kWall);
+    reference.RebuildFrom(map.grid());
+    ASSERT_EQ(reference.values().size(), map.wall_field()->values().size());
+    wall_cells = 0;
+    for (size_t i = 0; i < reference.values().size(); ++i) {
+      ASSERT_EQ(reference.values()[i], map.wall_field()->values()[i]) << "scan " << scan << " cell " << i;
+      wall_cells += map.wall_field()->IsSurface(map.grid(), static_cast<int>(i));
+    }
+  }
+  ASSERT_NE(nullptr, map.wall_field());
+  EXPECT_GT(wall_cells, 20);
+}
+
 // Freezing a finished map keeps what matching reads: cell states and likelihood values at every
 // world position, over a box cropped to the observed cells (plus the window), and frees the rest.
 TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {

@@ -309,6 +309,136 @@ TEST(ScanMatcherSecondModeTest, WideSearchesAloneLookForASecondMode) {
   EXPECT_GT(wide.second_mode_correlative_score, 0.9 * wide.correlative_score);
 }
 
+// Paper §III-E, by hand: a wall at x = 1.025 m (20 cells, y in [-0.5, 0.5], hit at 0.2 and
+// 0.6 m: a height span, so wall cells) and a box face at x = 1.425 m (30 cells, y in
+// [-0.75, 0.75], hit at 0.2 m only: structure, not wall), both on cell centres, the box
+// seen from its far side. 0.4 m apart: outside each other's 0.3 m window.
+class WallWeightTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::vector<Eigen::Vector2f> wall, box;
+    for (int k = 0; k < 20; ++k) wall.emplace_back(1.025f, -0.475f + 0.05f * k);
+    for (int k = 0; k < 30; ++k) box.emplace_back(-1.075f, -0.725f + 0.05f * k);  // from (2.5, 0), facing -x
+    const std::vector<float> wall_low(wall.size(), 0.2f), wall_high(wall.size(), 0.6f), box_low(box.size(), 0.2f);
+    for (int pass = 0; pass < 2; ++pass) {
+      map_.InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), wall, nullptr, pass ? &wall_high : &wall_low);
+      map_.InsertScan(Pose2(2.5, 0.0, 0.0), Eigen::Vector2d::Zero(), box, nullptr, &box_low);
+    }
+  }
+
+  // The correlative score of `points` at exactly `pose` (windows 0: one candidate).
+  double ScoreOfOneCandidate(double wall_weight, const Pose2& pose, const std::vector<Eigen::Vector2f>& points) const {
+    ScanMatcherOptions options;
+    options.linear_search_window_meters = 0.0;
+    options.angular_search_window_radians = 0.0;
+    options.refine_with_ceres = false;
+    options.wall_weight = wall_weight;
+    return ScanMatcher(options).BruteForceSearch(map_, pose, points).correlative_score;
+  }
+
+  LaserMap map_{OccupancyGridOptions(), LikelihoodFieldOptions(), /*keep_wall_field=*/true};
+};
+
+// A point on a wall cell scores the weight, a point on other structure 1, at whatever pose puts
+// them there (no prediction involved).
+TEST_F(WallWeightTest, APointOnAWallScoresTheWeightOnOtherStructureOne) {
+  ASSERT_NE(nullptr, map_.wall_field());
+  const std::vector<Eigen::Vector2f> one_point{{0.0f, 0.0f}};
+  const Pose2 on_wall(1.025, 0.025, 0.0), on_box(1.425, 0.025, 0.0), nowhere(0.3, 0.025, 0.0);
+  for (const double w : {1.0, 2.0, 3.5}) {
+    EXPECT_NEAR(w, ScoreOfOneCandidate(w, on_wall, one_point), 1e-4) << "weight " << w;
+    EXPECT_NEAR(1.0, ScoreOfOneCandidate(w, on_box, one_point), 1e-4) << "weight " << w;
+    // Free space away from any surface: the penalty, unweighted.
+    EXPECT_NEAR(-ScanMatcherOptions().free_space_penalty, ScoreOfOneCandidate(w, nowhere, one_point), 1e-6)
+        << "weight " << w;
+  }
+  // The mean over points: one on the wall and one on the box, w = 2: (2 + 1) / 2.
+  const std::vector<Eigen::Vector2f> two_points{{0.0f, 0.0f}, {0.4f, 0.0f}};
+  EXPECT_NEAR(1.5, ScoreOfOneCandidate(2.0, on_wall, two_points), 1e-4);
+  // ScoreAt (the result's `score`) stays the unweighted mean.
+  EXPECT_NEAR(1.0, ScoreAt(map_, on_wall, two_points), 1e-4);
+}
+
+// A 30-point line 0.2 m from both: moved 0.2 m towards the wall it lies along the whole 20-cell
+// wall (its 10 other points just past the wall's ends: about 22.8 / 30 = 0.76); moved 0.2 m the
+// other way, along the whole box face (30 / 30 = 1). Unweighted the box wins; with weight 2 the
+// wall does (2 × 0.76 = 1.52 > 1), from the same prediction halfway between.
+TEST_F(WallWeightTest, MatcherPrefersAligningWallsOverClutter) {
+  std::vector<Eigen::Vector2f> line;
+  for (int k = 0; k < 30; ++k) line.emplace_back(1.225f, -0.725f + 0.05f * k);
+  const Pose2 predicted = Pose2::Identity();
+  for (const bool frozen : {false, true}) {
+    for (const bool in_refinement : {false, true}) {
+      SCOPED_TRACE(testing::Message() << "frozen " << frozen << ", in the refinement " << in_refinement);
+      LaserMap map = map_;
+      if (frozen) map.Freeze();
+      ScanMatcherOptions options;
+      options.wall_weight_in_refinement = in_refinement;
+      const ScanMatchResult plain = ScanMatcher(options).Match(map, predicted, line);
+      options.wall_weight = 2.0;
+      const ScanMatchResult weighted = ScanMatcher(options).Match(map, predicted, line);
+      ASSERT_TRUE(plain.converged && weighted.converged) << plain.message << weighted.message;
+      EXPECT_NEAR(0.2, plain.pose.x(), 0.02);  // on the box
+      EXPECT_NEAR(-0.2, weighted.pose.x(), 0.02);  // on the wall
+      EXPECT_NEAR(0.0, WrapAngle(weighted.pose.theta()), 1.0 * M_PI / 180);
+      // The search's objective counts the wall twice; `score` is the plain mean field value.
+      EXPECT_NEAR(1.0, plain.score, 0.02);
+      EXPECT_NEAR(0.76, weighted.score, 0.03);
+      EXPECT_NEAR(2 * weighted.score, weighted.correlative_score, 0.05);
+    }
+  }
+}
+
+// With the wall channel the branch-and-bound bound stays exact: the same best discrete score as
+// brute force, on seeded random predictions, building and frozen.
+TEST_F(WallWeightTest, BranchAndBoundMatchesBruteForceWithWallWeight) {
+  std::vector<Eigen::Vector2f> scan;
+  for (int k = 0; k < 20; ++k) scan.emplace_back(1.025f, -0.475f + 0.05f * k);
+  for (int k = 0; k < 30; ++k) scan.emplace_back(1.425f, -0.725f + 0.05f * k);
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> off(-0.3, 0.3), off_th(-0.1, 0.1);
+  ScanMatcherOptions options;
+  options.refine_with_ceres = false;
+  options.linear_search_window_meters = 0.4;
+  options.angular_search_window_radians = 0.1;
+  options.min_correlative_score = 0.0;
+  options.fallback_linear_search_window_meters = 0.0;
+  options.fallback_angular_search_window_radians = 0.0;
+  options.wall_weight = 2.5;
+  const ScanMatcher matcher(options);
+  LaserMap frozen = map_;
+  frozen.Freeze();
+  for (int trial = 0; trial < 8; ++trial) {
+    const Pose2 predicted(off(rng), off(rng), off_th(rng));
+    for (const LaserMap* map : {&map_, &frozen}) {
+      const ScanMatchResult fast = matcher.Match(*map, predicted, scan);
+      const ScanMatchResult brute = matcher.BruteForceSearch(*map, predicted, scan);
+      ASSERT_TRUE(fast.converged) << "trial " << trial;
+      EXPECT_FLOAT_EQ(brute.correlative_score, fast.correlative_score) << "trial " << trial;
+      EXPECT_GT(fast.correlative_score, 1.0) << "trial " << trial;  // the wall counts more than once
+    }
+  }
+}
+
+// Weight 1, or a map that keeps no wall field: exactly the plain matcher (poses and scores bit
+// for bit), so maps without labels are unaffected by the option.
+TEST_F(ScanMatcherTest, WallWeightWithoutAWallFieldChangesNothing) {
+  std::mt19937 rng(5);
+  const Pose2 truth(0.3, -0.2, 0.4);
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
+  ASSERT_EQ(nullptr, map_.wall_field());
+  ScanMatcherOptions options;
+  options.wall_weight = 3.0;
+  const ScanMatchResult plain = matcher_.Match(map_, truth * Pose2(0.2, 0.1, 0.05), scan);
+  const ScanMatchResult weighted = ScanMatcher(options).Match(map_, truth * Pose2(0.2, 0.1, 0.05), scan);
+  ASSERT_TRUE(plain.converged);
+  EXPECT_EQ(plain.pose.x(), weighted.pose.x());
+  EXPECT_EQ(plain.pose.y(), weighted.pose.y());
+  EXPECT_EQ(plain.pose.theta(), weighted.pose.theta());
+  EXPECT_EQ(plain.score, weighted.score);
+  EXPECT_EQ(plain.correlative_score, weighted.correlative_score);
+}
+
 TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   ScanMatcherOptions options;
   std::string error;
@@ -318,6 +448,10 @@ TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("angular_search_window_radians"));
   EXPECT_NE(std::string::npos, error.find("branch_and_bound_depth"));
+  options = ScanMatcherOptions();
+  options.wall_weight = 0.5;  // below 1: the wall channel's cost weight sqrt(w - 1) is undefined
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("wall_weight"));
 }
 
 }  // namespace
