@@ -455,9 +455,6 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
       result.local_pose = target.local_T_submap * submap_T_robot;
       result.weak_direction = target.local_T_submap.rotation() * weak_direction;
     }
-    // The wall weights were looked up where this prediction puts the points in this submap:
-    // they mean nothing to a later match (loop closure) against another submap.
-    points.matching_weights.clear();
   }
   result.match_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - match_start).count();
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
