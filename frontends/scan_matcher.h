@@ -169,7 +169,8 @@ class ScanMatcher {
                                     double linear_window_meters, double angular_window_radians,
                                     const std::vector<float>& weights = {}) const;
 
-  // Refines `start` (world_T_robot) by the likelihood field's cost with the translation along
+  // Refines `start` (world_T_robot) by the likelihood field's cost (L alone: the wall channel
+  // is not weighed here, whatever wall_weight_in_refinement says) with the translation along
   // `held_direction` (map frame, non-zero) kept at `start`'s: across it and in yaw the scan
   // decides (factors/se2_manifold.h Se2HeldDirectionManifold). For a match that is flat along
   // that direction while a motion source knows the position there (LocalSlam's degeneracy
