@@ -392,6 +392,17 @@ std::vector<float> WallResidualWeights(const std::vector<float>& weights, size_t
   return scaled;
 }
 
+// The refinements' solver: a 3-parameter dense problem, one thread, silent.
+ceres::Solver::Options RefinementSolverOptions(const ScanMatcherOptions& options) {
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_ceres_iterations;
+  solver_options.num_threads = 1;
+  solver_options.minimizer_progress_to_stdout = false;
+  solver_options.logging_type = ceres::SILENT;
+  return solver_options;
+}
+
 // The map's wall field when `options` weigh walls and the map has one, else null.
 const LikelihoodField* WallFieldFor(const ScanMatcherOptions& options, const LaserMap& map) {
   return options.wall_weight != 1.0 ? map.wall_field() : nullptr;
@@ -479,13 +490,8 @@ Pose2 ScanMatcher::RefineHoldingDirection(const LaserMap& map, const Pose2& star
   problem.AddResidualBlock(CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation),
                            nullptr, pose);
   problem.SetManifold(pose, new Se2HeldDirectionManifold(held_direction));
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options_.max_ceres_iterations;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
+  ceres::Solve(RefinementSolverOptions(options_), &problem, &summary);
   const Pose2 refined(pose[0], pose[1], pose[2]);
   const double r = field.geometry().resolution_meters();
   if (!summary.IsSolutionUsable() || !((refined.translation() - start.translation()).norm() < 4 * r)) return start;
@@ -681,14 +687,8 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
           CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, options_.refine_interpolation), nullptr,
           pose);
     }
-    ceres::Solver::Options solver_options;
-    solver_options.linear_solver_type = ceres::DENSE_QR;
-    solver_options.max_num_iterations = options_.max_ceres_iterations;
-    solver_options.num_threads = 1;
-    solver_options.minimizer_progress_to_stdout = false;
-    solver_options.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &problem, &summary);
+    ceres::Solve(RefinementSolverOptions(options_), &problem, &summary);
     const Pose2 refined(pose[0], pose[1], pose[2]);
     result.iterations = static_cast<int>(summary.iterations.size()) - 1;
     result.final_cost = summary.final_cost;
