@@ -220,14 +220,13 @@ DEFINE_double(outlier_max_score, 0.5, "With a prediction's covariance (the EKF, 
 DEFINE_double(odometry_noise_fraction, 0.1, "With --use_odometry: the prediction's standard deviations are this fraction of "
               "the odometry increment, and the search windows follow them (no wide fallback); 0 = narrow, full and "
               "fallback windows as without odometry.");
-DEFINE_double(motion_filter_distance, 0.0, "Motion filter: a scan that moved less than this (metres) from the last "
+DEFINE_double(motion_filter_distance, 0.01, "Motion filter: a scan that moved less than this (metres) from the last "
               "inserted scan, turned less than --motion_filter_angle_deg, tilted less than "
               "--motion_filter_attitude_deg and (with --motion_filter_time > 0) came within that many seconds of it is "
               "matched and goes into the active submaps (at most --scans_per_submap such scans each) but is no graph "
-              "node and no step towards a new submap, so a robot standing still adds nothing (0.01 with "
-              "--motion_filter_angle_deg=0.5 lets in every scan of a moving robot); 0 = off (every scan is a node), "
-              "the default.");
-DEFINE_double(motion_filter_angle_deg, 1.0, "Motion filter: heading change (degrees) that makes a scan new.");
+              "node and no step towards a new submap, so a robot standing still adds nothing (the default 1 cm with "
+              "0.5° lets in every scan of a moving robot); 0 = off (every scan is a node).");
+DEFINE_double(motion_filter_angle_deg, 0.5, "Motion filter: heading change (degrees) that makes a scan new.");
 DEFINE_double(motion_filter_attitude_deg, 1.0, "Motion filter: roll or pitch change (degrees) that makes a scan new (a "
               "tilting head sees new heights).");
 DEFINE_double(motion_filter_time, 0.0, "Motion filter: seconds after the last inserted scan that make a scan new (0 = "

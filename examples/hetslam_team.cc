@@ -123,6 +123,23 @@ struct RobotData {
 };
 
 // i_T_j error against the truth: translation (m) and rotation (deg).
+const char* EventName(TeamMergeEvent::Kind kind) {
+  switch (kind) {
+    case TeamMergeEvent::Kind::kFirstLink:
+      return "merged";
+    case TeamMergeEvent::Kind::kSecondConstraint:
+      return "second constraint";
+    case TeamMergeEvent::Kind::kWithdrawn:
+      return "split again";
+  }
+  return "?";
+}
+
+// The event in the "truth:" lines (a withdrawal has no poses after it to score).
+const char* EventTruthName(TeamMergeEvent::Kind kind) {
+  return kind == TeamMergeEvent::Kind::kFirstLink ? "first link" : "second constraint";
+}
+
 std::string PairError(const Pose2& estimate, const Pose2& truth) {
   const Pose2 error = Between(truth, estimate);
   char text[128];
@@ -255,7 +272,7 @@ int Run() {
     for (; events_printed < team.events().size(); ++events_printed) {
       const TeamMergeEvent& e = team.events()[events_printed];
       std::printf("t=%.2f s: %s %s-%s: %s\n", e.stamp_seconds,
-                  e.kind == TeamMergeEvent::Kind::kFirstLink ? "merged" : "second constraint",
+                  EventName(e.kind),
                   robots[e.robot_a].name.c_str(), robots[e.robot_b].name.c_str(), e.description.c_str());
     }
     if (FLAGS_progress_every > 0 && StampOf(m) >= next_progress) {
@@ -309,9 +326,9 @@ int Run() {
               s.link_attempts, s.links, s.link_seconds, s.inter_constraints, s.inter_searches, s.inter_search_seconds,
               accepted, rejected);
   std::printf("map overlap (no shared tag): %d attempts, %d wide matches (%d kept), %d hypotheses checked against the "
-              "whole maps, %d links (%.2f s)\n",
+              "whole maps, %d links, %d withdrawn when the tags contradicted them (%.2f s)\n",
               s.overlap_attempts, s.overlap_matches, s.overlap_kept, s.overlap_map_checks, s.overlap_links,
-              s.overlap_seconds);
+              s.overlap_links_withdrawn, s.overlap_seconds);
   for (int r = 0; r < team.num_robots(); ++r) {
     const std::string frame = team.InCommonFrame(r) ? "in the common frame at " + PoseText(team.CommonTRobot(r))
                                                     : "NOT MERGED: own frame (not " + robots[0].name + "'s)";
@@ -343,7 +360,7 @@ int Run() {
           if (b.robot_i == p.robot_i && b.robot_j == p.robot_j) before = "before " + PairError(b.i_T_j, truth_pair(p.robot_i, p.robot_j)) + ", ";
         }
         std::printf("truth: after %s %s-%s at t=%.2f s: %s-%s %s%s\n",
-                    e.kind == TeamMergeEvent::Kind::kFirstLink ? "first link" : "second constraint",
+                    EventTruthName(e.kind),
                     robots[e.robot_a].name.c_str(), robots[e.robot_b].name.c_str(), e.stamp_seconds,
                     robots[p.robot_i].name.c_str(), robots[p.robot_j].name.c_str(), before.c_str(),
                     ("after " + PairError(p.i_T_j, truth_pair(p.robot_i, p.robot_j))).c_str());

@@ -155,17 +155,17 @@ struct LocalSlamOptions {
   // turned less than motion_filter_angle_radians, its attitude (roll, pitch) changed less than
   // motion_filter_attitude_radians, and (when motion_filter_time_seconds > 0) it is less than
   // that much later. A robot standing still, or a humanoid's sway, then adds nothing; a
-  // tilting head's new heights still go in. 0 distance = off (every scan is a node), the
-  // default. 1 cm and 0.5° let in every scan of a moving robot (of the four real logs only
+  // tilting head's new heights still go in. 0 distance = off (every scan is a node). The
+  // default 1 cm and 0.5° let every scan of a moving robot in (of the four real logs only
   // FR079 filters, 396 of 4791 scans, at the same accuracy; the single-robot scenarios move by
-  // millimetres) and make a standing robot one node, but on the team_three scenario the nao's
-  // sparser nodes let a map-overlap link put it in a congruent room 20 m away (seeds 1 and 2
-  // of 5; README, "Growth"). 0.05 m made 3-5x fewer nodes on the humanoids with the scenarios'
-  // ATE equal or better except uav_flight (0.074 -> 0.082 m) and team_three's nao (0.019 ->
-  // 0.024 m), but Intel (1 of 910 scans filtered: 1.6 cm and 0.4° from the last) fell into a
+  // millimetres) and make a standing robot one node. It changes which of a humanoid's scans
+  // become nodes, and on team_three that once let a map-overlap link put the nao in a
+  // congruent room 20 m away; the team estimator now withdraws such a link when the joined
+  // group's tags contradict it (merger/team_estimator.h). 0.05 m made 3-5x fewer nodes on the
+  // humanoids, but Intel (1 of 910 scans filtered: 1.6 cm and 0.4° from the last) fell into a
   // front-end failure the graph does not recover from (README, "Motion filter").
-  double motion_filter_distance_meters = 0.0;
-  double motion_filter_angle_radians = 1.0 * M_PI / 180.0;
+  double motion_filter_distance_meters = 0.01;
+  double motion_filter_angle_radians = 0.5 * M_PI / 180.0;
   double motion_filter_attitude_radians = 1.0 * M_PI / 180.0;
   double motion_filter_time_seconds = 0.0;
 

@@ -180,6 +180,18 @@ bool SubmapGraph::AddConstraint(const ConstraintCandidate& candidate) {
   return true;
 }
 
+bool SubmapGraph::RemoveInterRobotConstraint(const SubmapId& submap, const NodeId& node) {
+  for (Constraint& c : constraints_) {
+    if (c.kind != EdgeKind::kInterRobot || !(c.submap == submap) || c.node != node || problem_.edge_removed(c.edge)) {
+      continue;
+    }
+    problem_.RemoveEdge(c.edge);
+    ++stats_.inter_robot_constraints_withdrawn;
+    return true;
+  }
+  return false;
+}
+
 Status SubmapGraph::Solve(int max_iterations) {
   if (robots_.empty()) return Status::Ok();
   PoseGraphSolveOptions solve_options;

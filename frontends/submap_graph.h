@@ -117,6 +117,7 @@ struct SubmapGraphStats {
   int loop_closures_accepted = 0;
   int loop_closures_rejected_after_solve = 0;
   int inter_robot_constraints = 0;
+  int inter_robot_constraints_withdrawn = 0;  // by RemoveInterRobotConstraint
   int solves = 0;            // Ceres solves (a Solve() call may run two)
   int solver_iterations = 0;
   int failed_solves = 0;     // solutions Ceres reported unusable (poses kept)
@@ -134,6 +135,10 @@ class SubmapGraph {
   // Adds a loop closure (same robot) or an inter-robot constraint (different robots). Returns
   // false and adds nothing for an unknown submap or node.
   bool AddConstraint(const ConstraintCandidate& candidate);
+  // Removes the inter-robot constraint between `submap` and `node` (a link found wrong later,
+  // e.g. by a teammate's contradicting landmark); it is then reported removed by LoopClosures().
+  // False when the graph holds no such constraint (or it was removed already).
+  bool RemoveInterRobotConstraint(const SubmapId& submap, const NodeId& node);
   // Solves; an error when Ceres reports the solution unusable (the poses keep their values).
   Status Solve(int max_iterations);
 

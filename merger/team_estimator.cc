@@ -150,6 +150,8 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   if (!(link_node_radius_meters >= 0 && link_node_spacing_meters >= 0)) msg << "link node radius and spacing must be >= 0; ";
   if (!(link_agreement_meters > 0 && link_agreement_radians > 0 && tag_agreement_meters > 0 && tag_agreement_radians > 0))
     msg << "agreement bounds must be > 0; ";
+  if (!(tag_min_separation_meters >= 0 && tag_min_separation_meters <= tag_agreement_meters))
+    msg << "tag_min_separation_meters must be in [0, tag_agreement_meters]; ";
   if (!(link_window_min_meters > 0 && link_window_max_meters >= link_window_min_meters && link_window_min_radians > 0 &&
         link_window_max_radians >= link_window_min_radians))
     msg << "link windows must satisfy 0 < min <= max; ";
@@ -252,6 +254,7 @@ void TeamEstimator::AfterScan(int robot_index, double stamp_seconds) {
   robot.nodes_seen = nodes;
   if (options_.overlap_search) {
     UpdateOverlapTargets(robot_index);
+    CheckGroupTags(stamp_seconds);
     TryOverlapLinks(stamp_seconds);
   }
   // Links waiting for a finished submap.
@@ -893,9 +896,9 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
     bool tags_agree = true;
     for (const auto& [id_a, a_T_tag] : tags_a) {
       for (const auto& [id_b, b_T_tag] : tags_b) {
-        const double apart = (a_T_tag.translation() - (hypothesis * b_T_tag).translation()).norm();
-        if (id_a != id_b || apart <= options_.tag_agreement_meters) continue;
-        if (tags_agree) outcome << "; tag " << id_a << " placed " << apart << " m apart";
+        const std::string contradiction = TagsContradict(id_a, a_T_tag, id_b, hypothesis * b_T_tag);
+        if (contradiction.empty()) continue;
+        if (tags_agree) outcome << "; " << contradiction;
         tags_agree = false;
       }
     }
@@ -927,7 +930,9 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
   std::vector<ConstraintCandidate> agreeing;
   for (int j : chosen.members) agreeing.push_back(*matches[j]);
   std::vector<bool> added;
+  OverlapLink link{stamp_seconds, a, b, Group(a), Group(b), false};
   const bool linked = JoinGroups(a, b, a_T_b[chosen.best], agreeing, &added);
+  if (linked) overlap_links_.push_back(std::move(link));
   std::ostringstream reason;
   reason << (linked ? "accepted" : "rejected after the solve (the graph's consistency check removed it)")
          << ": map overlap " << outcomes[passing.front()];
@@ -949,6 +954,102 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
   event.after = GroupPairPoses(a);
   events_.push_back(event);
   SearchRetrospectively(stamp_seconds, a);
+}
+
+std::string TeamEstimator::TagsContradict(int id_x, const Pose2& frame_T_x, int id_y, const Pose2& frame_T_y) const {
+  const double apart = (frame_T_x.translation() - frame_T_y.translation()).norm();
+  std::ostringstream text;
+  text.precision(3);
+  if (id_x == id_y && apart > options_.tag_agreement_meters) {
+    text << "tag " << id_x << " placed " << apart << " m apart";
+  } else if (id_x != id_y && apart < options_.tag_min_separation_meters &&
+             std::abs(WrapAngle(frame_T_x.theta() - frame_T_y.theta())) < options_.tag_agreement_radians) {
+    text << "tags " << std::min(id_x, id_y) << " and " << std::max(id_x, id_y) << " placed " << apart
+         << " m apart, facing the same way";
+  }
+  return text.str();
+}
+
+void TeamEstimator::CheckGroupTags(double stamp_seconds) {
+  if (overlap_links_.empty() || stamp_seconds < next_tag_check_stamp_) return;
+  next_tag_check_stamp_ = stamp_seconds + options_.link_retry_seconds;
+  // Each robot's confirmed places, in its group root's frame.
+  struct Placed {
+    int robot;
+    int tag_id;
+    Pose2 root_T_tag;
+  };
+  std::vector<Placed> placed;
+  for (int r = 0; r < num_robots(); ++r) {
+    if (Group(r).size() < 2) continue;
+    for (const TagPlace& place : Places(r)) {
+      if (place.confirmed && !place.ambiguous) placed.push_back({r, place.tag_id, AnchorRelative(Root(r), r) * place.robot_T_tag});
+    }
+  }
+  for (size_t i = 0; i < placed.size(); ++i) {
+    for (size_t j = i + 1; j < placed.size(); ++j) {
+      const Placed& x = placed[i];
+      const Placed& y = placed[j];
+      if (x.robot == y.robot || Root(x.robot) != Root(y.robot)) continue;
+      const std::string contradiction = TagsContradict(x.tag_id, x.root_T_tag, y.tag_id, y.root_T_tag);
+      if (contradiction.empty()) continue;
+      // The newest map-overlap link with x and y on different sides made the contradiction
+      // (a tag link has a tag of its own; two robots of one side were joined before it).
+      for (auto link = overlap_links_.rbegin(); link != overlap_links_.rend(); ++link) {
+        if (link->withdrawn) continue;
+        const auto on = [](const std::vector<int>& side, int r) { return std::count(side.begin(), side.end(), r) > 0; };
+        if (!((on(link->side_a, x.robot) && on(link->side_b, y.robot)) ||
+              (on(link->side_b, x.robot) && on(link->side_a, y.robot)))) {
+          continue;
+        }
+        WithdrawOverlapLink(stamp_seconds, &*link,
+                            contradiction + " by " + robots_[x.robot].name + " and " + robots_[y.robot].name);
+        return;  // the groups changed: the rest is checked next time
+      }
+    }
+  }
+}
+
+void TeamEstimator::WithdrawOverlapLink(double stamp_seconds, OverlapLink* link, const std::string& reason) {
+  const auto on = [](const std::vector<int>& side, int r) { return std::count(side.begin(), side.end(), r) > 0; };
+  const Pose2 a_T_b = AnchorRelative(link->a, link->b);
+  // Every inter-robot constraint across the link's two sides goes: the link's own and those
+  // found through it (in a building of congruent rooms they agree with the wrong link).
+  int removed = 0;
+  const std::vector<bool> kept = InterConstraintsKept();
+  for (size_t i = 0; i < inter_constraints_.size(); ++i) {
+    const InterConstraint& c = inter_constraints_[i];
+    const bool across = (on(link->side_a, c.robot_a) && on(link->side_b, c.robot_b)) ||
+                        (on(link->side_b, c.robot_a) && on(link->side_a, c.robot_b));
+    if (kept[i] && across && graph_->RemoveInterRobotConstraint(c.submap, c.node)) ++removed;
+  }
+  link->withdrawn = true;
+  ++stats_.overlap_links_withdrawn;
+  for (int x : link->side_a) {
+    for (int y : link->side_b) {
+      const std::pair<int, int> pair{std::min(x, y), std::max(x, y)};
+      first_link_places_.erase(pair);
+      has_second_constraint_.erase(pair);
+    }
+  }
+  overlap_outcomes_.clear();
+  Solve(options_.max_iterations_final);
+  TeamConstraintRecord record =
+      MakeRecord(stamp_seconds, link->a, link->b, TeamConstraintKind::kMapOverlap, -1, a_T_b, nullptr);
+  record.accepted = false;
+  std::ostringstream text;
+  text << "withdrawn: the map-overlap link of t=" << link->stamp_seconds << " s (" << removed
+       << " constraints across it removed): " << reason;
+  record.reason = text.str();
+  Record(record);
+  TeamMergeEvent event;
+  event.kind = TeamMergeEvent::Kind::kWithdrawn;
+  event.stamp_seconds = stamp_seconds;
+  event.robot_a = link->a;
+  event.robot_b = link->b;
+  event.description = record.reason;
+  events_.push_back(event);
+  LOG(WARNING) << "team: " << robots_[link->a].name << "-" << robots_[link->b].name << " " << record.reason;
 }
 
 void TeamEstimator::SearchInterRobot(double stamp_seconds, const NodeId& node) {

@@ -60,8 +60,9 @@
 //    checked against both groups' whole maps (CompareMaps, merger/map_merge.h: at least
 //    overlap_min_agreeing_cells occupied cells agree and at most overlap_max_conflict of the
 //    compared ones conflict, a wall where the other saw through) and against their tags (one
-//    id placed by both groups more than tag_agreement_meters apart refutes it: a building of
-//    congruent rooms). Exactly one pose must pass; two passing are reported ambiguous and the
+//    id placed by both groups more than tag_agreement_meters apart, or two ids placed closer
+//    than tag_min_separation_meters facing the same way, refutes it: a building of congruent
+//    rooms with a tag in each). Exactly one pose must pass; two passing are reported ambiguous and the
 //    groups stay apart. Checking groups, not robot pairs, lets a teammate that has seen both of
 //    two congruent rooms expose the ambiguity.
 //  - Accepted: the agreeing matches enter the graph as inter-robot constraints, as a tag link's
@@ -147,6 +148,10 @@ struct TeamEstimatorOptions {
   double link_window_min_radians = 3.0 * M_PI / 180.0, link_window_max_radians = 20.0 * M_PI / 180.0;
   double tag_agreement_meters = 0.5;
   double tag_agreement_radians = 10.0 * M_PI / 180.0;
+  // Two tags of different ids facing the same way (within tag_agreement_radians) are never
+  // closer than this (about their printed size): a map-overlap hypothesis that puts them
+  // closer is refuted. 0 = off; at most tag_agreement_meters.
+  double tag_min_separation_meters = 0.15;
   double link_retry_seconds = 2.0;  // a failed or waiting link is tried again after this much time
   // Further constraints.
   bool search_more_constraints = true;
@@ -242,7 +247,8 @@ struct RobotPairPose {
 };
 
 struct TeamMergeEvent {
-  enum class Kind { kFirstLink, kSecondConstraint };
+  // kWithdrawn: a map-overlap link found wrong later and undone (the groups split again).
+  enum class Kind { kFirstLink, kSecondConstraint, kWithdrawn };
   Kind kind = Kind::kFirstLink;
   double stamp_seconds = 0.0;
   int robot_a = 0, robot_b = 0;
@@ -276,6 +282,7 @@ struct TeamEstimatorStats {
   int overlap_kept = 0;       // of them, good enough to keep
   int overlap_map_checks = 0; // hypotheses checked against the whole maps
   int overlap_links = 0;
+  int overlap_links_withdrawn = 0;  // undone when the joined group's tags contradicted them
   double overlap_seconds = 0.0;
 };
 
@@ -408,6 +415,21 @@ class TeamEstimator {
   void MatchOverlaps(int a, int b);
   // A link between the groups of roots a and b from their members' kept matches.
   void TryOverlapLink(double stamp_seconds, int a, int b);
+  // A map-overlap link: the groups it joined (their members then).
+  struct OverlapLink {
+    double stamp_seconds = 0.0;
+    int a = 0, b = 0;  // the groups' roots
+    std::vector<int> side_a, side_b;
+    bool withdrawn = false;
+  };
+  // A joined group whose members' confirmed tag places contradict each other (TagsContradict)
+  // was joined wrongly: the newest map-overlap link between the two robots' sides is withdrawn.
+  void CheckGroupTags(double stamp_seconds);
+  // Why two tag places (ids and poses in one frame) cannot both be right: one id more than
+  // tag_agreement_meters apart, or two ids closer than tag_min_separation_meters facing the
+  // same way (within tag_agreement_radians). Empty when they can.
+  std::string TagsContradict(int id_x, const Pose2& frame_T_x, int id_y, const Pose2& frame_T_y) const;
+  void WithdrawOverlapLink(double stamp_seconds, OverlapLink* link, const std::string& reason);
   // root_a_T_root_b implied by an overlap match between members of the two groups.
   Pose2 OverlapRelativePose(int root_a, int root_b, const ConstraintCandidate& match) const;
   // The maps of a group's robots merged in its root's frame.
@@ -440,6 +462,8 @@ class TeamEstimator {
   std::map<std::pair<int, int>, OverlapState> overlap_states_;
   std::map<std::pair<int, int>, std::string> overlap_outcomes_;  // per pair of group roots: the last recorded
   double next_overlap_attempt_stamp_ = -INFINITY;
+  std::vector<OverlapLink> overlap_links_;
+  double next_tag_check_stamp_ = -INFINITY;
   std::vector<TeamConstraintRecord> records_;
   std::vector<TeamMergeEvent> events_;
   bool started_ = false;

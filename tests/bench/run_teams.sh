@@ -27,6 +27,8 @@
 # row per team and seed, run/merged_map.pgm scored as a map.pgm (walls + furniture; precision
 # and recall within one cell, hetslam_layers --help) after aligning the first robot's trajectory
 # (the common frame) to its truth; its output in run/merged_layers/, then worst / mean per team.
+# Last, every map-overlap link withdrawn because the joined group's tags contradicted it (the
+# robots were in one frame wrongly until then; the first-link column shows the link after it).
 # Exit status: 0 when every run finished, 1 otherwise, 2 on a usage error.
 set -uo pipefail
 
@@ -157,4 +159,20 @@ if [ -s "$merged_rows" ]; then
        END { for (i = 1; i <= k; ++i) { t = order[i]
                printf "%-11s worst / mean over %d: precision %.3f / %.3f, recall %.3f / %.3f\n", t, n[t], wp[t], sp[t] / n[t], wr[t], sr[t] / n[t] } }' "$merged_rows"
 fi
+# Links undone: a map-overlap link the joined group's tags contradicted later (the robots were
+# in one frame wrongly until then).
+echo
+echo "map-overlap links withdrawn (\"split again\" in run.log):"
+withdrawn=0
+for team in "${teams[@]}"; do
+  for seed in "${seeds[@]}"; do
+    log="$out_root/$team/seed-$seed/run.log"
+    [ -f "$log" ] || continue
+    while read -r line; do
+      echo "$team seed $seed: $line"
+      withdrawn=$((withdrawn + 1))
+    done < <(grep '^t=.* split again ' "$log")
+  done
+done
+[ "$withdrawn" -eq 0 ] && echo "none"
 exit $status

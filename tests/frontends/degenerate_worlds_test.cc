@@ -113,7 +113,8 @@ SingleWallRun RunSingleWall(bool commands) {
 }
 
 // With the controller's commands (the EKF's prediction): most matches are flat along the wall
-// and the run is reported as low confidence; every scan is a node at a finite pose.
+// and the run is reported as low confidence; every scan is a node at a finite pose, except the
+// few the motion filter leaves out while the robot starts moving.
 TEST(DegenerateWorldsTest, SingleWallWithCommandsIsLowConfidence) {
   const SingleWallRun run = RunSingleWall(/*commands=*/true);
   ASSERT_TRUE(run.simulation.completed);
@@ -125,8 +126,8 @@ TEST(DegenerateWorldsTest, SingleWallWithCommandsIsLowConfidence) {
               c.well_constrained);
   EXPECT_GT(c.flat, c.scans * 8 / 10) << c.flat << " flat of " << c.scans;
   EXPECT_EQ(c.flat, run.stats.degenerate_matches);  // a motion source held every flat one
-  EXPECT_EQ(0, run.stats.filtered_scans);  // the motion filter is off by default
-  EXPECT_EQ(run.simulation.num_scans, run.nodes);
+  EXPECT_LT(run.stats.filtered_scans, 10);  // measured 4: the first scans, before the robot moves 1 cm
+  EXPECT_EQ(run.simulation.num_scans, run.nodes + run.stats.filtered_scans);
   ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
   for (size_t i = 0; i < run.trajectory.size(); ++i) ASSERT_TRUE(Finite(run.trajectory[i].pose)) << "scan " << i;
 }
@@ -159,8 +160,8 @@ SingleWallErrors SingleWallErrorsOf(const SingleWallRun& run) {
 // With the commands the estimate follows them along the wall and never steps beyond the motion
 // (before the held direction came from the score's profile and the scan was refined with it
 // held: max errors 8.2 m along and 1.5 m across, steps of 0.34 m in 0.1 s). What is left is
-// drift: the heading drifts by about 0.001 rad a second (measured 0.062 rad after 28 m; 0.11 rad
-// with noise-free ranges), and the across-wall error with it (1.15 m), most of it at submap
+// drift: the heading drifts by about 0.001 rad a second (measured 0.069 rad after 28 m; 0.11 rad
+// with noise-free ranges), and the across-wall error with it (1.28 m), most of it at submap
 // changes: not divergence, but not the 5 cm below either.
 TEST(DegenerateWorldsTest, SingleWallWithCommandsFollowsTheCommandsAlongTheWall) {
   const SingleWallRun run = RunSingleWall(/*commands=*/true);
@@ -169,16 +170,16 @@ TEST(DegenerateWorldsTest, SingleWallWithCommandsFollowsTheCommandsAlongTheWall)
   std::printf("single wall, commands: max errors %.3f m along, %.3f m across, %.4f rad; step beyond top speed %.3f m\n",
               e.along, e.across, e.yaw, e.excess_step);
   EXPECT_LE(e.excess_step, 0.05) << "a jump beyond the motion";
-  EXPECT_LT(e.along, 0.6);  // measured 0.457 m after 28 m
-  EXPECT_LT(e.yaw, 0.1);    // measured 0.0625 rad
-  EXPECT_LT(e.across, 1.5); // measured 1.15 m
+  EXPECT_LT(e.along, 0.6);  // measured 0.437 m after 28 m (0.457 m without the motion filter)
+  EXPECT_LT(e.yaw, 0.1);    // measured 0.0688 rad (0.0625)
+  EXPECT_LT(e.across, 1.5); // measured 1.28 m (1.15 m)
 }
 
 // What the issue asks and the pipeline does not do yet (disabled so that the default set
 // passes, see the README, "Hostile input"): along the wall the pose should follow the commands
 // (the simulator integrates the same commands exactly), across it and in yaw the laser. Measured
-// now: max errors 0.46 m along, 1.15 m across, 0.062 rad (0.44, 1.28, 0.069 with the opt-in
-// motion filter at 1 cm / 0.5°). The heading drifts by about 0.001 rad a second, 0.008 rad of it in the first second (the robot accelerating, the first submap
+// now: max errors 0.44 m along, 1.28 m across, 0.069 rad (0.46, 1.15, 0.062 with the motion
+// filter off). The heading drifts by about 0.001 rad a second, 0.008 rad of it in the first second (the robot accelerating, the first submap
 // holding a few scans of a dotted far wall), the rest mostly at submap changes; the across error
 // follows the heading. Tried and not enough (max across error): noise-free ranges 1.48 m (the
 // drift is not the noise), a 6 m laser 0.88 m, 361 beams 0.76 m, submap origins snapped to whole
@@ -306,19 +307,17 @@ TEST(DegenerateWorldsTest, OneScanPerHourInARoomStaysPut) {
   }
 }
 
-// A robot standing 60 s in a 6 m x 4 m room, 10 scans a second, no motion input, with the motion
-// filter (1 cm, 0.5°; opt-in, see LocalSlamOptions::motion_filter_distance_meters): the first
+// A robot standing 60 s in a 6 m x 4 m room, 10 scans a second, no motion input, default
+// options (the motion filter at 1 cm, 0.5°; LocalSlamOptions::motion_filter_distance_meters): the first
 // scan is the only node, and the map stops changing once the active submap holds a submap's
 // worth of filtered scans: the graph and the map are as large after 60 s as after 6 s (without
 // the filter: 600 nodes and 30 submaps). The pose stays where the robot stands.
-TEST(DegenerateWorldsTest, RobotStandingStillWithTheMotionFilterDoesNotGrow) {
+TEST(DegenerateWorldsTest, RobotStandingStillDoesNotGrow) {
   sim::Scenario scenario;
   ASSERT_TRUE(sim::ParseScenario(kRoom, "room", &scenario).ok());
   const Pose2 truth(0.4, -0.3, 0.2);
   std::mt19937_64 rng(11);
-  OnlineEstimatorOptions options;
-  options.local.motion_filter_distance_meters = 0.01;
-  options.local.motion_filter_angle_radians = 0.5 * M_PI / 180.0;
+  const OnlineEstimatorOptions options;
   OnlineEstimator estimator(options);
   int nodes_after_6s = 0, submaps_after_6s = 0;
   size_t map_cells_after_6s = 0;
