@@ -72,6 +72,14 @@ DEFINE_double(overlap_max_conflict, 0.05, "Largest share of compared occupied ce
 DEFINE_string(refine_interpolation, "distances", "What each robot's front end refines its scan matches on between "
               "cell centres: distances (to the nearest surface; the default; see hetslam_run --help and "
               "factors/scan_cost.h) or values (the likelihood field's).");
+DEFINE_double(motion_filter_distance, 0.01, "Each robot's motion filter (see hetslam_run --help): a scan that moved "
+              "less than this (metres) and turned less than --motion_filter_angle_deg since the robot's last graph "
+              "node is matched and mapped but is no node (a standing robot adds nothing); 0 = off.");
+DEFINE_double(motion_filter_angle_deg, 0.5, "Each robot's motion filter: heading change (degrees) that makes a scan "
+              "new.");
+DEFINE_double(tag_min_separation, 0.15, "Two tags of different ids facing the same way are never closer than this "
+              "(metres, about their printed size): a map-overlap pose, or a joined group, that puts them closer is "
+              "refuted (0 = off; at most 0.5).");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {
@@ -107,6 +115,9 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->overlap_max_conflict = FLAGS_overlap_max_conflict;
   team->inter_min_score = FLAGS_inter_min_score;
   team->second_constraint_min_distance_meters = FLAGS_second_constraint_min_distance;
+  team->tag_min_separation_meters = FLAGS_tag_min_separation;
+  robot->local.motion_filter_distance_meters = FLAGS_motion_filter_distance;
+  robot->local.motion_filter_angle_radians = FLAGS_motion_filter_angle_deg * kDeg;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
   if (!team->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
