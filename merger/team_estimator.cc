@@ -973,7 +973,9 @@ std::string TeamEstimator::TagsContradict(int id_x, const Pose2& frame_T_x, int 
 void TeamEstimator::CheckGroupTags(double stamp_seconds) {
   if (overlap_links_.empty() || stamp_seconds < next_tag_check_stamp_) return;
   next_tag_check_stamp_ = stamp_seconds + options_.link_retry_seconds;
-  // Each robot's confirmed places, in its group root's frame.
+  // Each robot's places of at least two sightings, confirmed or not (as at link time: a
+  // withdrawn overlap link is the safe side; with wrong ids injected, the one place that refutes
+  // a wrong link may have two votes of three), in its group root's frame.
   struct Placed {
     int robot;
     int tag_id;
@@ -983,7 +985,7 @@ void TeamEstimator::CheckGroupTags(double stamp_seconds) {
   for (int r = 0; r < num_robots(); ++r) {
     if (Group(r).size() < 2) continue;
     for (const TagPlace& place : Places(r)) {
-      if (place.confirmed && !place.ambiguous) placed.push_back({r, place.tag_id, AnchorRelative(Root(r), r) * place.robot_T_tag});
+      if (place.votes >= 2) placed.push_back({r, place.tag_id, AnchorRelative(Root(r), r) * place.robot_T_tag});
     }
   }
   for (size_t i = 0; i < placed.size(); ++i) {

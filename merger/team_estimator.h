@@ -67,6 +67,12 @@
 //    two congruent rooms expose the ambiguity.
 //  - Accepted: the agreeing matches enter the graph as inter-robot constraints, as a tag link's
 //    do (record kind map_overlap); the search for more constraints follows.
+//  - Withdrawn: every link_retry_seconds each joined group's tag places (two sightings or more)
+//    are compared in the group's frame; a contradiction (TagsContradict) between two robots that
+//    a map-overlap link put on different sides withdraws the newest such link: its constraints
+//    and every inter-robot constraint across it are removed from the graph, the groups split
+//    (a kWithdrawn event, a "withdrawn:" record), and the same pose is refused from then on by
+//    the tag check above. A tag link is never withdrawn (tags outrank maps).
 //
 // Frames: the team's common frame is that of the first robot added (the manifest's first). A
 // robot not (yet) linked to it keeps its own frame (InCommonFrame false). Transitive chaining
@@ -422,7 +428,7 @@ class TeamEstimator {
     std::vector<int> side_a, side_b;
     bool withdrawn = false;
   };
-  // A joined group whose members' confirmed tag places contradict each other (TagsContradict)
+  // A joined group whose members' tag places (of two sightings or more) contradict each other (TagsContradict)
   // was joined wrongly: the newest map-overlap link between the two robots' sides is withdrawn.
   void CheckGroupTags(double stamp_seconds);
   // Why two tag places (ids and poses in one frame) cannot both be right: one id more than
