@@ -84,6 +84,15 @@ ConstraintCandidate InterRobotCandidate(const SubmapId& submap, const NodeId& no
   return candidate;
 }
 
+bool Contains(const std::vector<int>& robots, int robot) {
+  return std::find(robots.begin(), robots.end(), robot) != robots.end();
+}
+
+// Whether robots x and y are on different sides (one in each of `a`, `b`).
+bool OnDifferentSides(const std::vector<int>& a, const std::vector<int>& b, int x, int y) {
+  return (Contains(a, x) && Contains(b, y)) || (Contains(b, x) && Contains(a, y));
+}
+
 bool Within(const Pose2& difference, double meters, double radians) {
   return difference.translation().norm() <= meters && std::abs(difference.theta()) <= radians;
 }
@@ -998,12 +1007,7 @@ void TeamEstimator::CheckGroupTags(double stamp_seconds) {
       // The newest map-overlap link with x and y on different sides made the contradiction
       // (a tag link has a tag of its own; two robots of one side were joined before it).
       for (auto link = overlap_links_.rbegin(); link != overlap_links_.rend(); ++link) {
-        if (link->withdrawn) continue;
-        const auto on = [](const std::vector<int>& side, int r) { return std::count(side.begin(), side.end(), r) > 0; };
-        if (!((on(link->side_a, x.robot) && on(link->side_b, y.robot)) ||
-              (on(link->side_b, x.robot) && on(link->side_a, y.robot)))) {
-          continue;
-        }
+        if (link->withdrawn || !OnDifferentSides(link->side_a, link->side_b, x.robot, y.robot)) continue;
         WithdrawOverlapLink(stamp_seconds, &*link,
                             contradiction + " by " + robots_[x.robot].name + " and " + robots_[y.robot].name);
         return;  // the groups changed: the rest is checked next time
@@ -1013,7 +1017,6 @@ void TeamEstimator::CheckGroupTags(double stamp_seconds) {
 }
 
 void TeamEstimator::WithdrawOverlapLink(double stamp_seconds, OverlapLink* link, const std::string& reason) {
-  const auto on = [](const std::vector<int>& side, int r) { return std::count(side.begin(), side.end(), r) > 0; };
   const Pose2 a_T_b = AnchorRelative(link->a, link->b);
   // Every inter-robot constraint across the link's two sides goes: the link's own and those
   // found through it (in a building of congruent rooms they agree with the wrong link).
@@ -1021,9 +1024,10 @@ void TeamEstimator::WithdrawOverlapLink(double stamp_seconds, OverlapLink* link,
   const std::vector<bool> kept = InterConstraintsKept();
   for (size_t i = 0; i < inter_constraints_.size(); ++i) {
     const InterConstraint& c = inter_constraints_[i];
-    const bool across = (on(link->side_a, c.robot_a) && on(link->side_b, c.robot_b)) ||
-                        (on(link->side_b, c.robot_a) && on(link->side_a, c.robot_b));
-    if (kept[i] && across && graph_->RemoveInterRobotConstraint(c.submap, c.node)) ++removed;
+    if (kept[i] && OnDifferentSides(link->side_a, link->side_b, c.robot_a, c.robot_b) &&
+        graph_->RemoveInterRobotConstraint(c.submap, c.node)) {
+      ++removed;
+    }
   }
   link->withdrawn = true;
   ++stats_.overlap_links_withdrawn;

@@ -62,9 +62,9 @@
 //    compared ones conflict, a wall where the other saw through) and against their tags (one
 //    id placed by both groups more than tag_agreement_meters apart, or two ids placed closer
 //    than tag_min_separation_meters facing the same way, refutes it: a building of congruent
-//    rooms with a tag in each). Exactly one pose must pass; two passing are reported ambiguous and the
-//    groups stay apart. Checking groups, not robot pairs, lets a teammate that has seen both of
-//    two congruent rooms expose the ambiguity.
+//    rooms with a tag in each). Exactly one pose must pass; two passing are reported ambiguous
+//    and the groups stay apart. Checking groups, not robot pairs, lets a teammate that has seen
+//    both of two congruent rooms expose the ambiguity.
 //  - Accepted: the agreeing matches enter the graph as inter-robot constraints, as a tag link's
 //    do (record kind map_overlap); the search for more constraints follows.
 //  - Withdrawn: every link_retry_seconds each joined group's tag places (two sightings or more)
@@ -428,8 +428,9 @@ class TeamEstimator {
     std::vector<int> side_a, side_b;
     bool withdrawn = false;
   };
-  // A joined group whose members' tag places (of two sightings or more) contradict each other (TagsContradict)
-  // was joined wrongly: the newest map-overlap link between the two robots' sides is withdrawn.
+  // A joined group whose members' tag places (of two sightings or more) contradict each other
+  // (TagsContradict) was joined wrongly: the newest map-overlap link between the two robots'
+  // sides is withdrawn.
   void CheckGroupTags(double stamp_seconds);
   // Why two tag places (ids and poses in one frame) cannot both be right: one id more than
   // tag_agreement_meters apart, or two ids closer than tag_min_separation_meters facing the
