@@ -380,6 +380,7 @@ Status ReadCarmenLog(const std::string& path, const CarmenReadOptions& options, 
   std::string line;
   std::vector<std::string> fields;
   int line_number = 0;
+  double last_laser_stamp = 0.0, last_odometry_stamp = 0.0;
   while (std::getline(in, line)) {
     ++line_number;
     ++stats.lines;
@@ -401,29 +402,30 @@ Status ReadCarmenLog(const std::string& path, const CarmenReadOptions& options, 
         status = ParseRawLaser(fields, options, &reading);
       }
       if (status.ok()) {
-        if (!log->lasers.empty() &&
-            reading.scan.stamp_seconds < log->lasers.back().scan.stamp_seconds) {
+        if (stats.lasers_read > 0 && reading.scan.stamp_seconds < last_laser_stamp) {
           ++stats.laser_timestamps_backwards;
           warn(line_number, type + " timestamp " + FormatDouble(reading.scan.stamp_seconds) +
                                 " is earlier than the previous laser timestamp " +
-                                FormatDouble(log->lasers.back().scan.stamp_seconds) +
-                                " (kept in file order)");
+                                FormatDouble(last_laser_stamp) + " (kept in file order)");
         }
-        log->lasers.push_back(std::move(reading));
+        ++stats.lasers_read;
+        last_laser_stamp = reading.scan.stamp_seconds;
+        if (options.keep_readings) log->lasers.push_back(std::move(reading));
       }
     } else if (type == "ODOM") {
       OdometryReading reading;
       reading.line_number = line_number;
       status = ParseOdom(fields, &reading);
       if (status.ok()) {
-        if (!log->odometry.empty() && reading.stamp_seconds < log->odometry.back().stamp_seconds) {
+        if (stats.odometry_read > 0 && reading.stamp_seconds < last_odometry_stamp) {
           ++stats.odometry_timestamps_backwards;
           warn(line_number, "ODOM timestamp " + FormatDouble(reading.stamp_seconds) +
                                 " is earlier than the previous ODOM timestamp " +
-                                FormatDouble(log->odometry.back().stamp_seconds) +
-                                " (kept in file order)");
+                                FormatDouble(last_odometry_stamp) + " (kept in file order)");
         }
-        log->odometry.push_back(reading);
+        ++stats.odometry_read;
+        last_odometry_stamp = reading.stamp_seconds;
+        if (options.keep_readings) log->odometry.push_back(reading);
       }
     } else if (type == "PARAM") {
       status = ParseParam(fields, &geometry, &log->params);
@@ -443,6 +445,87 @@ Status ReadCarmenLog(const std::string& path, const CarmenReadOptions& options, 
   if (in.bad()) {
     return Status::Error("error reading '" + path + "' after line " +
                          std::to_string(line_number) + ": " + std::strerror(errno));
+  }
+  return Status::Ok();
+}
+
+struct CarmenMessageReader::State {
+  std::string path;
+  CarmenReadOptions options;
+  Kind kind = Kind::kLaser;
+  std::ifstream in;
+  FlaserGeometry geometry;
+  std::map<std::string, std::string> params;  // needed by ParseParam, not kept
+  int line_number = 0;
+  std::string line;
+  std::vector<std::string> fields;
+};
+
+CarmenMessageReader::CarmenMessageReader(std::string path, const CarmenReadOptions& options, Kind kind)
+    : state_(std::make_unique<State>()) {
+  state_->path = std::move(path);
+  state_->options = options;
+  state_->kind = kind;
+}
+
+CarmenMessageReader::~CarmenMessageReader() = default;
+
+Status CarmenMessageReader::Open() {
+  State& s = *state_;
+  s.in = std::ifstream(s.path);
+  if (!s.in) return Status::Error("cannot open '" + s.path + "': " + std::strerror(errno));
+  s.geometry = FlaserGeometry();
+  s.geometry.fov_radians = s.options.flaser_fov_radians;
+  s.geometry.max_range_meters = s.options.flaser_max_range_meters;
+  s.line_number = 0;
+  return Status::Ok();
+}
+
+Status CarmenMessageReader::Next(Measurement* measurement, bool* got) {
+  State& s = *state_;
+  *got = false;
+  while (std::getline(s.in, s.line)) {
+    ++s.line_number;
+    text_fields::Split(s.line, &s.fields);
+    if (s.fields.empty() || s.fields[0][0] == '#') continue;
+    const std::string& type = s.fields[0];
+    Status status;
+    if (s.kind == Kind::kLaser && (type == "FLASER" || type == "ROBOTLASER1" || type == "RAWLASER1")) {
+      LaserReading reading;
+      reading.line_number = s.line_number;
+      if (type == "FLASER") {
+        status = ParseFlaser(s.fields, s.geometry, s.options, &reading);
+      } else if (type == "ROBOTLASER1") {
+        status = ParseRobotLaser(s.fields, s.options, &reading);
+      } else {
+        status = ParseRawLaser(s.fields, s.options, &reading);
+      }
+      if (status.ok()) {
+        *measurement = std::move(reading);
+        *got = true;
+        return Status::Ok();
+      }
+    } else if (s.kind == Kind::kLaser && type == "PARAM") {
+      status = ParseParam(s.fields, &s.geometry, &s.params);
+    } else if (s.kind == Kind::kOdometry && type == "ODOM") {
+      OdometryReading reading;
+      reading.line_number = s.line_number;
+      status = ParseOdom(s.fields, &reading);
+      if (status.ok()) {
+        *measurement = reading;
+        *got = true;
+        return Status::Ok();
+      }
+    } else {
+      continue;
+    }
+    if (!status.ok() && !s.options.lenient) {
+      return Status::Error(s.path + ":" + std::to_string(s.line_number) + ": " + status.message());
+    }
+  }
+  if (s.in.bad()) {
+    return Status::Error("error reading '" + s.path + "' after line " + std::to_string(s.line_number) + ": " +
+                         std::strerror(errno));
   }
   return Status::Ok();
 }

@@ -32,6 +32,7 @@
 #define HETSLAM_CORE_CARMEN_LOG_H_
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,9 @@ struct CarmenReadOptions {
   double flaser_max_range_meters = 81.0;
   double range_min_meters = 0.0;
   int max_warnings_kept = 10;          // how many warning messages to keep verbatim
+  // false: CarmenLog::lasers and odometry stay empty (a validating pass that only counts,
+  // checks and warns; CarmenReadStats::lasers_read and odometry_read still count them).
+  bool keep_readings = true;
 };
 
 struct CarmenReadStats {
@@ -57,6 +61,8 @@ struct CarmenReadStats {
   int unknown_messages_skipped = 0;
   int laser_timestamps_backwards = 0;
   int odometry_timestamps_backwards = 0;
+  int lasers_read = 0;                 // well-formed laser lines (kept or not: keep_readings)
+  int odometry_read = 0;               // well-formed ODOM lines
   std::map<std::string, int> unknown_message_counts;
 };
 
@@ -69,6 +75,31 @@ struct CarmenLog {
 };
 
 Status ReadCarmenLog(const std::string& path, const CarmenReadOptions& options, CarmenLog* log);
+
+// One kind of CARMEN message read lazily in file order: each Next() reads on to the next line
+// of that kind and parses it exactly as ReadCarmenLog does (lasers with the FLASER geometry of
+// the PARAM lines before them). The streaming reader of core/measurement_log.h runs one for the
+// lasers and one for ODOM and merges them. Malformed lines are errors naming file and line, or
+// with `lenient` skipped silently (ReadCarmenLog is the pass that counts and reports them);
+// stats and warnings are not kept here.
+class CarmenMessageReader {
+ public:
+  enum class Kind { kLaser, kOdometry };
+  CarmenMessageReader(std::string path, const CarmenReadOptions& options, Kind kind);
+  ~CarmenMessageReader();
+  CarmenMessageReader(const CarmenMessageReader&) = delete;
+  CarmenMessageReader& operator=(const CarmenMessageReader&) = delete;
+
+  // Opens (or reopens from the start) the file.
+  Status Open();
+  // The next message of the kind as a LaserReading or an OdometryReading; *got is false at the
+  // end of the file.
+  Status Next(Measurement* measurement, bool* got);
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 // Writes FLASER (using each scan's ranges; all scans must share one fan of evenly spaced
 // beams starting at -fov/2 and one max range, stored as PARAM laser_front_laser_fov /

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -174,14 +176,11 @@ std::vector<Measurement> AsMeasurements(std::vector<T>* readings) {
   return out;
 }
 
+CarmenReadOptions CarmenOptions(const MeasurementLogOptions& options);
+
 Status ReadCarmen(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
-  CarmenReadOptions read;
-  read.lenient = options.lenient;
-  read.flaser_fov_radians = options.flaser_fov_radians;
-  read.flaser_max_range_meters = options.flaser_max_range_meters;
-  read.max_warnings_kept = options.max_warnings_kept;
   CarmenLog carmen;
-  const Status status = ReadCarmenLog(path, read, &carmen);
+  const Status status = ReadCarmenLog(path, CarmenOptions(options), &carmen);
   if (!status.ok()) return status;
   log->params = std::move(carmen.params);
   log->warnings = std::move(carmen.warnings);
@@ -261,37 +260,71 @@ std::string NumberText(double value) {
   return out.str();
 }
 
-// The time-gap bound of MeasurementLogOptions::max_time_gap_seconds on the merged stream. The
-// reference is the newest stamp accepted so far, so one corrupt stamp far in the future is
-// dropped alone (lenient) and the stamps after it are compared with the ones before it.
+// The time-gap bound of MeasurementLogOptions::max_time_gap_seconds on the merged stream, one
+// measurement at a time. The reference is the newest stamp accepted so far, so one corrupt
+// stamp far in the future is dropped alone (lenient) and the stamps after it are compared with
+// the ones before it.
+class TimeGapBound {
+ public:
+  TimeGapBound(const MeasurementLogOptions& options, std::string path) : options_(options), path_(std::move(path)) {}
+
+  // Whether `m` is kept; if not, *message says why (an error unless lenient).
+  bool Keep(const Measurement& m, std::string* message) {
+    if (options_.max_time_gap_seconds <= 0) return true;
+    const double stamp = StampOf(m);
+    if (std::isfinite(newest_) && stamp - newest_ > options_.max_time_gap_seconds) {
+      *message = path_ + ":" + std::to_string(LineOf(m)) + ": " + MeasurementKindName(m) + " stamp " +
+                 NumberText(stamp) + " is " + NumberText(stamp - newest_) + " s after the newest earlier stamp " +
+                 NumberText(newest_) + " (line " + std::to_string(newest_line_) +
+                 "): gaps over max_time_gap_seconds = " + NumberText(options_.max_time_gap_seconds) +
+                 " s are not integrated";
+      return false;
+    }
+    if (stamp > newest_) {
+      newest_ = stamp;
+      newest_line_ = LineOf(m);
+    }
+    return true;
+  }
+
+ private:
+  MeasurementLogOptions options_;
+  std::string path_;
+  double newest_ = -std::numeric_limits<double>::infinity();
+  int newest_line_ = 0;
+};
+
+// A dropped measurement's message kept in `log` (lenient), or the error.
+Status DropForGap(const MeasurementLogOptions& options, const std::string& message, MeasurementLog* log) {
+  if (!options.lenient) return Status::Error(message);
+  if (log->time_gaps_dropped++ < options.max_warnings_kept) log->warnings.push_back(message + " (measurement dropped)");
+  return Status::Ok();
+}
+
 Status BoundTimeGaps(const MeasurementLogOptions& options, MeasurementLog* log) {
   if (options.max_time_gap_seconds <= 0 || log->measurements.empty()) return Status::Ok();
   std::vector<Measurement> kept;
   kept.reserve(log->measurements.size());
-  double newest = -std::numeric_limits<double>::infinity();
-  int newest_line = 0;
+  TimeGapBound bound(options, log->path);
   for (Measurement& m : log->measurements) {
-    const double stamp = StampOf(m);
-    if (std::isfinite(newest) && stamp - newest > options.max_time_gap_seconds) {
-      const std::string message = log->path + ":" + std::to_string(LineOf(m)) + ": " + MeasurementKindName(m) +
-                                  " stamp " + NumberText(stamp) + " is " + NumberText(stamp - newest) +
-                                  " s after the newest earlier stamp " + NumberText(newest) + " (line " +
-                                  std::to_string(newest_line) + "): gaps over max_time_gap_seconds = " +
-                                  NumberText(options.max_time_gap_seconds) + " s are not integrated";
-      if (!options.lenient) return Status::Error(message);
-      if (log->time_gaps_dropped++ < options.max_warnings_kept) {
-        log->warnings.push_back(message + " (measurement dropped)");
-      }
+    std::string message;
+    if (!bound.Keep(m, &message)) {
+      HETSLAM_RETURN_IF_ERROR(DropForGap(options, message, log));
       continue;
-    }
-    if (stamp > newest) {
-      newest = stamp;
-      newest_line = LineOf(m);
     }
     kept.push_back(std::move(m));
   }
   log->measurements = std::move(kept);
   return Status::Ok();
+}
+
+CarmenReadOptions CarmenOptions(const MeasurementLogOptions& options) {
+  CarmenReadOptions read;
+  read.lenient = options.lenient;
+  read.flaser_fov_radians = options.flaser_fov_radians;
+  read.flaser_max_range_meters = options.flaser_max_range_meters;
+  read.max_warnings_kept = options.max_warnings_kept;
+  return read;
 }
 
 }  // namespace
@@ -320,6 +353,137 @@ Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& 
   log->num_scans = 0;
   for (const Measurement& m : log->measurements) log->num_scans += std::holds_alternative<LaserReading>(m);
   return Status::Ok();
+}
+
+// A laser and an ODOM reader of one CARMEN log merged by stamp as MergeByStamp merges the
+// whole streams (odometry first, then lasers), then bounded by TimeGapBound.
+struct MeasurementStream::CarmenMerge {
+  CarmenMerge(const std::string& path, const MeasurementLogOptions& options) : bound(options, path) {
+    const CarmenReadOptions read = CarmenOptions(options);
+    readers.push_back(std::make_unique<CarmenMessageReader>(path, read, CarmenMessageReader::Kind::kOdometry));
+    readers.push_back(std::make_unique<CarmenMessageReader>(path, read, CarmenMessageReader::Kind::kLaser));
+    heads.resize(readers.size());
+  }
+
+  Status Open() {
+    for (size_t k = 0; k < readers.size(); ++k) {
+      HETSLAM_RETURN_IF_ERROR(readers[k]->Open());
+      HETSLAM_RETURN_IF_ERROR(Fill(k));
+    }
+    return Status::Ok();
+  }
+
+  Status Fill(size_t k) {
+    Measurement m;
+    bool got = false;
+    HETSLAM_RETURN_IF_ERROR(readers[k]->Next(&m, &got));
+    heads[k] = got ? std::optional<Measurement>(std::move(m)) : std::nullopt;
+    return Status::Ok();
+  }
+
+  // The next merged measurement, before the gap bound.
+  Status NextMerged(Measurement* measurement, bool* got) {
+    int best = -1;
+    double best_stamp = 0.0;
+    int best_priority = 0;
+    for (size_t k = 0; k < heads.size(); ++k) {
+      if (!heads[k].has_value()) continue;
+      const double stamp = StampOf(*heads[k]);
+      const int priority = TiePriority(*heads[k]);
+      if (best < 0 || stamp < best_stamp || (stamp == best_stamp && priority < best_priority)) {
+        best = static_cast<int>(k);
+        best_stamp = stamp;
+        best_priority = priority;
+      }
+    }
+    *got = best >= 0;
+    if (!*got) return Status::Ok();
+    *measurement = std::move(*heads[best]);
+    return Fill(best);
+  }
+
+  std::vector<std::unique_ptr<CarmenMessageReader>> readers;
+  std::vector<std::optional<Measurement>> heads;
+  TimeGapBound bound;
+};
+
+MeasurementStream::MeasurementStream() = default;
+MeasurementStream::~MeasurementStream() = default;
+
+Status MeasurementStream::Open(const std::string& path, const MeasurementLogOptions& options,
+                               std::unique_ptr<MeasurementStream>* stream) {
+  std::unique_ptr<MeasurementStream> s(new MeasurementStream());
+  s->options_ = options;
+  MeasurementLog& info = s->info_;
+  info.path = path;
+  std::string invalid;
+  if (!options.IsValid(&invalid)) return Status::Error("invalid MeasurementLogOptions: " + invalid);
+  HETSLAM_RETURN_IF_ERROR(DetectLogFormat(path, &info.format));
+  if (info.format != LogFormat::kCarmen) {
+    MeasurementLog whole;
+    HETSLAM_RETURN_IF_ERROR(ReadMeasurementLog(path, options, &whole));
+    s->scan_duration_seconds_ = whole.ScanDurationSeconds();
+    s->whole_ = std::move(whole.measurements);
+    s->num_measurements_ = s->whole_.size();
+    info = std::move(whole);
+    info.measurements.clear();
+    *stream = std::move(s);
+    return Status::Ok();
+  }
+  // The reader's pass: errors, warnings, params, counts; no reading kept.
+  CarmenReadOptions check = CarmenOptions(options);
+  check.keep_readings = false;
+  CarmenLog carmen;
+  HETSLAM_RETURN_IF_ERROR(ReadCarmenLog(path, check, &carmen));
+  info.params = std::move(carmen.params);
+  info.warnings = std::move(carmen.warnings);
+  info.malformed_lines_skipped = carmen.stats.malformed_lines_skipped;
+  // The merged pass: the time-gap bound and what is left.
+  {
+    CarmenMerge merge(path, options);
+    HETSLAM_RETURN_IF_ERROR(merge.Open());
+    double first = std::numeric_limits<double>::infinity(), last = -first;
+    Measurement m;
+    bool got = false;
+    while (true) {
+      HETSLAM_RETURN_IF_ERROR(merge.NextMerged(&m, &got));
+      if (!got) break;
+      std::string message;
+      if (!merge.bound.Keep(m, &message)) {
+        HETSLAM_RETURN_IF_ERROR(DropForGap(options, message, &info));
+        continue;
+      }
+      ++s->num_measurements_;
+      if (const auto* laser = std::get_if<LaserReading>(&m)) {
+        ++info.num_scans;
+        first = std::min(first, laser->scan.stamp_seconds);
+        last = std::max(last, laser->scan.stamp_seconds);
+      }
+    }
+    s->scan_duration_seconds_ = last >= first ? last - first : 0.0;
+  }
+  s->carmen_ = std::make_unique<CarmenMerge>(path, options);
+  HETSLAM_RETURN_IF_ERROR(s->carmen_->Open());
+  *stream = std::move(s);
+  return Status::Ok();
+}
+
+Status MeasurementStream::Next(Measurement* measurement, bool* got) {
+  *got = false;
+  if (carmen_ == nullptr) {
+    if (next_ >= whole_.size()) return Status::Ok();
+    *measurement = std::move(whole_[next_]);
+    whole_[next_++] = Measurement();  // its payload goes now
+    *got = true;
+    return Status::Ok();
+  }
+  while (true) {
+    HETSLAM_RETURN_IF_ERROR(carmen_->NextMerged(measurement, got));
+    if (!*got) return Status::Ok();
+    std::string message;
+    if (carmen_->bound.Keep(*measurement, &message)) return Status::Ok();
+    if (!options_.lenient) return Status::Error(message);  // the file changed since Open()
+  }
 }
 
 }  // namespace hetslam

@@ -14,6 +14,7 @@
 #define HETSLAM_CORE_MEASUREMENT_LOG_H_
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,44 @@ struct MeasurementLog {
 };
 
 Status ReadMeasurementLog(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log);
+
+// The measurements of a log one at a time, in ReadMeasurementLog's order, with its errors,
+// warnings and counts, without holding the whole log (issue #15: a long log in bounded memory).
+// A CARMEN log is read lazily: Open() first reads it through once, keeping nothing but what it
+// reports (the reader's errors and warnings, the time-gap bound, the counts), so a bad file
+// fails before the first measurement as with ReadMeasurementLog; Next() then merges a laser
+// and an ODOM reader (core/carmen_log.h) by stamp. Robot logs and ROS bags are read whole and
+// handed out one at a time, each freed as it goes.
+class MeasurementStream {
+ public:
+  static Status Open(const std::string& path, const MeasurementLogOptions& options,
+                     std::unique_ptr<MeasurementStream>* stream);
+  ~MeasurementStream();
+  MeasurementStream(const MeasurementStream&) = delete;
+  MeasurementStream& operator=(const MeasurementStream&) = delete;
+
+  // What ReadMeasurementLog fills in, but `measurements` (empty): path, format, params, truth,
+  // warnings, malformed_lines_skipped, time_gaps_dropped, num_scans.
+  const MeasurementLog& info() const { return info_; }
+  size_t num_measurements() const { return num_measurements_; }
+  double ScanDurationSeconds() const { return scan_duration_seconds_; }
+
+  // The next measurement; *got is false at the end. An error only if the file changed since
+  // Open() (or cannot be read again).
+  Status Next(Measurement* measurement, bool* got);
+
+ private:
+  struct CarmenMerge;
+  MeasurementStream();
+
+  MeasurementLog info_;
+  size_t num_measurements_ = 0;
+  double scan_duration_seconds_ = 0.0;
+  MeasurementLogOptions options_;
+  std::unique_ptr<CarmenMerge> carmen_;          // CARMEN logs
+  std::vector<Measurement> whole_;               // other formats, handed out in order
+  size_t next_ = 0;
+};
 
 // The ground truth stored in `path`: the TRUTH lines of a hetslam robot log (planar
 // world_T_body, as MeasurementLog::truth), or else a `timestamp x y theta` trajectory file

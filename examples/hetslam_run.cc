@@ -565,11 +565,14 @@ int Run() {
     return Fail("--trajectory_bag: this build has no ROS bag support (scripts/install_deps.sh, then configure again)"), 2;
   }
 
-  MeasurementLog log;
+  // Streamed (a CARMEN log is checked once, then read a measurement at a time; other formats are
+  // read whole and handed out one at a time): the log is never held whole while mapping.
+  std::unique_ptr<MeasurementStream> stream;
   const auto read_start = std::chrono::steady_clock::now();
-  const Status read = ReadMeasurementLog(FLAGS_log, read_options, &log);
-  const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+  const Status read = MeasurementStream::Open(FLAGS_log, read_options, &stream);
+  double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   if (!read.ok()) return Fail(read.message()), 1;
+  const MeasurementLog& log = stream->info();
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
   if (log.malformed_lines_skipped > 0)
     std::cerr << "warning: skipped " << log.malformed_lines_skipped << " malformed lines (--lenient)\n";
@@ -590,26 +593,34 @@ int Run() {
 
   const int num_scans = FLAGS_max_scans > 0 ? std::min(FLAGS_max_scans, log.num_scans) : log.num_scans;
   std::cout << "hetslam_run: " << num_scans << " scans from " << FLAGS_log << " (" << LogFormatName(log.format)
-            << ", " << log.measurements.size() << " measurements; "
+            << ", " << stream->num_measurements() << " measurements; "
             << (FLAGS_use_odometry ? "odometry prediction" : "no odometry") << ")\n";
   if (log.format == LogFormat::kRosBag) {
-    std::cout << "topics: scans " << log.params["scan_topic"] << ", IMU " << log.params["imu_topic"] << ", odometry "
-              << log.params["odom_topic"] << ", commands " << log.params["cmd_topic"] << "; laser frame '"
-              << log.params["laser_frame"] << "', mount from " << log.params["laser_mount"] << "\n";
+    const auto param = [&](const char* name) {
+      const auto it = log.params.find(name);
+      return it == log.params.end() ? std::string() : it->second;
+    };
+    std::cout << "topics: scans " << param("scan_topic") << ", IMU " << param("imu_topic") << ", odometry "
+              << param("odom_topic") << ", commands " << param("cmd_topic") << "; laser frame '"
+              << param("laser_frame") << "', mount from " << param("laser_mount") << "\n";
   }
   auto estimator = std::make_unique<OnlineEstimator>(options);
   const auto start = std::chrono::steady_clock::now();
   int scans = 0, errors = 0;
   double first_stamp = 0.0, last_stamp = 0.0;
-  for (Measurement& measurement : log.measurements) {
+  double stream_seconds = 0.0;  // reading measurements while mapping
+  Measurement measurement;
+  while (true) {
+    const auto next_start = std::chrono::steady_clock::now();
+    bool got = false;
+    const Status next = stream->Next(&measurement, &got);
+    stream_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - next_start).count();
+    if (!next.ok()) return Fail(next.message()), 1;
+    if (!got) break;
     const bool scan = std::holds_alternative<LaserReading>(measurement);
     if (scan && scans == num_scans) break;
     const double stamp = StampOf(measurement);
     const Status status = estimator->Add(measurement);
-    // The estimator copies what it keeps; the log's measurement is not read again, so its
-    // payload (a scan's ranges and beam angles as doubles: ~28 MB for FR079) goes now rather
-    // than at the end.
-    measurement = Measurement();
     if (!status.ok() && ++errors <= 5) std::cerr << "warning: " << FLAGS_log << ": " << status.message() << "\n";
     if (!scan) continue;
     if (scans == 0) first_stamp = stamp;
@@ -630,7 +641,8 @@ int Run() {
   }
   estimator->Finish();
   const auto finished = std::chrono::steady_clock::now();
-  const double estimator_seconds = std::chrono::duration<double>(finished - start).count();
+  const double estimator_seconds = std::chrono::duration<double>(finished - start).count() - stream_seconds;
+  read_seconds += stream_seconds;
   const std::vector<std::pair<std::string, double>> stages = StageTimes(*estimator, estimator_seconds);
   const std::vector<StampedPose2> trajectory = estimator->Trajectory();
   const std::unique_ptr<OccupancyGrid> grid = estimator->RenderMap();

@@ -1,11 +1,16 @@
 #include "core/measurement_log.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/test_data.h"
 
 namespace hetslam {
 namespace {
@@ -201,6 +206,126 @@ TEST(MeasurementLogTest, ADirectoryIsRefusedByName) {
   const Status status = ReadMeasurementLog(::testing::TempDir(), MeasurementLogOptions(), &log);
   ASSERT_FALSE(status.ok());
   EXPECT_THAT(status.message(), HasSubstr("is a folder, not a log file"));
+}
+
+// ---- MeasurementStream: the same measurements, errors and reports without holding the log ----
+
+// Equal, NaN equal to NaN (a malformed log's ranges may be NaN).
+bool SameValues(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](double x, double y) {
+           return x == y || (std::isnan(x) && std::isnan(y));
+         });
+}
+
+// What ReadMeasurementLog gives and what the stream gives for `path` with `options` must be
+// the same: the error message, or every report and every measurement, field by field.
+void ExpectStreamMatchesRead(const std::string& path, const MeasurementLogOptions& options) {
+  SCOPED_TRACE(path + (options.lenient ? " (lenient)" : ""));
+  MeasurementLog log;
+  const Status read = ReadMeasurementLog(path, options, &log);
+  std::unique_ptr<MeasurementStream> stream;
+  const Status opened = MeasurementStream::Open(path, options, &stream);
+  ASSERT_EQ(read.ok(), opened.ok()) << read.message() << " | " << opened.message();
+  if (!read.ok()) {
+    EXPECT_EQ(read.message(), opened.message());
+    return;
+  }
+  const MeasurementLog& info = stream->info();
+  EXPECT_EQ(log.format, info.format);
+  EXPECT_EQ(log.params, info.params);
+  EXPECT_EQ(log.warnings, info.warnings);
+  EXPECT_EQ(log.malformed_lines_skipped, info.malformed_lines_skipped);
+  EXPECT_EQ(log.time_gaps_dropped, info.time_gaps_dropped);
+  EXPECT_EQ(log.num_scans, info.num_scans);
+  EXPECT_EQ(log.truth.size(), info.truth.size());
+  EXPECT_TRUE(info.measurements.empty());
+  EXPECT_EQ(log.measurements.size(), stream->num_measurements());
+  EXPECT_EQ(log.ScanDurationSeconds(), stream->ScanDurationSeconds());
+  size_t n = 0;
+  Measurement m;
+  bool got = false;
+  while (true) {
+    const Status next = stream->Next(&m, &got);
+    ASSERT_TRUE(next.ok()) << next.message();
+    if (!got) break;
+    ASSERT_LT(n, log.measurements.size());
+    const Measurement& expected = log.measurements[n++];
+    ASSERT_EQ(expected.index(), m.index()) << "measurement " << n;
+    EXPECT_EQ(StampOf(expected), StampOf(m)) << "measurement " << n;
+    EXPECT_EQ(LineOf(expected), LineOf(m)) << "measurement " << n;
+    if (const auto* laser = std::get_if<LaserReading>(&expected)) {
+      const auto& got_laser = std::get<LaserReading>(m);
+      EXPECT_TRUE(SameValues(laser->scan.ranges_meters, got_laser.scan.ranges_meters)) << "measurement " << n;
+      EXPECT_TRUE(SameValues(laser->scan.angles_radians, got_laser.scan.angles_radians)) << "measurement " << n;
+      EXPECT_EQ(laser->scan.range_max_meters, got_laser.scan.range_max_meters) << "measurement " << n;
+      EXPECT_TRUE(laser->scan.robot_T_sensor.isApprox(got_laser.scan.robot_T_sensor, 0.0)) << "measurement " << n;
+      EXPECT_EQ(laser->has_odometry_pose, got_laser.has_odometry_pose);
+      EXPECT_EQ(laser->odometry_pose.ToVector(), got_laser.odometry_pose.ToVector());
+    } else if (const auto* odometry = std::get_if<OdometryReading>(&expected)) {
+      EXPECT_EQ(odometry->pose.ToVector(), std::get<OdometryReading>(m).pose.ToVector()) << "measurement " << n;
+    }
+  }
+  EXPECT_EQ(log.measurements.size(), n);
+}
+
+// Every CARMEN case: interleaved kinds with stamps backwards, ties, PARAM geometry changes
+// between scans, malformed lines (strict: the same error before the first measurement; lenient:
+// the same skips and warnings), time gaps, and every file of the malformed corpus.
+TEST(MeasurementStreamTest, YieldsWhatReadMeasurementLogReads) {
+  std::vector<std::string> paths = {
+      WriteText("stream_order.clf",
+                "ODOM 0 0 0 0 0 0 1.0 host 1.0\n"
+                "FLASER 3 1 2 3 0.5 0.25 0.1 0.5 0.25 0.1 1.0 host 1.0\n"
+                "ODOM 1 0 0 0 0 0 2.0 host 2.0\n"
+                "PARAM laser_front_laser_fov 90\n"
+                "FLASER 3 1 2 3 1.5 0.25 0.1 1.5 0.25 0.1 3.0 host 3.0\n"
+                "# a comment\n"
+                "ODOM 2 0 0 0 0 0 1.5 host 1.5\n"
+                "FLASER 3 1 2 3 2.5 0.25 0.1 2.5 0.25 0.1 2.5 host 2.5\n"
+                "ODOM 3 0 0 0 0 0 3.0 host 3.0\n"),
+      WriteText("stream_bad.clf",
+                "FLASER 3 1 2 3 0.5 0.25 0.1 0.5 0.25 0.1 1.0 host 1.0\n"
+                "FLASER 3 1 2\n"
+                "ODOM 1 0 nan 0 0 0 2.0 host 2.0\n"
+                "FOO bar\n"
+                "FLASER 3 1 2 3 1.5 0.25 0.1 1.5 0.25 0.1 3.0 host 3.0\n"),
+      WriteText("stream_gap.clf",
+                "FLASER 3 1 2 3 0.5 0.25 0.1 0.5 0.25 0.1 1.0 host 1.0\n"
+                "FLASER 3 1 2 3 0.5 0.25 0.1 0.5 0.25 0.1 1e9 host 1e9\n"
+                "ODOM 1 0 0 0 0 0 2.0 host 2.0\n"
+                "FLASER 3 1 2 3 1.5 0.25 0.1 1.5 0.25 0.1 3.0 host 3.0\n"),
+      WriteText("stream_empty.clf", ""),
+  };
+  const std::string corpus = std::string(HETSLAM_SOURCE_DIR) + "/tests/data/malformed";
+  for (const auto& entry : std::filesystem::directory_iterator(corpus)) {
+    if (entry.path().extension() == ".clf") paths.push_back(entry.path().string());
+  }
+  std::sort(paths.begin() + 4, paths.end());
+  ASSERT_GT(paths.size(), 10u);
+  for (const std::string& path : paths) {
+    MeasurementLogOptions options;
+    ExpectStreamMatchesRead(path, options);
+    options.lenient = true;
+    ExpectStreamMatchesRead(path, options);
+  }
+}
+
+// Other formats are read whole and handed out: the same stream (a robot log here).
+TEST(MeasurementStreamTest, RobotLogsAreHandedOutInTheSameOrder) {
+  const std::string path = WriteText("stream_robot.txt",
+                                     "HSLOG 1\n"
+                                     "COMMAND 0 0 0 0\n"
+                                     "LASER 0.1 3 -0.1 0.1 0.05 5 1 2 3\n"
+                                     "COMMAND 0.1 0.2 0 0\n"
+                                     "LASER 0.2 3 -0.1 0.1 0.05 5 1 2 3\n");
+  ExpectStreamMatchesRead(path, MeasurementLogOptions());
+}
+
+// The shared Intel log (skipped when absent): 14541 measurements, the same ones.
+TEST(MeasurementStreamTest, IntelIsStreamedAsItIsRead) {
+  const std::string clf = SharedDatasetPath("intel/intel.clf");
+  if (clf.empty()) GTEST_SKIP() << "shared datasets not found at " << SharedDatasetDir();
+  ExpectStreamMatchesRead(clf, MeasurementLogOptions());
 }
 
 }  // namespace
