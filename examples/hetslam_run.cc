@@ -566,7 +566,7 @@ int Run() {
   }
 
   // Streamed (a CARMEN log is checked once, then read a measurement at a time; other formats are
-  // read whole and handed out one at a time): the log is never held whole while mapping.
+  // read whole and handed out one at a time, each freed as it goes).
   std::unique_ptr<MeasurementStream> stream;
   const auto read_start = std::chrono::steady_clock::now();
   const Status read = MeasurementStream::Open(FLAGS_log, read_options, &stream);
