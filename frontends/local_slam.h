@@ -91,8 +91,9 @@ struct LocalSlamOptions {
   // invariants of the 2.5D assumption) weigh more in matching: with matcher.wall_weight w > 1
   // every submap keeps the likelihood field of its wall cells (core/laser_map.h wall_field)
   // and the matcher's search scores a point L + (w - 1) L_wall wherever the candidate pose puts
-  // it (frontends/scan_matcher.h; matcher.wall_weight_in_refinement for the refinement). Maps without labels never hold a wall field: unchanged. Off
-  // (1) by default; see the README (map semantics) for the measurements.
+  // it (frontends/scan_matcher.h; matcher.wall_weight_in_refinement for the refinement). Maps
+  // without labels never hold a wall field: unchanged. Off (1) by default; see the README (map
+  // semantics) for the measurements.
   // Degenerate scans (a corridor's two parallel walls, a tilted head seeing side walls only):
   // when the smaller eigenvalue of the match's translational information (J^T J of the scan
   // cost with the yaw marginalised out) is below this fraction of the larger, the pose keeps
@@ -158,7 +159,8 @@ struct LocalSlamOptions {
   // tilting head's new heights still go in. 0 distance = off (every scan is a node). The
   // default 1 cm and 0.5° let every scan of a moving robot in (of the four real logs only
   // FR079 filters, 396 of 4791 scans, at the same accuracy; the single-robot scenarios move by
-  // millimetres) and make a standing robot one node. It changes which of a humanoid's scans
+  // up to 13 mm: wheeled_corridor, whose result depends on where its submaps begin, README) and
+  // make a standing robot one node. It changes which of a humanoid's scans
   // become nodes, and on team_three that once let a map-overlap link put the nao in a
   // congruent room 20 m away; the team estimator now withdraws such a link when the joined
   // group's tags contradict it (merger/team_estimator.h). 0.05 m made 3-5x fewer nodes on the
