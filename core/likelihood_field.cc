@@ -89,6 +89,36 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
     }
   }
   frozen_values_ = SparseTiles<uint16_t>(quantized, kept.width(), kept.height(), 0);
+  // Chessboard distance transform over the tiles (two passes, 8-neighbourhood: exact for the
+  // Chebyshev metric).
+  const int tx = frozen_values_.tiles_x(), ty = frozen_values_.tiles_y();
+  tile_distances_.assign(static_cast<size_t>(tx) * ty, 255);
+  auto at = [&](int x, int y) -> uint8_t& { return tile_distances_[static_cast<size_t>(y) * tx + x]; };
+  for (int y = 0; y < ty; ++y) {
+    for (int x = 0; x < tx; ++x) {
+      if (frozen_values_.TileStored(x, y)) {
+        at(x, y) = 0;
+        continue;
+      }
+      int d = at(x, y);
+      if (x > 0) d = std::min(d, at(x - 1, y) + 1);
+      if (y > 0) {
+        for (int nx = std::max(0, x - 1); nx <= std::min(tx - 1, x + 1); ++nx) d = std::min(d, at(nx, y - 1) + 1);
+      }
+      at(x, y) = static_cast<uint8_t>(std::min(d, 255));
+    }
+  }
+  for (int y = ty - 1; y >= 0; --y) {
+    for (int x = tx - 1; x >= 0; --x) {
+      int d = at(x, y);
+      if (x + 1 < tx) d = std::min(d, at(x + 1, y) + 1);
+      if (y + 1 < ty) {
+        for (int nx = std::max(0, x - 1); nx <= std::min(tx - 1, x + 1); ++nx) d = std::min(d, at(nx, y + 1) + 1);
+      }
+      at(x, y) = static_cast<uint8_t>(std::min(d, 255));
+    }
+  }
+  tile_distances_.shrink_to_fit();
   std::vector<float>().swap(values_);
   geometry_ = kept;
   frozen_ = true;
@@ -99,8 +129,24 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
   std::vector<int>().swap(stale_cells_);
 }
 
+bool LikelihoodField::MayBeNonZeroNear(const CellIndex& c, int radius_cells) const {
+  if (!frozen_) return true;
+  if (tile_distances_.empty()) return false;  // an empty grid holds only zeros
+  // Clamp c into the grid; the cells within the radius that lie in the grid are within the
+  // same radius of the clamped cell.
+  const int w = geometry_.width(), h = geometry_.height();
+  const int outside = std::max({-c.x, c.x - (w - 1), -c.y, c.y - (h - 1), 0});
+  if (outside > radius_cells) return false;
+  const int x = std::clamp(c.x, 0, w - 1), y = std::clamp(c.y, 0, h - 1);
+  constexpr int kBits = SparseTiles<uint16_t>::kTileBits;
+  // A cell within r of (x, y) lies in a tile at most (r + size - 1) / size tiles away.
+  const int reach_tiles = (radius_cells + SparseTiles<uint16_t>::kTileSize - 1) >> kBits;
+  const int d = tile_distances_[static_cast<size_t>(y >> kBits) * frozen_values_.tiles_x() + (x >> kBits)];
+  return d <= reach_tiles;
+}
+
 size_t LikelihoodField::MemoryBytes() const {
-  return values_.capacity() * sizeof(float) + frozen_values_.MemoryBytes() +
+  return values_.capacity() * sizeof(float) + frozen_values_.MemoryBytes() + tile_distances_.capacity() +
          squared_distances_.capacity() * sizeof(float) +
          stale_cells_.capacity() * sizeof(int) + published_index_.MemoryBytes() +
          segments_.capacity() * sizeof(Segment) + free_segments_.capacity() * sizeof(int32_t);

@@ -105,6 +105,12 @@ class LikelihoodField {
   // is then empty; ApplyChanges, Resize and the rebuilds CHECK-fail. Idempotent.
   void Freeze(const GridGeometry& kept);
   bool frozen() const { return frozen_; }
+  // False only if no cell within `radius_cells` (Chebyshev distance, cells) of `c` holds a value
+  // other than 0; `c` may lie outside the grid (the answer is then looser). Exact to the 8 × 8
+  // tile of a frozen field (the Chebyshev distance of each tile to the nearest stored one is
+  // kept, a byte a tile); always true before Freeze. For bounds on scores: no pose that keeps a point within `radius_cells`
+  // of `c` can give it a likelihood (issue #15: loop searches that cannot reach a score).
+  bool MayBeNonZeroNear(const CellIndex& c, int radius_cells) const;
   static constexpr float kQuantizationStep = 1.f / 65535.f;
   // Bytes held by the per-cell arrays (capacity).
   size_t MemoryBytes() const;
@@ -184,6 +190,9 @@ class LikelihoodField {
   bool frozen_ = false;
   std::vector<float> values_;             // empty once frozen
   SparseTiles<uint16_t> frozen_values_;  // empty until frozen
+  // Per tile of frozen_values_ (row-major), the Chebyshev distance in tiles to the nearest
+  // stored tile, capped at 255 (255 also when no tile is stored); empty until frozen.
+  std::vector<uint8_t> tile_distances_;
   // values_[i] = ValueFromSquaredDistance(squared_distances_[i]); freed by Freeze. Within
   // ApplyChanges, kStale marks a cell queued in stale_cells_ for one recompute at the end.
   std::vector<float> squared_distances_;

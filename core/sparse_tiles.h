@@ -108,6 +108,10 @@ class SparseTiles {
       x = tile_end;
     }
   }
+  // Tiles per row and column; whether tile (tx, ty) is stored (holds a value other than empty()).
+  int tiles_x() const { return tiles_x_; }
+  int tiles_y() const { return tiles_x_ > 0 ? static_cast<int>(index_.size()) / tiles_x_ : 0; }
+  bool TileStored(int tx, int ty) const { return index_[static_cast<size_t>(ty) * tiles_x_ + tx] >= 0; }
   int num_stored_tiles() const { return static_cast<int>(cells_.size() / kTileCells); }
   int num_tiles() const { return static_cast<int>(index_.size()); }
   // Bytes held (capacity).

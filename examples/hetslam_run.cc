@@ -123,9 +123,10 @@ DEFINE_bool(loop_wide_search, true, "Once the drift bound (grown with the travel
             "--loop_linear_window and the standard search finds nothing, also search a wide window (up to "
             "--loop_wide_window m), without motion prior; two wide matches of different scans that agree on the "
             "correction enter the graph (long corridors).");
-DEFINE_int32(loop_max_submaps, 0, "Loop search budget: match each node against at most this many finished submaps, "
-             "those nearest its estimate, so a search costs the same however long the run (4 is a good value for "
-             "long runs); 0 = every submap whose box holds the node, the default.");
+DEFINE_int32(loop_max_submaps, 4, "Loop search budget: match each node against at most this many finished submaps, "
+             "those its scan overlaps most at its estimate (then the nearest), so a search costs the same however long "
+             "the run; submaps that cannot reach --loop_min_score within the drift bound are never searched. 0 = every "
+             "submap whose box holds the node.");
 DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metres (see --loop_wide_search).");
 DEFINE_double(loop_wide_spacing, 1.0, "Wide loop search: search again only after this much travel (metres) since the "
               "last wide search (see --loop_wide_search).");
@@ -530,12 +531,12 @@ std::string Summary(const OnlineEstimator& estimator) {
   out += line;
   if (!estimator.options().loop_closure) return out;
   std::snprintf(line, sizeof(line),
-                "graph: %d nodes, %d submaps, %d loop searches (%d submaps over the budget skipped), %d loop closures "
-                "accepted (%d gated out), %d removed as inconsistent, %d solves (%d iterations, %.2f s, %d failed), loop "
+                "graph: %d nodes, %d submaps, %d loop searches (%d submaps over the budget skipped, %d that could not "
+                "reach the score), %d loop closures accepted (%d gated out), %d removed as inconsistent, %d solves (%d iterations, %.2f s, %d failed), loop "
                 "search %.2f s\n"
                 "wide loop search: %d matches, %d candidates, %d closures accepted; %d results flat along a direction "
                 "(held across it only; wide ones dropped)\n",
-                g.nodes, g.submaps, l.searches, l.submaps_skipped, g.loop_closures_accepted, l.rejected_by_gate,
+                g.nodes, g.submaps, l.searches, l.submaps_skipped, l.searches_without_overlap, g.loop_closures_accepted, l.rejected_by_gate,
                 g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds, g.failed_solves,
                 l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate);
   out += line;

@@ -144,8 +144,20 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
   const std::vector<Eigen::Vector2f>& points = graph.NodePoints(node).matching;
   const std::vector<float>& weights = graph.NodePoints(node).matching_weights;
   const int num_submaps = graph.num_submaps(node.robot);
-  // The candidates: (distance of the node's estimate from the submap's trajectory box, index).
-  std::vector<std::pair<double, int>> candidates;
+  // The candidates, best first: the most overlap (the node's points near the submap's
+  // structure at the estimate), then the node's estimate nearest the submap's trajectory box,
+  // then the older submap.
+  struct Candidate {
+    double overlap;
+    double distance;
+    int index;
+    bool operator<(const Candidate& o) const {
+      if (overlap != o.overlap) return overlap > o.overlap;
+      if (distance != o.distance) return distance < o.distance;
+      return index < o.index;
+    }
+  };
+  std::vector<Candidate> candidates;
   for (int s = 0; s < num_submaps; ++s) {
     const SubmapId submap{node.robot, s};
     if (graph.FinishedSubmapMap(submap) == nullptr) continue;
@@ -160,8 +172,19 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     if ((p.array() < box_min.array() - margin_meters).any() || (p.array() > box_max.array() + margin_meters).any()) {
       continue;
     }
+    // No pose the gate admits can score min_score (the node's scan does not reach enough of
+    // the submap's structure): no search; its result would be rejected (exact). Before the
+    // budget, so that the budget goes to submaps that can give a closure.
+    const Pose2 predicted = graph.SubmapPose(submap).inverse() * robot_T_node;
+    if (ReachableScoreBound(*graph.FinishedSubmapMap(submap), predicted, points, weights, gate_meters, gate_radians,
+                            min_score) < min_score) {
+      ++stats_.searches_without_overlap;
+      continue;
+    }
     const Eigen::Vector2d outside = (box_min - p).cwiseMax(p - box_max).cwiseMax(0.0);
-    candidates.push_back({outside.norm(), s});
+    // The share of the points within a tile (8 cells) of the submap's structure, unmoved.
+    const double overlap = ReachableScoreBound(*graph.FinishedSubmapMap(submap), predicted, points, weights, 0.0, 0.0);
+    candidates.push_back({overlap, outside.norm(), s});
   }
   const size_t budget = static_cast<size_t>(options_.max_submaps_per_search);
   if (budget > 0 && candidates.size() > budget) {
@@ -169,9 +192,10 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     stats_.submaps_skipped += static_cast<int>(candidates.size() - budget);
     candidates.resize(budget);
     std::sort(candidates.begin(), candidates.end(),
-              [](const std::pair<double, int>& a, const std::pair<double, int>& b) { return a.second < b.second; });
+              [](const Candidate& a, const Candidate& b) { return a.index < b.index; });
   }
-  for (const auto& [distance, s] : candidates) {
+  for (const Candidate& candidate : candidates) {
+    const int s = candidate.index;
     const SubmapId submap{node.robot, s};
     const LaserMap* map = graph.FinishedSubmapMap(submap);
     const Pose2 robot_T_submap = graph.SubmapPose(submap);

@@ -3,8 +3,9 @@
 // closures it finds as candidates; the caller adds them to the submap graph.
 //
 // Standard search: every finished submap at least `min_node_separation` nodes old whose box
-// (grown by the window) holds the node's estimate (with max_submaps_per_search, only that many,
-// the nearest), within ±window around the graph's estimate,
+// (grown by the window) holds the node's estimate and that can reach min_score within the gate
+// (at most max_submaps_per_search of them, those the node's scan overlaps most), within ±window
+// around the graph's estimate,
 // narrowed to the drift gate: a closure is accepted only if it moves the node by at most
 // base + rate * (distance travelled since the graph was last solved) — drift grows with travel,
 // aliases (corridors, repeated rooms) need not. Searches run again only after the robot moved
@@ -62,15 +63,13 @@ struct LoopCloserOptions {
   // 0.072, 0.074 and 0.079 m. 0 = off.
   double degenerate_max_drop_ratio = 0.1;
   // Loop search within a budget (issue #15): each search matches the node against at most this
-  // many finished submaps, those whose trajectory box is nearest the node's estimate (ties: the
-  // older submap), so that a search costs the same however long the run (0 = every submap whose
-  // box holds the node; a robot re-driving mapped space has more of them each time round).
-  // Measured with 4 against every submap (seeds 1-5 of the scenarios, the four real logs):
-  // the same ATE except uav_flight 0.074 -> 0.076 m, team_two's nao 0.021 -> 0.016 m and FR079
-  // 0.0415 -> 0.0420 m; Intel's loop search 7.3 -> 4.0 s (50% -> 41% of the run); with 6:
-  // Intel 0.0231 m, FR079 0.0414 m, 45%. Off by default until a long run needs it: every
-  // setting moves some figure by a fraction of a millimetre (README, "Growth").
-  int max_submaps_per_search = 0;
+  // many finished submaps (0 = every one whose box holds the node; a robot re-driving mapped
+  // space has more of them each time round), so that a search costs the same however long the
+  // run. Submaps no pose within the gate can score min_score against are never searched
+  // (ReachableScoreBound: exact); of the rest, those whose structure the node's scan overlaps
+  // most at its estimate, then the nearest (distance to the submap's trajectory box), then the
+  // older. On by default since session 12 (README, "Memory and speed").
+  int max_submaps_per_search = 4;
 
   // ±2 m / ±45° (paper §III-A), no wider retry.
   static ScanMatcherOptions DefaultMatcherOptions();
@@ -82,6 +81,9 @@ struct LoopCloserOptions {
 struct LoopCloserStats {
   int searches = 0;            // (node, submap) matches attempted
   int submaps_skipped = 0;     // candidate submaps beyond max_submaps_per_search
+  // Matches not run: no pose within the gate could reach the minimum score
+  // (ReachableScoreBound), so the result would have been rejected.
+  int searches_without_overlap = 0;
   int rejected_by_gate = 0;
   int wide_searches = 0;       // (node, submap) matches over the wide window
   int wide_candidates = 0;     // wide results above the score, within the bound

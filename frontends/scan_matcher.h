@@ -146,6 +146,15 @@ struct ScanMatchResult {
 // map: ScanMatchResult::score without a search (no wall weight). `weights` empty or one per point.
 double ScoreAt(const LaserMap& map, const Pose2& pose, const std::vector<Eigen::Vector2f>& points_robot,
                const std::vector<float>& weights = {});
+// An upper bound on ScoreAt at every pose whose offset from `pose` (in `pose`'s frame) is at
+// most `max_translation_meters` and `max_rotation_radians`: the weighted share of the points
+// that could meet a non-zero field value there (LikelihoodField::MayBeNonZeroNear, to the 8 × 8
+// tile), taken per sector of yaws 0.04 rad wide, the best sector's. Stops at the first sector
+// that reaches `enough` (then returns its bound, >= enough). 1 for a field not yet frozen. A
+// loop search whose bound is below its minimum score cannot succeed and is skipped (issue #15).
+double ReachableScoreBound(const LaserMap& map, const Pose2& pose, const std::vector<Eigen::Vector2f>& points_robot,
+                           const std::vector<float>& weights, double max_translation_meters,
+                           double max_rotation_radians, double enough = 1.0);
 
 // Not thread-safe: searches reuse per-thread buffers (see ReleaseScratch), so use one
 // ScanMatcher per thread, and a search must not start another.

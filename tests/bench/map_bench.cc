@@ -459,6 +459,28 @@ BENCHMARK(BM_SubmapLoopMatch)
     ->Args({0, 40})->Args({1, 40})->Args({0, 100})->Args({1, 100})->ArgNames({"frozen", "N"})
     ->Unit(benchmark::kMillisecond);
 
+//   BM_SubmapReachableBound/N
+//                        ReachableScoreBound (frontends/scan_matcher.h) of the same scan against
+//                        the frozen N-scan submap within the loop closer's typical drift gate
+//                        (0.6 m, 0.2 rad): what deciding that a loop search cannot succeed costs,
+//                        against BM_SubmapLoopMatch's price of running it. Counter: the bound.
+void BM_SubmapReachableBound(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const SubmapPair& pair = SubmapWithScans(n);
+  const SyntheticRoom& room = InsertRoom();
+  const Pose2 truth = room.poses[n / 2] * Pose2(0.12, 0.07, 0.05);
+  std::mt19937 rng(31);
+  const std::vector<Eigen::Vector2f> points = VoxelFilter(CastScan(room.walls, truth, &rng), 0.2f);
+  double bound = 0.0;
+  for (auto _ : state) {
+    bound = ReachableScoreBound(*pair.frozen, truth, points, {}, 0.6, 0.2);
+    benchmark::DoNotOptimize(bound);
+  }
+  state.counters["bound"] = bound;
+  state.counters["points"] = static_cast<double>(points.size());
+}
+BENCHMARK(BM_SubmapReachableBound)->Arg(40)->Arg(100)->Unit(benchmark::kMicrosecond);
+
 }  // namespace
 }  // namespace hetslam
 

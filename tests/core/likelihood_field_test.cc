@@ -244,6 +244,54 @@ TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
   EXPECT_DEATH(map.grid().LogOdds(0), "frozen");
 }
 
+// MayBeNonZeroNear (issue #15: loop searches that cannot reach a score are skipped) is sound:
+// true whenever some cell within the radius holds a value, checked by brute force at cells in,
+// around and far outside the grid; and tight to the 8 × 8 tile: false whenever no cell within
+// the radius plus two tiles does (for cells inside the grid; outside it the test is looser).
+// Before Freeze it is always true.
+TEST(LikelihoodFieldTest, MayBeNonZeroNearAgreesWithABruteForceSearch) {
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  std::vector<Eigen::Vector2f> points;
+  for (int i = -20; i <= 20; ++i) points.emplace_back(1.0f, i * 0.05f);  // a 2 m wall
+  points.emplace_back(-2.0f, 1.5f);                                       // and a post
+  map.InsertScan(Pose2(0.1, 0.2, 0.3), Eigen::Vector2d::Zero(), points);
+  EXPECT_TRUE(map.field().MayBeNonZeroNear(CellIndex{-1000, -1000}, 0));  // not frozen yet
+  map.Freeze();
+  const LikelihoodField& field = map.field();
+  const GridGeometry& g = field.geometry();
+  auto any_within = [&](const CellIndex& c, int r) {
+    for (int y = std::max(0, c.y - r); y <= std::min(g.height() - 1, c.y + r); ++y) {
+      for (int x = std::max(0, c.x - r); x <= std::min(g.width() - 1, c.x + r); ++x) {
+        if (field.Value(CellIndex{x, y}) > 0.f) return true;
+      }
+    }
+    return false;
+  };
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> x(-30, g.width() + 30), y(-30, g.height() + 30), radius(0, 24);
+  int sound = 0, tight = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const CellIndex c{x(rng), y(rng)};
+    const int r = radius(rng);
+    const bool may = field.MayBeNonZeroNear(c, r);
+    if (any_within(c, r)) {
+      ASSERT_TRUE(may) << "cell " << c.x << ", " << c.y << " radius " << r;
+      ++sound;
+    }
+    if (g.Contains(c) && !any_within(c, r + 2 * SparseTiles<uint16_t>::kTileSize)) {
+      ASSERT_FALSE(may) << "cell " << c.x << ", " << c.y << " radius " << r;
+      ++tight;
+    }
+  }
+  EXPECT_GT(sound, 100);  // both sides were exercised
+  EXPECT_GT(tight, 50);
+  EXPECT_FALSE(field.MayBeNonZeroNear(CellIndex{-1000, -1000}, 10));
+  EXPECT_TRUE(field.MayBeNonZeroNear(CellIndex{-1000, -1000}, 100000));
+  LaserMap empty{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  empty.Freeze();
+  EXPECT_FALSE(empty.field().MayBeNonZeroNear(CellIndex{0, 0}, 1000));
+}
+
 // An empty map freezes to an empty grid.
 TEST(LikelihoodFieldTest, FreezeEmptyMap) {
   LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};

@@ -81,9 +81,9 @@ TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
   EXPECT_GE(static_cast<double>(precise) / kept, 0.95);
 }
 
-// Issue #15: loop search within a budget. With at most two submaps per search (the nearest
-// ones), the ring still closes with the same accuracy bound, with fewer matches.
-TEST(OnlineEstimatorTest, LoopSearchBudgetMatchesTheNearestSubmapsOnly) {
+// Issue #15: loop search within a budget. With at most two submaps per search (those the scan
+// overlaps most), the ring still closes with the same accuracy bound, with fewer matches.
+TEST(OnlineEstimatorTest, LoopSearchBudgetMatchesTheMostOverlappingSubmapsOnly) {
   const sim::SimulationResult simulation = Simulate(5);
   OnlineEstimatorOptions every = TestOptions();
   every.loop.max_submaps_per_search = 0;

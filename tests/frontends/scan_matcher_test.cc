@@ -163,6 +163,44 @@ TEST_F(ScanMatcherTest, FrozenMapMatchesLikeTheMapItWas) {
   }
 }
 
+// ReachableScoreBound (issue #15: the loop closer skips searches that cannot reach its score)
+// bounds ScoreAt from above at every pose within the translation and rotation it is given, on
+// a frozen map; a scan far from the map's structure has bound 0; `enough` stops it early; a map
+// being built has bound 1.
+TEST_F(ScanMatcherTest, ReachableScoreBoundIsAnUpperBoundOfTheScore) {
+  LaserMap frozen = map_;
+  frozen.Freeze();
+  EXPECT_EQ(1.0, ReachableScoreBound(map_, Pose2(), {Eigen::Vector2f(50.f, 50.f)}, {}, 0.1, 0.1));
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> xy(-1.0, 1.0), th(-M_PI, M_PI), unit(-1.0, 1.0), weight(0.0, 2.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Pose2 truth(xy(rng), xy(rng), th(rng));
+    const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.02, &rng);
+    std::vector<float> weights;
+    if (trial % 2 == 1) {
+      for (size_t i = 0; i < scan.size(); ++i) weights.push_back(static_cast<float>(weight(rng)));
+    }
+    const double max_translation = 0.05 * (trial % 5), max_rotation = 0.03 * (trial % 4);
+    const Pose2 predicted = truth * Pose2(0.2 * unit(rng), 0.2 * unit(rng), 0.1 * unit(rng));
+    const double bound = ReachableScoreBound(frozen, predicted, scan, weights, max_translation, max_rotation);
+    EXPECT_LE(bound, 1.0 + 1e-12);
+    for (int k = 0; k < 50; ++k) {
+      // Offsets within the bounds (the translation within its disc), in the prediction's frame.
+      const double angle = th(rng), length = max_translation * std::abs(unit(rng));
+      const Pose2 offset(length * std::cos(angle), length * std::sin(angle), max_rotation * unit(rng));
+      ASSERT_LE(ScoreAt(frozen, predicted * offset, scan, weights), bound + 1e-9) << "trial " << trial << ", " << k;
+    }
+    // Early stop: at least `enough` whenever the full bound is.
+    if (bound >= 0.3) {
+      EXPECT_GE(ReachableScoreBound(frozen, predicted, scan, weights, max_translation, max_rotation, 0.3), 0.3);
+    }
+  }
+  // The room's scan placed 20 m away reaches nothing within 0.5 m and 0.1 rad.
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, Pose2(), 0.0, &rng);
+  EXPECT_EQ(0.0, ReachableScoreBound(frozen, Pose2(20.0, 0.0, 0.0), scan, {}, 0.5, 0.1));
+  EXPECT_GT(ReachableScoreBound(frozen, Pose2(), scan, {}, 0.0, 0.0), 0.95);
+}
+
 // The narrow first try: a small offset is resolved inside the narrow window with the same
 // pose as the full search, scoring fewer candidates; an offset beyond the narrow window lands
 // on its border (or scores low), so the full search runs and still finds the truth.
