@@ -203,7 +203,7 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     const ScanMatcher& matcher = wide_best != nullptr ? wide_matcher_ : matcher_;
     ++(wide_best != nullptr ? stats_.wide_searches : stats_.searches);
     const ScanMatchResult match =
-        matcher.MatchWithinWindow(*map, predicted, points, linear_window, angular_window, weights);
+        matcher.MatchWithinWindow(*map, predicted, points, linear_window, angular_window, weights, min_score);
     if (!match.converged || match.score < min_score) continue;
     const Pose2 correction = Between(predicted, match.pose);
     if (correction.translation().norm() > gate_meters || std::abs(correction.theta()) > gate_radians) {

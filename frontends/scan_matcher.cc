@@ -70,11 +70,15 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
   for (int k = -num_steps; k <= num_steps; ++k) {
     const double yaw = predicted.theta() + k * step;
     const Pose2 world_T_robot(predicted.translation(), yaw);
+    // world_T_robot * p with the cosine and sine taken once per yaw (same arithmetic).
+    const double cos_yaw = std::cos(world_T_robot.theta()), sin_yaw = std::sin(world_T_robot.theta());
     std::vector<CellIndex> cells;
     std::vector<float> cell_weights;
     cells.reserve(points.size());
     for (size_t i = 0; i < points.size(); ++i) {
-      const CellIndex c = geometry.WorldToCell(world_T_robot * points[i].cast<double>());
+      const double px = points[i].x(), py = points[i].y();
+      const CellIndex c = geometry.WorldToCell(Eigen::Vector2d(world_T_robot.x() + cos_yaw * px - sin_yaw * py,
+                                                               world_T_robot.y() + sin_yaw * px + cos_yaw * py));
       if (c.x < keep_min.x || c.y < keep_min.y || c.x > keep_max.x || c.y > keep_max.y) continue;
       cells.push_back(c);
       if (!weights.empty()) cell_weights.push_back(weights[i]);
@@ -627,18 +631,19 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
 ScanMatchResult ScanMatcher::MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
                                                const std::vector<Eigen::Vector2f>& points_robot,
                                                double linear_window_meters, double angular_window_radians,
-                                               const std::vector<float>& weights) const {
+                                               const std::vector<float>& weights, double min_score) const {
   CHECK(linear_window_meters >= 0 && angular_window_radians >= 0 && angular_window_radians <= M_PI)
       << "bad window " << linear_window_meters << " m, " << angular_window_radians << " rad";
   return MatchOnce(map, predicted, points_robot, weights, linear_window_meters, angular_window_radians,
-                   options_.second_mode_exclusion_meters, options_.second_mode_exclusion_radians);
+                   options_.second_mode_exclusion_meters, options_.second_mode_exclusion_radians, 0.0, min_score);
 }
 
 ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predicted,
                                        const std::vector<Eigen::Vector2f>& points_robot,
                                        const std::vector<float>& weights, double linear_window_meters,
                                        double angular_window_radians, double second_mode_exclusion_meters,
-                                       double second_mode_exclusion_radians, double second_mode_min_score_ratio) const {
+                                       double second_mode_exclusion_radians, double second_mode_min_score_ratio,
+                                       double min_score) const {
   CHECK(weights.empty() || weights.size() == points_robot.size())
       << weights.size() << " weights for " << points_robot.size() << " points";
   const LikelihoodField& field = map.field();
@@ -740,6 +745,11 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
                         BilinearScore(map.field(), result.pose, points_robot, weights, wall_field, wall_weight);
     if (summary.IsSolutionUsable() && better && (refined.translation() - result.pose.translation()).norm() < 4 * r) {
       result.pose = refined;
+    }
+    if (min_score > 0.0) {
+      // The caller rejects this result: the information and the profile below would be unused.
+      result.score = BilinearScore(map.field(), result.pose, points_robot, weights);
+      if (result.score < min_score) return result;
     }
     // The information is J^T J of the values' cost in either case: its scale is what the
     // degeneracy tests and closure weights downstream are calibrated on.

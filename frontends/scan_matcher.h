@@ -172,11 +172,13 @@ class ScanMatcher {
                         const std::vector<float>& weights = {}, bool try_narrow_first = true) const;
 
   // One search within the given windows (instead of the options' windows), without the wider
-  // fallback search.
+  // fallback search. A refined result whose score is below `min_score` (a caller that rejects
+  // such results: the loop closer) is returned as soon as its score is known, without
+  // `information` and the score profile (weak/strong direction); its pose and score are the same.
   ScanMatchResult MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
                                     const std::vector<Eigen::Vector2f>& points_robot,
                                     double linear_window_meters, double angular_window_radians,
-                                    const std::vector<float>& weights = {}) const;
+                                    const std::vector<float>& weights = {}, double min_score = 0.0) const;
 
   // Refines `start` (world_T_robot) by the likelihood field's cost (L alone: the wall channel
   // is not weighed here, whatever wall_weight_in_refinement says) with the translation along
@@ -216,7 +218,7 @@ class ScanMatcher {
                             const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights,
                             double linear_window_meters, double angular_window_radians,
                             double second_mode_exclusion_meters, double second_mode_exclusion_radians,
-                            double second_mode_min_score_ratio = 0.0) const;
+                            double second_mode_min_score_ratio = 0.0, double min_score = 0.0) const;
 
   ScanMatcherOptions options_;
 };
