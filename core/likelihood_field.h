@@ -111,6 +111,8 @@ class LikelihoodField {
   // kept, a byte a tile); always true before Freeze. For bounds on scores: no pose that keeps a point within `radius_cells`
   // of `c` can give it a likelihood (issue #15: loop searches that cannot reach a score).
   bool MayBeNonZeroNear(const CellIndex& c, int radius_cells) const;
+  // A frozen field's values in their tiles (empty before Freeze): which 8 × 8 tiles hold any.
+  const SparseTiles<uint16_t>& frozen_tiles() const { return frozen_values_; }
   static constexpr float kQuantizationStep = 1.f / 65535.f;
   // Bytes held by the per-cell arrays (capacity).
   size_t MemoryBytes() const;

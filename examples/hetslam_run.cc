@@ -107,6 +107,10 @@ DEFINE_double(loop_linear_window, 2.0, "Loop-closure search window, ± metres ar
 DEFINE_double(loop_angular_window_deg, 45.0, "Loop-closure search window, ± degrees (paper: 45°).");
 DEFINE_int32(solve_every_n_loop_closures, 10, "Re-optimise the pose graph once this many loop closures were accepted "
              "since the last solve and --solve_min_new_nodes scans were added.");
+DEFINE_double(max_map_store_mib, 0.0, "Lifelong memory: bound the finished submaps' maps to this many MiB; when a "
+              "finished submap takes them over it, the submaps other kept ones cover most are evicted (no longer searched "
+              "for loop closures; the trajectory and the rendered maps keep them) and counted in the summary. 0 = no "
+              "bound (offline runs keep every map).");
 DEFINE_int32(solve_min_new_nodes, 20, "Scans added since the last solve before the graph is re-optimised again "
              "(bounds the solves of dense logs, where closures arrive at almost every scan).");
 DEFINE_int32(loop_min_node_separation, 40, "Do not search for loop closures in submaps whose last scan is fewer than "
@@ -424,6 +428,11 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
   estimator->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
   estimator->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
+  if (!(FLAGS_max_map_store_mib >= 0 && FLAGS_max_map_store_mib <= 1048576)) {
+    return (*error = "--max_map_store_mib must be in [0, 1048576] (got " + std::to_string(FLAGS_max_map_store_mib) + ")"),
+           false;
+  }
+  estimator->max_map_store_bytes = static_cast<size_t>(FLAGS_max_map_store_mib * 1048576.0);
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
@@ -528,6 +537,11 @@ std::string Summary(const OnlineEstimator& estimator) {
                 p.mean_particles(), p.max_particles, p.spawns, p.mode_spawns, p.collapses, p.resamples, p.global_scorings,
                 p.max_extra_particle_bytes / 1048576.0, (finished_bytes + active_bytes) / 1048576.0,
                 finished_bytes / 1048576.0, active_bytes / 1048576.0);
+  out += line;
+  const SubmapGraphStats& store = estimator.graph().stats();
+  std::snprintf(line, sizeof(line), "map store: %d submaps evicted (%.1f MiB) to stay within --max_map_store_mib=%g\n",
+                store.submaps_evicted, store.evicted_bytes / 1048576.0, FLAGS_max_map_store_mib);
+  if (estimator.options().max_map_store_bytes == 0) line[0] = '\0';
   out += line;
   if (!estimator.options().loop_closure) return out;
   std::snprintf(line, sizeof(line),

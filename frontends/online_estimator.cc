@@ -6,6 +6,8 @@
 #include <limits>
 #include <sstream>
 
+#include "core/likelihood_field.h"
+#include "core/sparse_tiles.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -381,7 +383,9 @@ void OnlineEstimator::AddNode(LocalResult result) {
       nodes > 0 ? (result.local_pose.translation() - graph_->NodeLocalPose({options_.robot, nodes - 1}).translation()).norm()
                 : 0.0;
   const auto add_start = std::chrono::steady_clock::now();
+  const bool finishes_a_submap = result.finished.has_value();
   const NodeId node = graph_->AddNode(options_.robot, std::move(result));
+  if (finishes_a_submap && options_.max_map_store_bytes > 0) EnforceMapStoreBound();
   stats_.add_node_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - add_start).count();
   if (!options_.loop_closure) return;
   loop_.AddTravel(step);
@@ -394,6 +398,62 @@ void OnlineEstimator::AddNode(LocalResult result) {
   if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures &&
       nodes_since_solve_ >= options_.solve_min_new_nodes) {
     Solve(options_.max_iterations_per_solve);
+  }
+}
+
+void OnlineEstimator::EnforceMapStoreBound() {
+  const int robot = options_.robot;
+  while (graph_->FinishedSubmapBytes(robot) > options_.max_map_store_bytes) {
+    std::vector<int> kept;
+    for (int s = 0; s < graph_->num_submaps(robot); ++s) {
+      if (graph_->FinishedSubmapMap({robot, s}) != nullptr) kept.push_back(s);
+    }
+    if (kept.size() < 2) return;  // the newest finished submap always stays
+    // Redundancy of each kept submap but the newest: the share of its occupied cells at which
+    // another kept submap has structure within the likelihood field's sigma (L >= exp(-1)).
+    int victim = -1;
+    double most_covered = -1.0;
+    for (size_t k = 0; k + 1 < kept.size(); ++k) {
+      const SubmapId a{robot, kept[k]};
+      const LaserMap& map = *graph_->FinishedSubmapMap(a);
+      const SparseTiles<uint16_t>& tiles = map.field().frozen_tiles();
+      const GridGeometry& g = map.field().geometry();
+      const Pose2 world_T_a = graph_->SubmapPose(a);
+      // The other kept submaps, with the transform carrying a's points into each.
+      std::vector<std::pair<const LikelihoodField*, Pose2>> others;
+      for (const int b : kept) {
+        if (b == kept[k]) continue;
+        others.push_back({&graph_->FinishedSubmapMap({robot, b})->field(), graph_->SubmapPose({robot, b}).inverse() * world_T_a});
+      }
+      constexpr float kCovered = 0.36787944f;  // exp(-1): within one sigma of a hit
+      constexpr int kTile = SparseTiles<uint16_t>::kTileSize;
+      int occupied = 0, covered = 0;
+      // Occupied cells lie in the tiles holding field values (the field is 1 on a hit).
+      for (int ty = 0; ty < tiles.tiles_y(); ++ty) {
+        for (int tx = 0; tx < tiles.tiles_x(); ++tx) {
+          if (!tiles.TileStored(tx, ty)) continue;
+          for (int y = ty * kTile; y < std::min(g.height(), (ty + 1) * kTile); ++y) {
+            for (int x = tx * kTile; x < std::min(g.width(), (tx + 1) * kTile); ++x) {
+              if (map.grid().State(CellIndex{x, y}) != CellState::kOccupied) continue;
+              ++occupied;
+              const Eigen::Vector2d centre = g.CellCenter({x, y});
+              for (const auto& [other, b_T_a] : others) {
+                if (other->Value(other->geometry().WorldToCell(b_T_a * centre)) >= kCovered) {
+                  ++covered;
+                  break;
+                }
+              }
+            }
+          }
+        }
+      }
+      const double fraction = occupied > 0 ? static_cast<double>(covered) / occupied : 1.0;
+      if (fraction > most_covered) {  // ties: the older (first) one
+        most_covered = fraction;
+        victim = kept[k];
+      }
+    }
+    graph_->EvictSubmapMap({robot, victim});
   }
 }
 

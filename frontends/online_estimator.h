@@ -80,6 +80,14 @@ struct OnlineEstimatorOptions {
   int solve_min_new_nodes = 20;
   int max_iterations_per_solve = 10;
   int max_iterations_final = 50;
+  // Lifelong memory (issue #15): a bound on the bytes the robot's finished submaps' maps hold
+  // (SubmapGraph::FinishedSubmapBytes); 0 = none (the default: offline runs keep every map).
+  // Whenever a finished submap takes the store over it, the most redundant finished submaps are
+  // evicted (SubmapGraph::EvictSubmapMap) until it fits: those whose structure (8 x 8 tiles of
+  // non-zero likelihood) other kept submaps cover most at their current poses, ties the older,
+  // never the newest. An evicted submap is no longer searched for loop closures; the
+  // trajectory and the maps rendered from the nodes keep it.
+  size_t max_map_store_bytes = 0;
 
   AttitudeSource attitude_source = AttitudeSource::kMargFilter;
   MargFilterOptions marg;
@@ -236,6 +244,8 @@ class OnlineEstimator {
   void AddNode(LocalResult result);
   void RecordParticleCount(double stamp_seconds, int particles);
   void Solve(int max_iterations);
+  // Evicts finished submaps until the store fits max_map_store_bytes (see the option).
+  void EnforceMapStoreBound();
   void Prune(double newest_stamp_seconds);
 
   OnlineEstimatorOptions options_;

@@ -127,6 +127,7 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
     auto it = robot.submaps.find(result.finished->index);
     CHECK(it != robot.submaps.end()) << "unknown finished submap " << result.finished->index;
     it->second.map = result.finished->map;
+    it->second.finished = true;
   }
   return id;
 }
@@ -278,6 +279,24 @@ const Pose2& SubmapGraph::NodeLocalPose(const NodeId& node) const {
 
 const LaserMap* SubmapGraph::FinishedSubmapMap(const SubmapId& submap) const {
   return robots_.at(submap.robot).submaps.at(submap.index).map.get();
+}
+
+bool SubmapGraph::SubmapFinished(const SubmapId& id) const {
+  const auto robot = robots_.find(id.robot);
+  if (robot == robots_.end()) return false;
+  const auto submap = robot->second.submaps.find(id.index);
+  return submap != robot->second.submaps.end() && submap->second.finished;
+}
+
+bool SubmapGraph::EvictSubmapMap(const SubmapId& id) {
+  const auto robot = robots_.find(id.robot);
+  if (robot == robots_.end()) return false;
+  const auto submap = robot->second.submaps.find(id.index);
+  if (submap == robot->second.submaps.end() || submap->second.map == nullptr) return false;
+  ++stats_.submaps_evicted;
+  stats_.evicted_bytes += submap->second.map->MemoryBytes();
+  submap->second.map.reset();
+  return true;
 }
 
 size_t SubmapGraph::FinishedSubmapBytes(int robot) const {

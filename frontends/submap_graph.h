@@ -118,6 +118,8 @@ struct SubmapGraphStats {
   int loop_closures_rejected_after_solve = 0;
   int inter_robot_constraints = 0;
   int inter_robot_constraints_withdrawn = 0;  // by RemoveInterRobotConstraint
+  int submaps_evicted = 0;                    // by EvictSubmapMap
+  size_t evicted_bytes = 0;                   // their maps' MemoryBytes
   int solves = 0;            // Ceres solves (a Solve() call may run two)
   int solver_iterations = 0;
   int failed_solves = 0;     // solutions Ceres reported unusable (poses kept)
@@ -164,9 +166,16 @@ class SubmapGraph {
   // `projected` (the heights of a scan without attitude are all 0).
   const ScanPoints& NodePoints(const NodeId& node) const;
   const Pose2& NodeLocalPose(const NodeId& node) const;
-  // A finished submap's map (null while it is active) and the box of its nodes' positions in
-  // its own frame; the index of the last node inserted into it.
+  // A finished submap's map (null while it is active, and once evicted) and the box of its
+  // nodes' positions in its own frame; the index of the last node inserted into it.
   const LaserMap* FinishedSubmapMap(const SubmapId& submap) const;
+  // Whether the submap was finished (its map may have been evicted since); false if unknown.
+  bool SubmapFinished(const SubmapId& submap) const;
+  // Frees a finished submap's map (a bounded map store, OnlineEstimatorOptions::
+  // max_map_store_bytes): its pose, nodes and constraints stay in the graph, and the maps
+  // rendered from node points are unchanged, but it is no longer searched for loop closures.
+  // False (nothing done) for an unknown, active or already evicted submap.
+  bool EvictSubmapMap(const SubmapId& submap);
   // Heap bytes of `robot`'s finished submaps' maps (LaserMap::MemoryBytes); 0 for an unknown robot.
   size_t FinishedSubmapBytes(int robot) const;
   bool SubmapBox(const SubmapId& submap, Eigen::Vector2d* min, Eigen::Vector2d* max) const;
@@ -208,7 +217,8 @@ class SubmapGraph {
   };
   struct Submap {
     int pose = -1;
-    std::shared_ptr<const LaserMap> map;  // set when finished
+    std::shared_ptr<const LaserMap> map;  // set when finished, reset when evicted
+    bool finished = false;
     int last_node = 0;
     Eigen::Vector2d min_submap = Eigen::Vector2d::Zero(), max_submap = Eigen::Vector2d::Zero();
   };

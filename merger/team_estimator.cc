@@ -734,7 +734,7 @@ void TeamEstimator::UpdateOverlapTargets(int robot_index) {
   };
   while (robot.overlap_submaps_seen < graph_->num_submaps(robot_index)) {
     const int index = robot.overlap_submaps_seen;
-    if (graph_->FinishedSubmapMap({robot_index, index}) == nullptr) break;
+    if (!graph_->SubmapFinished({robot_index, index})) break;
     ++robot.overlap_submaps_seen;
     const Eigen::Vector2d c = centre(index);
     if (std::none_of(robot.overlap_submaps.begin(), robot.overlap_submaps.end(),
@@ -778,7 +778,9 @@ void TeamEstimator::MatchOverlaps(int a, int b) {
         const NodeId node{q, node_index};
         const SubmapId submap{p, submap_index};
         const ScanPoints& points = graph_->NodePoints(node);
-        const LaserMap& map = *graph_->FinishedSubmapMap(submap);
+        const LaserMap* evictable = graph_->FinishedSubmapMap(submap);
+        if (evictable == nullptr) continue;  // evicted from a bounded map store
+        const LaserMap& map = *evictable;
         // The whole submap: its observed box (submap frame), every heading.
         const OccupancyGrid& grid = map.grid();
         const Eigen::Vector2d lo = grid.geometry().CellCenter(grid.observed_min());

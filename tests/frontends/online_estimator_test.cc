@@ -23,6 +23,8 @@ struct PipelineRun {
   OnlineEstimatorStats stats;
   SubmapGraphStats graph;
   LoopCloserStats loop;
+  size_t finished_submap_bytes = 0;  // the map store at the end
+  int finished_submaps_kept = 0;
 };
 
 // A 14 m x 10 m floor with a 6 m x 2 m inner block: a ring corridor 3–4 m wide with a few
@@ -49,6 +51,11 @@ void Collect(const OnlineEstimator& estimator, PipelineRun* run) {
   run->stats = estimator.stats();
   run->graph = estimator.graph().stats();
   run->loop = estimator.loop_closer().stats();
+  const int robot = estimator.options().robot;
+  run->finished_submap_bytes = estimator.graph().FinishedSubmapBytes(robot);
+  for (int i = 0; i < estimator.graph().num_submaps(robot); ++i) {
+    run->finished_submaps_kept += estimator.graph().FinishedSubmapMap({robot, i}) != nullptr;
+  }
 }
 
 PipelineRun RunPipeline(const sim::SimulationResult& simulation, const OnlineEstimatorOptions& options) {
@@ -98,6 +105,36 @@ TEST(OnlineEstimatorTest, LoopSearchBudgetMatchesTheMostOverlappingSubmapsOnly) 
   const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(nearest.trajectory, simulation.truth);
   EXPECT_LT(ate.translation_rmse_meters, 0.08);
   EXPECT_LT(ate.rotation_rmse_degrees, 1.0);
+}
+
+// Issue #15, lifelong memory: with max_map_store_bytes the finished submaps' maps stay within
+// the bound (submaps evicted, counted), and the run still maps the ring; a bound the run never
+// reaches changes nothing.
+TEST(OnlineEstimatorTest, BoundedMapStoreEvictsSubmapsAndStaysWithinTheBound) {
+  const sim::SimulationResult simulation = Simulate(5);
+  const PipelineRun unbounded = RunPipeline(simulation, TestOptions());
+  ASSERT_GT(unbounded.finished_submaps_kept, 4);
+  EXPECT_EQ(0, unbounded.graph.submaps_evicted);
+
+  OnlineEstimatorOptions never = TestOptions();
+  never.max_map_store_bytes = 4 * unbounded.finished_submap_bytes;
+  const PipelineRun same = RunPipeline(simulation, never);
+  EXPECT_EQ(0, same.graph.submaps_evicted);
+  ASSERT_EQ(unbounded.trajectory.size(), same.trajectory.size());
+  for (size_t i = 0; i < same.trajectory.size(); ++i) {
+    ASSERT_EQ(unbounded.trajectory[i].pose.ToVector(), same.trajectory[i].pose.ToVector()) << i;
+  }
+
+  OnlineEstimatorOptions bounded = TestOptions();
+  bounded.max_map_store_bytes = unbounded.finished_submap_bytes * 4 / 5;
+  const PipelineRun evicting = RunPipeline(simulation, bounded);
+  EXPECT_GT(evicting.graph.submaps_evicted, 0);
+  EXPECT_LE(evicting.finished_submap_bytes, bounded.max_map_store_bytes);
+  EXPECT_EQ(unbounded.finished_submaps_kept, evicting.finished_submaps_kept + evicting.graph.submaps_evicted);
+  EXPECT_GT(evicting.graph.evicted_bytes, 0u);
+  EXPECT_EQ(unbounded.trajectory.size(), evicting.trajectory.size());
+  const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(evicting.trajectory, simulation.truth);
+  EXPECT_LT(ate.translation_rmse_meters, 0.08);
 }
 
 TEST(OnlineEstimatorTest, SameInputSameTrajectory) {
