@@ -80,6 +80,12 @@ DEFINE_double(motion_filter_angle_deg, 0.5, "Each robot's motion filter: heading
 DEFINE_double(tag_min_separation, 0.15, "Two tags of different ids facing the same way are never closer than this "
               "(metres, about their printed size): a map-overlap pose, or a joined group, that puts them closer is "
               "refuted (0 = off; at most 0.5).");
+DEFINE_int32(loop_max_submaps, 4, "Each robot's loop search budget (see hetslam_run --help): match each node against "
+             "at most this many of its finished submaps, those its scan overlaps most; 0 = every submap whose box holds "
+             "the node.");
+DEFINE_double(max_map_store_mib, 0.0, "Each robot's map store bound (see hetslam_run --help): the finished submaps' "
+              "maps beyond this many MiB are evicted, the most covered first (no longer searched, still rendered); 0 = "
+              "no bound.");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {
@@ -118,6 +124,12 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->tag_min_separation_meters = FLAGS_tag_min_separation;
   robot->local.motion_filter_distance_meters = FLAGS_motion_filter_distance;
   robot->local.motion_filter_angle_radians = FLAGS_motion_filter_angle_deg * kDeg;
+  robot->loop.max_submaps_per_search = FLAGS_loop_max_submaps;
+  if (!(FLAGS_max_map_store_mib >= 0 && FLAGS_max_map_store_mib <= 1048576)) {
+    return (*error = "--max_map_store_mib must be in [0, 1048576] (got " + std::to_string(FLAGS_max_map_store_mib) + ")"),
+           false;
+  }
+  robot->max_map_store_bytes = static_cast<size_t>(FLAGS_max_map_store_mib * 1048576.0);
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
   if (!team->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;
@@ -340,6 +352,11 @@ int Run() {
               "whole maps, %d links, %d withdrawn when the tags contradicted them (%.2f s)\n",
               s.overlap_attempts, s.overlap_matches, s.overlap_kept, s.overlap_map_checks, s.overlap_links,
               s.overlap_links_withdrawn, s.overlap_seconds);
+  if (FLAGS_max_map_store_mib > 0) {
+    std::printf("map store: %d submaps evicted (%.1f MiB) to stay within --max_map_store_mib=%g per robot\n",
+                team.graph().stats().submaps_evicted, team.graph().stats().evicted_bytes / 1048576.0,
+                FLAGS_max_map_store_mib);
+  }
   for (int r = 0; r < team.num_robots(); ++r) {
     const std::string frame = team.InCommonFrame(r) ? "in the common frame at " + PoseText(team.CommonTRobot(r))
                                                     : "NOT MERGED: own frame (not " + robots[0].name + "'s)";
