@@ -163,13 +163,13 @@ void LikelihoodField::Resize(const GridGeometry& g) {
     CHECK_EQ(g.resolution_meters(), geometry_.resolution_meters()) << "resolution changed";
     const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
     const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / r));
+    // Row by row (the old grid's rows are contiguous in the new one).
+    const int w = geometry_.width();
     for (int y = 0; y < geometry_.height(); ++y) {
-      for (int x = 0; x < geometry_.width(); ++x) {
-        const int from = y * geometry_.width() + x;
-        const int to = (y + dy) * g.width() + (x + dx);
-        values[to] = values_[from];
-        squared_distances[to] = squared_distances_[from];
-      }
+      const size_t from = static_cast<size_t>(y) * w;
+      const size_t to = static_cast<size_t>(y + dy) * g.width() + dx;
+      std::copy_n(values_.begin() + from, w, values.begin() + to);
+      std::copy_n(squared_distances_.begin() + from, w, squared_distances.begin() + to);
     }
     published_index_.ForEach([&](int x, int y, int32_t index) { published_index.Ref(x + dx, y + dy) = index; });
   }

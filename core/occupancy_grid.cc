@@ -113,17 +113,17 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   // Offset of the old grid inside the new one, in cells.
   const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / g.resolution_meters()));
   const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / g.resolution_meters()));
+  // Row by row (the old grid's rows are contiguous in the new one).
+  const int w = geometry_.width();
   for (int y = 0; y < geometry_.height(); ++y) {
-    for (int x = 0; x < geometry_.width(); ++x) {
-      const int from = y * geometry_.width() + x;
-      const int to = (y + dy) * g.width() + (x + dx);
-      log_odds[to] = log_odds_[from];
-      observed[to] = observed_[from];
-      if (!labels.empty()) labels[to] = labels_[from];
-      if (!height_min.empty()) {
-        height_min[to] = height_min_[from];
-        height_max[to] = height_max_[from];
-      }
+    const size_t from = static_cast<size_t>(y) * w;
+    const size_t to = static_cast<size_t>(y + dy) * g.width() + dx;
+    std::copy_n(log_odds_.begin() + from, w, log_odds.begin() + to);
+    std::copy_n(observed_.begin() + from, w, observed.begin() + to);
+    if (!labels.empty()) std::copy_n(labels_.begin() + from, w, labels.begin() + to);
+    if (!height_min.empty()) {
+      std::copy_n(height_min_.begin() + from, w, height_min.begin() + to);
+      std::copy_n(height_max_.begin() + from, w, height_max.begin() + to);
     }
   }
   hit_index_.ForEach([&](int x, int y, int32_t value) { hit_index.Ref(x + dx, y + dy) = value; });
