@@ -108,8 +108,9 @@ class LikelihoodField {
   // False only if no cell within `radius_cells` (Chebyshev distance, cells) of `c` holds a value
   // other than 0; `c` may lie outside the grid (the answer is then looser). Exact to the 8 × 8
   // tile of a frozen field (the Chebyshev distance of each tile to the nearest stored one is
-  // kept, a byte a tile); always true before Freeze. For bounds on scores: no pose that keeps a point within `radius_cells`
-  // of `c` can give it a likelihood (issue #15: loop searches that cannot reach a score).
+  // kept, a byte a tile); always true before Freeze. For bounds on scores: when false, no pose
+  // that keeps a point within `radius_cells` of `c` gives it a likelihood (issue #15: loop
+  // searches that cannot reach their score are skipped).
   bool MayBeNonZeroNear(const CellIndex& c, int radius_cells) const;
   // A frozen field's values in their tiles (empty before Freeze): which 8 × 8 tiles hold any.
   const SparseTiles<uint16_t>& frozen_tiles() const { return frozen_values_; }

@@ -546,13 +546,13 @@ std::string Summary(const OnlineEstimator& estimator) {
   if (!estimator.options().loop_closure) return out;
   std::snprintf(line, sizeof(line),
                 "graph: %d nodes, %d submaps, %d loop searches (%d submaps over the budget skipped, %d that could not "
-                "reach the score), %d loop closures accepted (%d gated out), %d removed as inconsistent, %d solves (%d iterations, %.2f s, %d failed), loop "
-                "search %.2f s\n"
+                "reach the score), %d loop closures accepted (%d gated out), %d removed as inconsistent, %d solves (%d "
+                "iterations, %.2f s, %d failed), loop search %.2f s\n"
                 "wide loop search: %d matches, %d candidates, %d closures accepted; %d results flat along a direction "
                 "(held across it only; wide ones dropped)\n",
-                g.nodes, g.submaps, l.searches, l.submaps_skipped, l.searches_without_overlap, g.loop_closures_accepted, l.rejected_by_gate,
-                g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds, g.failed_solves,
-                l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate);
+                g.nodes, g.submaps, l.searches, l.submaps_skipped, l.searches_without_overlap, g.loop_closures_accepted,
+                l.rejected_by_gate, g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds,
+                g.failed_solves, l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate);
   out += line;
   // Loop-closure precision as Cartographer reports it: the share of kept closures that the
   // final graph agrees with to 20 cm and 1° (a degenerate closure: across its weak direction).

@@ -68,7 +68,8 @@ struct LoopCloserOptions {
   // run. Submaps no pose within the gate can score min_score against are never searched
   // (ReachableScoreBound: exact); of the rest, those whose structure the node's scan overlaps
   // most at its estimate, then the nearest (distance to the submap's trajectory box), then the
-  // older. On by default since session 12 (README, "Memory and speed").
+  // older. On by default since session 12 (README, "Loop search: searches that cannot succeed
+  // are skipped").
   int max_submaps_per_search = 4;
 
   // ±2 m / ±45° (paper §III-A), no wider retry.

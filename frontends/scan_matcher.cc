@@ -456,7 +456,8 @@ double ReachableScoreBound(const LaserMap& map, const Pose2& pose, const std::ve
       const double reach_meters = max_translation_meters + p.norm() * half_width;
       // The bilinear lookup reads the cells within one of the point's cell; one more for rounding.
       const double reach_cells = std::ceil(reach_meters / cell) + 2.0;
-      if (!(reach_cells < 1e6) || field.MayBeNonZeroNear(g.WorldToCell(sector_pose * p), static_cast<int>(reach_cells))) {
+      if (!(reach_cells < 1e6) ||
+          field.MayBeNonZeroNear(g.WorldToCell(sector_pose * p), static_cast<int>(reach_cells))) {
         reachable += weights.empty() ? 1.0 : weights[i];
       }
     }
