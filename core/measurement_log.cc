@@ -176,7 +176,14 @@ std::vector<Measurement> AsMeasurements(std::vector<T>* readings) {
   return out;
 }
 
-CarmenReadOptions CarmenOptions(const MeasurementLogOptions& options);
+CarmenReadOptions CarmenOptions(const MeasurementLogOptions& options) {
+  CarmenReadOptions read;
+  read.lenient = options.lenient;
+  read.flaser_fov_radians = options.flaser_fov_radians;
+  read.flaser_max_range_meters = options.flaser_max_range_meters;
+  read.max_warnings_kept = options.max_warnings_kept;
+  return read;
+}
 
 Status ReadCarmen(const std::string& path, const MeasurementLogOptions& options, MeasurementLog* log) {
   CarmenLog carmen;
@@ -316,15 +323,6 @@ Status BoundTimeGaps(const MeasurementLogOptions& options, MeasurementLog* log) 
   }
   log->measurements = std::move(kept);
   return Status::Ok();
-}
-
-CarmenReadOptions CarmenOptions(const MeasurementLogOptions& options) {
-  CarmenReadOptions read;
-  read.lenient = options.lenient;
-  read.flaser_fov_radians = options.flaser_fov_radians;
-  read.flaser_max_range_meters = options.flaser_max_range_meters;
-  read.max_warnings_kept = options.max_warnings_kept;
-  return read;
 }
 
 }  // namespace

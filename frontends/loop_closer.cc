@@ -148,9 +148,10 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
   // structure at the estimate), then the node's estimate nearest the submap's trajectory box,
   // then the older submap.
   struct Candidate {
-    double overlap;
+    double overlap;  // computed only when the budget must choose
     double distance;
     int index;
+    Pose2 predicted;  // submap_T_node
     bool operator<(const Candidate& o) const {
       if (overlap != o.overlap) return overlap > o.overlap;
       if (distance != o.distance) return distance < o.distance;
@@ -182,12 +183,16 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
       continue;
     }
     const Eigen::Vector2d outside = (box_min - p).cwiseMax(p - box_max).cwiseMax(0.0);
-    // The share of the points within a tile (8 cells) of the submap's structure, unmoved.
-    const double overlap = ReachableScoreBound(*graph.FinishedSubmapMap(submap), predicted, points, weights, 0.0, 0.0);
-    candidates.push_back({overlap, outside.norm(), s});
+    candidates.push_back({0.0, outside.norm(), s, predicted});
   }
   const size_t budget = static_cast<size_t>(options_.max_submaps_per_search);
   if (budget > 0 && candidates.size() > budget) {
+    // The overlap: the share of the points within a tile (8 cells) of the submap's structure,
+    // unmoved.
+    for (Candidate& c : candidates) {
+      c.overlap = ReachableScoreBound(*graph.FinishedSubmapMap({node.robot, c.index}), c.predicted, points, weights,
+                                      0.0, 0.0);
+    }
     std::sort(candidates.begin(), candidates.end());
     stats_.submaps_skipped += static_cast<int>(candidates.size() - budget);
     candidates.resize(budget);
@@ -199,7 +204,7 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     const SubmapId submap{node.robot, s};
     const LaserMap* map = graph.FinishedSubmapMap(submap);
     const Pose2 robot_T_submap = graph.SubmapPose(submap);
-    const Pose2 predicted = robot_T_submap.inverse() * robot_T_node;
+    const Pose2& predicted = candidate.predicted;
     const ScanMatcher& matcher = wide_best != nullptr ? wide_matcher_ : matcher_;
     ++(wide_best != nullptr ? stats_.wide_searches : stats_.searches);
     const ScanMatchResult match =

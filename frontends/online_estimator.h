@@ -83,10 +83,11 @@ struct OnlineEstimatorOptions {
   // Lifelong memory (issue #15): a bound on the bytes the robot's finished submaps' maps hold
   // (SubmapGraph::FinishedSubmapBytes); 0 = none (the default: offline runs keep every map).
   // Whenever a finished submap takes the store over it, the most redundant finished submaps are
-  // evicted (SubmapGraph::EvictSubmapMap) until it fits: those whose structure (8 x 8 tiles of
-  // non-zero likelihood) other kept submaps cover most at their current poses, ties the older,
-  // never the newest. An evicted submap is no longer searched for loop closures; the
-  // trajectory and the maps rendered from the nodes keep it.
+  // evicted (SubmapGraph::EvictSubmapMap) until it fits: those with the largest share of
+  // occupied cells (every fourth one checked) at which another kept submap's likelihood is at
+  // least exp(-1) at the current poses, ties the older, never the newest. An evicted submap is
+  // no longer searched for loop closures; the trajectory and the maps rendered from the nodes
+  // keep it.
   size_t max_map_store_bytes = 0;
 
   AttitudeSource attitude_source = AttitudeSource::kMargFilter;
