@@ -79,8 +79,9 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
                                   y0 + kept.height() <= geometry_.height()))
       << "Freeze: the kept box is not inside the field";
   std::vector<uint16_t> quantized(kept.num_cells());
+  std::vector<float> from(kept.width());
   for (int y = 0; y < kept.height(); ++y) {
-    const float* from = values_.data() + static_cast<size_t>(y + y0) * geometry_.width() + x0;
+    values_.GetRow(x0, y + y0, kept.width(), from.data());
     uint16_t* to = quantized.data() + static_cast<size_t>(y) * kept.width();
     for (int x = 0; x < kept.width(); ++x) {
       const float v = std::clamp(from[x], 0.f, 1.f);
@@ -119,13 +120,13 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
     }
   }
   tile_distances_.shrink_to_fit();
-  std::vector<float>().swap(values_);
+  values_ = TiledGrid<float>();
   geometry_ = kept;
   frozen_ = true;
   published_index_ = TiledIndex();
   std::vector<Segment>().swap(segments_);
   std::vector<int32_t>().swap(free_segments_);
-  std::vector<float>().swap(squared_distances_);
+  squared_distances_ = TiledGrid<float>();
   std::vector<int>().swap(stale_cells_);
 }
 
@@ -146,8 +147,8 @@ bool LikelihoodField::MayBeNonZeroNear(const CellIndex& c, int radius_cells) con
 }
 
 size_t LikelihoodField::MemoryBytes() const {
-  return values_.capacity() * sizeof(float) + frozen_values_.MemoryBytes() + tile_distances_.capacity() +
-         squared_distances_.capacity() * sizeof(float) +
+  return values_.MemoryBytes() + frozen_values_.MemoryBytes() + tile_distances_.capacity() +
+         squared_distances_.MemoryBytes() +
          stale_cells_.capacity() * sizeof(int) + published_index_.MemoryBytes() +
          segments_.capacity() * sizeof(Segment) + free_segments_.capacity() * sizeof(int32_t);
 }
@@ -156,26 +157,22 @@ void LikelihoodField::Resize(const GridGeometry& g) {
   CHECK(!frozen_) << "Resize on a frozen likelihood field";
   const double r = g.resolution_meters();
   radius_cells_ = static_cast<int>(std::ceil(options_.max_distance_meters / r - 1e-9));
-  std::vector<float> values(g.num_cells(), 0.f);
-  std::vector<float> squared_distances(g.num_cells(), kInfinity);
+  TiledGrid<float> values(g.width(), g.height(), 0.f);
+  TiledGrid<float> squared_distances(g.width(), g.height(), kInfinity);
   TiledIndex published_index(g.width(), g.height());
   if (geometry_.num_cells() > 0) {
     CHECK_EQ(g.resolution_meters(), geometry_.resolution_meters()) << "resolution changed";
     const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
     const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / r));
-    // Row by row (the old grid's rows are contiguous in the new one).
-    const int w = geometry_.width();
-    for (int y = 0; y < geometry_.height(); ++y) {
-      const size_t from = static_cast<size_t>(y) * w;
-      const size_t to = static_cast<size_t>(y + dy) * g.width() + dx;
-      std::copy_n(values_.begin() + from, w, values.begin() + to);
-      std::copy_n(squared_distances_.begin() + from, w, squared_distances.begin() + to);
-    }
+    // Only the cells that differ from the default move (the grids hold nothing else).
+    values_.ForEach([&](int x, int y, float value) { values.Ref(x + dx, y + dy) = value; });
+    squared_distances_.ForEach(
+        [&](int x, int y, float squared_distance) { squared_distances.Ref(x + dx, y + dy) = squared_distance; });
     published_index_.ForEach([&](int x, int y, int32_t index) { published_index.Ref(x + dx, y + dy) = index; });
   }
   geometry_ = g;
-  values_.swap(values);
-  squared_distances_.swap(squared_distances);
+  values_ = std::move(values);
+  squared_distances_ = std::move(squared_distances);
   published_index_ = std::move(published_index);
 }
 
@@ -240,28 +237,44 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     const int x0 = std::max(0, o.x - radius_cells_), x1 = std::min(geometry_.width() - 1, o.x + radius_cells_);
     const int y0 = std::max(0, o.y - radius_cells_), y1 = std::min(geometry_.height() - 1, o.y + radius_cells_);
     for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) {
-        const CellIndex c{x, y};
-        const int j = y * geometry_.width() + x;
-        float& squared_distance = squared_distances_[j];
-        if (squared_distance == kStale) continue;
-        const float new_squared_distance = has ? SquaredDistance(c, o, new_s) : kInfinity;
-        if (new_squared_distance < squared_distance) {
-          squared_distance = new_squared_distance;
-          values_[j] = ValueFromSquaredDistance(squared_distance);
-        } else if (had && new_squared_distance > squared_distance &&
-                   SquaredDistance(c, o, old_s) <= squared_distance) {
-          // c's nearest point may have been o's old point, which is gone: recompute it
-          // (below). A new d^2 equal to the old minimum leaves the minimum as it is.
-          squared_distance = kStale;
-          stale_cells_.push_back(j);
+      // Tile by tile. A tile without squared distances holds +inf everywhere: a withdrawn
+      // point changes nothing there, a published one lowers every cell of it.
+      for (int x = x0; x <= x1;) {
+        const int end = std::min(x1 + 1, (x | (TiledGrid<float>::kTileSize - 1)) + 1);
+        float* squared_distance = squared_distances_.MutableTileRow(x, y);
+        if (squared_distance == nullptr) {
+          if (!has) {
+            x = end;
+            continue;
+          }
+          squared_distance = &squared_distances_.Ref(x, y);
         }
+        float* value = nullptr;  // values_'s row of the same tile, on the first write
+        for (int k = 0; k < end - x; ++k) {
+          const CellIndex c{x + k, y};
+          if (squared_distance[k] == kStale) continue;
+          const float new_squared_distance = has ? SquaredDistance(c, o, new_s) : kInfinity;
+          if (new_squared_distance < squared_distance[k]) {
+            squared_distance[k] = new_squared_distance;
+            if (value == nullptr) value = &values_.Ref(x, y);
+            value[k] = ValueFromSquaredDistance(new_squared_distance);
+          } else if (had && new_squared_distance > squared_distance[k] &&
+                     SquaredDistance(c, o, old_s) <= squared_distance[k]) {
+            // c's nearest point may have been o's old point, which is gone: recompute it
+            // (below). A new d^2 equal to the old minimum leaves the minimum as it is.
+            squared_distance[k] = kStale;
+            stale_cells_.push_back(y * geometry_.width() + x + k);
+          }
+        }
+        x = end;
       }
     }
   }
   for (int j : stale_cells_) {
-    squared_distances_[j] = RecomputeSquaredDistance(geometry_.FromLinearIndex(j));
-    values_[j] = ValueFromSquaredDistance(squared_distances_[j]);
+    const CellIndex c = geometry_.FromLinearIndex(j);
+    const float squared_distance = RecomputeSquaredDistance(c);
+    squared_distances_.Ref(c.x, c.y) = squared_distance;
+    values_.Set(c.x, c.y, ValueFromSquaredDistance(squared_distance));
   }
 }
 
@@ -269,9 +282,9 @@ void LikelihoodField::RebuildAll() {
   CHECK(!frozen_) << "RebuildAll on a frozen likelihood field";
   for (int y = 0; y < geometry_.height(); ++y) {
     for (int x = 0; x < geometry_.width(); ++x) {
-      const int i = y * geometry_.width() + x;
-      squared_distances_[i] = RecomputeSquaredDistance({x, y});
-      values_[i] = ValueFromSquaredDistance(squared_distances_[i]);
+      const float squared_distance = RecomputeSquaredDistance({x, y});
+      squared_distances_.Set(x, y, squared_distance);
+      values_.Set(x, y, ValueFromSquaredDistance(squared_distance));
     }
   }
 }

@@ -121,15 +121,17 @@ class LikelihoodField {
   // Value at a cell (0 outside the grid).
   float Value(const CellIndex& c) const {
     if (!geometry_.Contains(c)) return 0.f;
-    return frozen_ ? kQuantizationStep * frozen_values_.Get(c.x, c.y) : values_[geometry_.LinearIndex(c)];
+    return frozen_ ? kQuantizationStep * frozen_values_.Get(c.x, c.y) : values_.Get(c.x, c.y);
   }
-  float Value(int linear_index) const {
-    return frozen_ ? Value(geometry_.FromLinearIndex(linear_index)) : values_[linear_index];
-  }
+  float Value(int linear_index) const { return Value(geometry_.FromLinearIndex(linear_index)); }
   // Values of cells (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1) into v[0..3] (0 outside
   // the grid): the neighbourhood of a bilinear lookup, read with one tile lookup when frozen.
   void Values2x2(int x, int y, float* v) const {
-    if (frozen_ && x >= 0 && y >= 0 && x + 1 < geometry_.width() && y + 1 < geometry_.height()) {
+    if (x >= 0 && y >= 0 && x + 1 < geometry_.width() && y + 1 < geometry_.height()) {
+      if (!frozen_) {
+        values_.Get2x2(x, y, v);
+        return;
+      }
       uint16_t q[4];
       frozen_values_.Get2x2(x, y, q);
       for (int k = 0; k < 4; ++k) v[k] = kQuantizationStep * q[k];
@@ -140,8 +142,10 @@ class LikelihoodField {
     v[2] = Value(CellIndex{x, y + 1});
     v[3] = Value(CellIndex{x + 1, y + 1});
   }
-  // All values, linear index order, before Freeze (empty afterwards).
-  const std::vector<float>& values() const { return values_; }
+  // The values before Freeze, in 8 × 8 tiles that exist only where some cell of theirs is not
+  // 0 (within the window radius of a surface; empty, every cell 0, after Freeze). Readers walk
+  // rows tile by tile (TiledGrid::TileRow) or read cells (Get, Get2x2).
+  const TiledGrid<float>& values() const { return values_; }
   // A frozen field's quantised values q (value = kQuantizationStep * q) of cells
   // x0 .. x0 + n - 1 of row y, all inside the grid, into out[0 .. n - 1].
   void FrozenValuesRow(int x0, int y, int n, uint16_t* out) const { frozen_values_.GetRow(x0, y, n, out); }
@@ -191,14 +195,15 @@ class LikelihoodField {
   int radius_cells_ = 0;
   uint8_t surface_labels_ = 0;
   bool frozen_ = false;
-  std::vector<float> values_;             // empty once frozen
+  TiledGrid<float> values_;               // empty (all 0) once frozen
   SparseTiles<uint16_t> frozen_values_;  // empty until frozen
   // Per tile of frozen_values_ (row-major), the Chebyshev distance in tiles to the nearest
   // stored tile, capped at 255 (255 also when no tile is stored); empty until frozen.
   std::vector<uint8_t> tile_distances_;
-  // values_[i] = ValueFromSquaredDistance(squared_distances_[i]); freed by Freeze. Within
-  // ApplyChanges, kStale marks a cell queued in stale_cells_ for one recompute at the end.
-  std::vector<float> squared_distances_;
+  // values_ = ValueFromSquaredDistance(squared_distances_) cell by cell (+inf, tile not
+  // allocated, where values_ is 0); freed by Freeze. Within ApplyChanges, kStale marks a cell
+  // queued in stale_cells_ for one recompute at the end.
+  TiledGrid<float> squared_distances_;
   std::vector<int> stale_cells_;  // scratch of ApplyChanges
   // Published segment per cell, its point relative to the cell's own minimum corner; relative
   // storage makes values independent of growth. Only occupied cells publish, a few percent:

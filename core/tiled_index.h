@@ -9,6 +9,7 @@
 #ifndef HETSLAM_CORE_TILED_INDEX_H_
 #define HETSLAM_CORE_TILED_INDEX_H_
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -17,51 +18,104 @@
 
 namespace hetslam {
 
-class TiledIndex {
+// The general form: a width × height grid of T where every cell holds `empty` until written,
+// stored in 8 × 8 cell tiles allocated on a tile's first write of a value other than `empty`.
+// A tile once allocated stays (until Reset). The likelihood field that is being built keeps
+// its values and squared distances so (core/likelihood_field.h: only the cells within the
+// window radius of a surface differ from empty, a band along the walls of a box that is
+// mostly free or unknown space).
+template <typename T>
+class TiledGrid {
  public:
   static constexpr int kTileBits = 3;
   static constexpr int kTileSize = 1 << kTileBits;
   static constexpr int kTileCells = kTileSize * kTileSize;
 
-  TiledIndex() = default;
-  TiledIndex(int width, int height) { Reset(width, height); }
+  TiledGrid() = default;
+  TiledGrid(int width, int height, T empty) { Reset(width, height, empty); }
 
-  // Every cell of a width × height grid to -1; the memory of the old tiles is released.
-  void Reset(int width, int height) {
+  // Every cell of a width × height grid to `empty`; the memory of the old tiles is released.
+  void Reset(int width, int height, T empty) {
     CHECK(width >= 0 && height >= 0) << width << " x " << height;
     width_ = width;
     height_ = height;
+    empty_ = empty;
     tiles_x_ = (width + kTileSize - 1) >> kTileBits;
     const int tiles_y = (height + kTileSize - 1) >> kTileBits;
     std::vector<int32_t>(static_cast<size_t>(tiles_x_) * tiles_y, -1).swap(tile_of_);
-    std::vector<int32_t>().swap(cells_);
+    std::vector<T>().swap(cells_);
   }
 
   int width() const { return width_; }
   int height() const { return height_; }
+  T empty() const { return empty_; }
 
-  int32_t Get(int x, int y) const {
+  T Get(int x, int y) const {
     const int32_t tile = tile_of_[TileIndex(x, y)];
-    return tile < 0 ? -1 : cells_[Offset(tile, x, y)];
+    return tile < 0 ? empty_ : cells_[Offset(tile, x, y)];
   }
-  int32_t GetLinear(int i) const { return Get(i % width_, i / width_); }
-  // The cell's entry, its tile allocated (all -1) if it had none.
-  int32_t& Ref(int x, int y) {
+  T GetLinear(int i) const { return Get(i % width_, i / width_); }
+  // The cell's entry, its tile allocated (all empty) if it had none.
+  T& Ref(int x, int y) {
     int32_t& tile = tile_of_[TileIndex(x, y)];
     if (tile < 0) {
       tile = static_cast<int32_t>(cells_.size() / kTileCells);
-      cells_.resize(cells_.size() + kTileCells, -1);
+      cells_.resize(cells_.size() + kTileCells, empty_);
     }
     return cells_[Offset(tile, x, y)];
   }
-  int32_t& RefLinear(int i) { return Ref(i % width_, i / width_); }
+  T& RefLinear(int i) { return Ref(i % width_, i / width_); }
+  // Writes `value`; writing empty() into a tile that has none allocates nothing.
+  void Set(int x, int y, T value) {
+    if (value == empty_ && tile_of_[TileIndex(x, y)] < 0) return;
+    Ref(x, y) = value;
+  }
   // The entries of row y of the tile holding (x, y), from x to the tile's right edge (some
-  // possibly beyond the grid's); null when that tile has none (all -1).
-  const int32_t* TileRow(int x, int y) const {
+  // possibly beyond the grid's); null when that tile has none (all empty).
+  const T* TileRow(int x, int y) const {
     const int32_t tile = tile_of_[TileIndex(x, y)];
     return tile < 0 ? nullptr : cells_.data() + Offset(tile, x, y);
   }
-  // Calls f(x, y, value) for every cell holding a value >= 0 (tile by tile).
+  T* MutableTileRow(int x, int y) {
+    const int32_t tile = tile_of_[TileIndex(x, y)];
+    return tile < 0 ? nullptr : cells_.data() + Offset(tile, x, y);
+  }
+  // Cells (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1), all inside the grid, into out[0..3]
+  // (one tile lookup when they share a tile: bilinear interpolation's neighbourhood).
+  void Get2x2(int x, int y, T* out) const {
+    constexpr int kLast = kTileSize - 1;
+    if ((x & kLast) == kLast || (y & kLast) == kLast) {
+      out[0] = Get(x, y);
+      out[1] = Get(x + 1, y);
+      out[2] = Get(x, y + 1);
+      out[3] = Get(x + 1, y + 1);
+      return;
+    }
+    const int32_t tile = tile_of_[TileIndex(x, y)];
+    if (tile < 0) {
+      std::fill(out, out + 4, empty_);
+      return;
+    }
+    const T* src = cells_.data() + Offset(tile, x, y);
+    out[0] = src[0];
+    out[1] = src[1];
+    out[2] = src[kTileSize];
+    out[3] = src[kTileSize + 1];
+  }
+  // Cells x0 .. x0 + n - 1 of row y (all inside the grid) into out[0 .. n - 1].
+  void GetRow(int x0, int y, int n, T* out) const {
+    for (int x = x0; x < x0 + n;) {
+      const int end = std::min(x0 + n, (x | (kTileSize - 1)) + 1);
+      const T* row = TileRow(x, y);
+      if (row == nullptr) {
+        std::fill(out + (x - x0), out + (end - x0), empty_);
+      } else {
+        std::copy(row, row + (end - x), out + (x - x0));
+      }
+      x = end;
+    }
+  }
+  // Calls f(x, y, value) for every cell holding a value other than empty() (tile by tile).
   template <typename F>
   void ForEach(F f) const {
     const int tiles_y = (height_ + kTileSize - 1) >> kTileBits;
@@ -70,16 +124,23 @@ class TiledIndex {
         const int32_t tile = tile_of_[static_cast<size_t>(ty) * tiles_x_ + tx];
         if (tile < 0) continue;
         for (int k = 0; k < kTileCells; ++k) {
-          const int32_t value = cells_[static_cast<size_t>(tile) * kTileCells + k];
-          if (value < 0) continue;
+          const T value = cells_[static_cast<size_t>(tile) * kTileCells + k];
+          if (value == empty_) continue;
           const int x = (tx << kTileBits) + (k & (kTileSize - 1)), y = (ty << kTileBits) + (k >> kTileBits);
           if (x < width_ && y < height_) f(x, y, value);
         }
       }
     }
   }
+  // Every cell, row-major (linear index y * width + x): for tests and comparisons.
+  std::vector<T> Dense() const {
+    std::vector<T> dense(static_cast<size_t>(width_) * height_);
+    for (int y = 0; y < height_; ++y) GetRow(0, y, width_, dense.data() + static_cast<size_t>(y) * width_);
+    return dense;
+  }
+  int num_allocated_tiles() const { return static_cast<int>(cells_.size() / kTileCells); }
   // Bytes held (capacity).
-  size_t MemoryBytes() const { return (tile_of_.capacity() + cells_.capacity()) * sizeof(int32_t); }
+  size_t MemoryBytes() const { return tile_of_.capacity() * sizeof(int32_t) + cells_.capacity() * sizeof(T); }
 
  private:
   size_t TileIndex(int x, int y) const {
@@ -92,8 +153,17 @@ class TiledIndex {
   int width_ = 0;
   int height_ = 0;
   int tiles_x_ = 0;
+  T empty_{};
   std::vector<int32_t> tile_of_;  // per tile: its block in cells_, or -1
-  std::vector<int32_t> cells_;    // kTileCells entries per allocated tile
+  std::vector<T> cells_;          // kTileCells entries per allocated tile
+};
+
+// The per-cell index of the header comment: -1 (no record) until set.
+class TiledIndex : public TiledGrid<int32_t> {
+ public:
+  TiledIndex() = default;
+  TiledIndex(int width, int height) : TiledGrid<int32_t>(width, height, -1) {}
+  void Reset(int width, int height) { TiledGrid<int32_t>::Reset(width, height, -1); }
 };
 
 }  // namespace hetslam

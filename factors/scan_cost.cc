@@ -25,6 +25,20 @@ class FrozenFieldGrid {
   const LikelihoodField& field_;  // outlives the cost (see the header's lifetime note)
 };
 
+// The same for a field that is being built: its values, tiled (core/likelihood_field.h values).
+class BuiltFieldGrid {
+ public:
+  enum { DATA_DIMENSION = 1 };
+  explicit BuiltFieldGrid(const LikelihoodField& field) : field_(field) {}
+  void GetValue(int row, int col, double* f) const {
+    const GridGeometry& g = field_.geometry();
+    f[0] = field_.values().Get(std::clamp(col, 0, g.width() - 1), std::clamp(row, 0, g.height() - 1));
+  }
+
+ private:
+  const LikelihoodField& field_;  // outlives the cost (see the header's lifetime note)
+};
+
 // The field's distances instead of its values: at each cell centre the distance d to the
 // nearest surface recovered from the stored value L = exp(-d / sigma) as d = -sigma ln L (the
 // window's radius where L is 0 or below exp(-radius / sigma)), served squared. Near a straight
@@ -58,7 +72,7 @@ class SquaredDistanceGrid {
   const double min_value_;
 };
 
-// `Grid` is the field's storage: ceres::Grid2D<float> over values() while the field is built,
+// `Grid` is the field's storage: BuiltFieldGrid over values() while the field is built,
 // FrozenFieldGrid once frozen (quantised: value = value_scale * sample; interpolation is linear
 // in the samples, so scaling the interpolated sample is scaling the samples).
 template <typename Grid>
@@ -152,7 +166,6 @@ ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& fiel
   CHECK_GT(field.geometry().num_cells(), 0) << "the likelihood field is empty";
   const double sigma = field.options().sigma_meters;
   const double max_distance = field.window_radius_cells() * field.geometry().resolution_meters();
-  using Values = ceres::Grid2D<float, 1>;
   if (field.frozen()) {
     if (interpolation == ScanCostInterpolation::kDistances) {
       return MakeCost(SquaredDistanceGrid<FrozenFieldGrid>(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep,
@@ -161,12 +174,11 @@ ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& fiel
     }
     return MakeCost(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep, 0.0, field, points_robot, weights);
   }
-  const Values values(field.values().data(), 0, field.geometry().height(), 0, field.geometry().width());
   if (interpolation == ScanCostInterpolation::kDistances) {
-    return MakeCost(SquaredDistanceGrid<Values>(values, 1.0, sigma, max_distance), 1.0, sigma, field, points_robot,
-                    weights);
+    return MakeCost(SquaredDistanceGrid<BuiltFieldGrid>(BuiltFieldGrid(field), 1.0, sigma, max_distance), 1.0, sigma,
+                    field, points_robot, weights);
   }
-  return MakeCost(values, 1.0, 0.0, field, points_robot, weights);
+  return MakeCost(BuiltFieldGrid(field), 1.0, 0.0, field, points_robot, weights);
 }
 
 }  // namespace hetslam

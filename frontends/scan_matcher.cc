@@ -137,7 +137,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
   // A frozen field (a finished submap) holds its values quantised.
   const bool frozen_field = field.frozen();
-  const float* values = field.values().data();
+  const TiledGrid<float>& values = field.values();
   constexpr float kStep = LikelihoodField::kQuantizationStep;
   // A frozen grid (a finished submap) keeps only cell states (tiled, like the field's values);
   // one that is being built keeps log-odds and observed flags.
@@ -183,19 +183,33 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       }
       continue;
     }
-    const float* value = values + row;
-    if (free_space_penalty > 0.f) {
-      // A point in known free space (observed, not occupied), away from any hit, is evidence
-      // against the pose. (A plain loop: the equivalent Eigen select over a mixed-type boolean
-      // expression was evaluated element by element, ~1.5x slower at -O2.)
-      const float* odds = log_odds + row;
-      const uint8_t* seen = observed + row;
-      for (int x = 0; x < n; ++x) {
-        const bool free_space = (value[x] == 0.f) & (odds[x] <= occupied_threshold) & (seen[x] != 0);
-        out[x] = free_space ? -free_space_penalty : value[x];
+    // The values tile by tile (a tile without values is 0 throughout); the grid's rows are dense.
+    const int gx0 = s.region_min.x + x_begin;
+    for (int x = 0; x < n;) {
+      const int gx = gx0 + x;
+      const int chunk = std::min(n - x, TiledGrid<float>::kTileSize - (gx & (TiledGrid<float>::kTileSize - 1)));
+      const float* value = values.TileRow(gx, gy);
+      float* o = out + x;
+      if (free_space_penalty > 0.f) {
+        // A point in known free space (observed, not occupied), away from any hit, is evidence
+        // against the pose. (A plain loop: the equivalent Eigen select over a mixed-type
+        // boolean expression was evaluated element by element, ~1.5x slower at -O2.)
+        const float* odds = log_odds + row + x;
+        const uint8_t* seen = observed + row + x;
+        if (value == nullptr) {
+          for (int k = 0; k < chunk; ++k) o[k] = (odds[k] <= occupied_threshold) & (seen[k] != 0) ? -free_space_penalty : 0.f;
+        } else {
+          for (int k = 0; k < chunk; ++k) {
+            const bool free_space = (value[k] == 0.f) & (odds[k] <= occupied_threshold) & (seen[k] != 0);
+            o[k] = free_space ? -free_space_penalty : value[k];
+          }
+        }
+      } else if (value == nullptr) {
+        std::fill(o, o + chunk, 0.f);
+      } else {
+        std::copy(value, value + chunk, o);
       }
-    } else {
-      std::copy(value, value + n, out);
+      x += chunk;
     }
   }
   if (wall_field != nullptr) {
@@ -223,8 +237,15 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
           x += chunk;
         }
       } else {
-        const float* wall = wall_field->values().data() + static_cast<size_t>(gy) * g.width() + gx0;
-        for (int x = 0; x < n; ++x) out[x] += extra * wall[x];
+        for (int x = 0; x < n;) {
+          const int gx = gx0 + x;
+          const int chunk = std::min(n - x, TiledGrid<float>::kTileSize - (gx & (TiledGrid<float>::kTileSize - 1)));
+          const float* wall = wall_field->values().TileRow(gx, gy);
+          if (wall != nullptr) {
+            for (int k = 0; k < chunk; ++k) out[x + k] += extra * wall[k];
+          }
+          x += chunk;
+        }
       }
     }
   }

@@ -76,9 +76,10 @@ TEST_P(LikelihoodFieldUpdateTest, IncrementalMatchesBruteForceOnRandomUpdates) {
 
     LikelihoodField reference = map.field();
     reference.RebuildAll();
-    ASSERT_EQ(reference.values().size(), map.field().values().size());
-    for (size_t i = 0; i < reference.values().size(); ++i) {
-      ASSERT_EQ(reference.values()[i], map.field().values()[i]) << "scan " << scan << " cell " << i;
+    const std::vector<float> expected = reference.values().Dense(), actual = map.field().values().Dense();
+    ASSERT_EQ(expected.size(), actual.size());
+    for (size_t i = 0; i < expected.size(); ++i) {
+      ASSERT_EQ(expected[i], actual[i]) << "scan " << scan << " cell " << i;
     }
     for (const Eigen::Vector2d& p : occupied_before) {
       turned_free += map.grid().State(map.grid().geometry().WorldToCell(p)) == CellState::kFree;
@@ -186,10 +187,11 @@ TEST(LikelihoodFieldTest, WallFieldIncrementalMatchesRebuildOnRandomUpdates) {
     if (map.wall_field() == nullptr) continue;
     LikelihoodField reference(field_options, kWall);
     reference.RebuildFrom(map.grid());
-    ASSERT_EQ(reference.values().size(), map.wall_field()->values().size());
+    const std::vector<float> expected = reference.values().Dense(), actual = map.wall_field()->values().Dense();
+    ASSERT_EQ(expected.size(), actual.size());
     wall_cells = 0;
-    for (size_t i = 0; i < reference.values().size(); ++i) {
-      ASSERT_EQ(reference.values()[i], map.wall_field()->values()[i]) << "scan " << scan << " cell " << i;
+    for (size_t i = 0; i < expected.size(); ++i) {
+      ASSERT_EQ(expected[i], actual[i]) << "scan " << scan << " cell " << i;
       wall_cells += map.wall_field()->IsSurface(map.grid(), static_cast<int>(i));
     }
   }
@@ -205,14 +207,15 @@ TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
   for (int i = -20; i <= 20; ++i) wall.emplace_back(1.0f, i * 0.05f);
   map.InsertScan(Pose2(0.1, 0.2, 0.3), Eigen::Vector2d::Zero(), wall);
   const GridGeometry before = map.grid().geometry();
-  const std::vector<float> values = map.field().values();
+  const std::vector<float> values = map.field().values().Dense();
   std::vector<CellState> states;
   for (int i = 0; i < before.num_cells(); ++i) states.push_back(map.grid().State(i));
   const size_t bytes_before = map.MemoryBytes();
   map.Freeze();
   EXPECT_TRUE(map.grid().frozen());
   EXPECT_TRUE(map.field().frozen());
-  EXPECT_TRUE(map.field().values().empty());
+  EXPECT_EQ(0, map.field().values().width());
+  EXPECT_EQ(0, map.field().values().num_allocated_tiles());
   const GridGeometry& after = map.grid().geometry();
   // The 2 m wall seen from 1 m fits in a few metres; the grid had its growth slack around it.
   EXPECT_LT(after.num_cells(), before.num_cells() / 2);
