@@ -105,50 +105,42 @@ bool OccupancyGrid::EnsureContains(const Eigen::Vector2d& min_world,
 
 void OccupancyGrid::Resize(const GridGeometry& g) {
   const int n = g.num_cells();
-  std::vector<float> log_odds(n, 0.f);
-  std::vector<uint8_t> observed(n, 0);
-  TiledIndex hit_index(g.width(), g.height());
-  std::vector<uint8_t> labels(labels_.empty() ? 0 : n, 0);
-  std::vector<uint8_t> height_min(height_min_.empty() ? 0 : n, 255), height_max(height_max_.empty() ? 0 : n, 0);
-  // Offset of the old grid inside the new one, in cells.
+  // Offset of the old grid inside the new one, in cells. Only the cells that differ from the
+  // default move (the tiled layers hold nothing else).
   const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / g.resolution_meters()));
   const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / g.resolution_meters()));
-  // Row by row (the old grid's rows are contiguous in the new one).
-  const int w = geometry_.width();
-  for (int y = 0; y < geometry_.height(); ++y) {
-    const size_t from = static_cast<size_t>(y) * w;
-    const size_t to = static_cast<size_t>(y + dy) * g.width() + dx;
-    std::copy_n(log_odds_.begin() + from, w, log_odds.begin() + to);
-    std::copy_n(observed_.begin() + from, w, observed.begin() + to);
-    if (!labels.empty()) std::copy_n(labels_.begin() + from, w, labels.begin() + to);
-    if (!height_min.empty()) {
-      std::copy_n(height_min_.begin() + from, w, height_min.begin() + to);
-      std::copy_n(height_max_.begin() + from, w, height_max.begin() + to);
-    }
-  }
+  auto moved = [&](const auto& old_layer) {
+    std::decay_t<decltype(old_layer)> layer(g.width(), g.height(), old_layer.empty());
+    old_layer.ForEach([&](int x, int y, auto value) { layer.Ref(x + dx, y + dy) = value; });
+    return layer;
+  };
+  TiledGrid<float> log_odds = moved(log_odds_);
+  TiledGrid<uint8_t> labels = moved(labels_);
+  TiledGrid<uint8_t> height_min = moved(height_min_), height_max = moved(height_max_);
+  TiledIndex hit_index(g.width(), g.height());
   hit_index_.ForEach([&](int x, int y, int32_t value) { hit_index.Ref(x + dx, y + dy) = value; });
   if (observed_max_.x >= observed_min_.x) {
     observed_min_ = {observed_min_.x + dx, observed_min_.y + dy};
     observed_max_ = {observed_max_.x + dx, observed_max_.y + dy};
   }
   geometry_ = g;
-  log_odds_.swap(log_odds);
-  observed_.swap(observed);
+  log_odds_ = std::move(log_odds);
   hit_index_ = std::move(hit_index);
   // No cell is marked between scans: the marks start clear at the new size.
   std::vector<uint64_t>((static_cast<size_t>(n) + 63) / 64, 0).swap(updated_this_scan_);
-  labels_.swap(labels);
-  height_min_.swap(height_min);
-  height_max_.swap(height_max);
+  labels_ = std::move(labels);
+  height_min_ = std::move(height_min);
+  height_max_ = std::move(height_max);
 }
 
-void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cells) {
-  const bool was_occupied = IsOccupied(i);
-  log_odds_[i] = std::clamp(log_odds_[i] + delta, static_cast<float>(options_.min_log_odds),
-                            static_cast<float>(options_.max_log_odds));
-  if (!observed_[i]) {
-    observed_[i] = 1;
-    const CellIndex c = geometry_.FromLinearIndex(i);
+void OccupancyGrid::UpdateCell(const CellIndex& c, int i, float delta, std::vector<int>* changed_cells) {
+  float& log_odds = log_odds_.Ref(c.x, c.y);
+  const float threshold = static_cast<float>(options_.occupied_threshold_log_odds);
+  const bool was_occupied = log_odds > threshold;  // kUnobserved is not
+  const bool was_observed = log_odds != kUnobserved;
+  log_odds = std::clamp((was_observed ? log_odds : 0.f) + delta, static_cast<float>(options_.min_log_odds),
+                        static_cast<float>(options_.max_log_odds));
+  if (!was_observed) {
     if (observed_max_.x < observed_min_.x) {  // first observed cell
       observed_min_ = observed_max_ = c;
     } else {
@@ -156,14 +148,14 @@ void OccupancyGrid::UpdateCell(int i, float delta, std::vector<int>* changed_cel
       observed_max_ = {std::max(observed_max_.x, c.x), std::max(observed_max_.y, c.y)};
     }
   }
-  const bool now_occupied = IsOccupied(i);
+  const bool now_occupied = log_odds > threshold;
   if (was_occupied && !now_occupied) {
     // The cell turned free (paper §III-B): its hit point is forgotten.
-    const int32_t hit = hit_index_.GetLinear(i);
+    const int32_t hit = hit_index_.Get(c.x, c.y);
     if (hit >= 0) {
       hits_[hit] = HitAccumulator();
       free_hits_.push_back(hit);
-      hit_index_.RefLinear(i) = -1;
+      hit_index_.Ref(c.x, c.y) = -1;
     }
   }
   if ((was_occupied != now_occupied || (delta > 0 && now_occupied)) && changed_cells != nullptr) {
@@ -195,11 +187,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
   CHECK(heights == nullptr || heights->size() == points_world.size()) << "InsertScan: heights do not match points";
   CHECK(lines == nullptr || lines->size() == points_world.size()) << "InsertScan: lines do not match points";
   if (lines != nullptr) has_lines_ = true;
-  if ((labels != nullptr || heights != nullptr) && labels_.empty()) labels_.assign(geometry_.num_cells(), 0);
-  if (heights != nullptr && height_min_.empty()) {
-    height_min_.assign(geometry_.num_cells(), 255);
-    height_max_.assign(geometry_.num_cells(), 0);
-  }
+  if (labels != nullptr || heights != nullptr) has_label_layer_ = true;
   const int wall_span_steps = static_cast<int>(std::lround(options_.wall_min_height_span_meters / 0.02));
   const float hit = static_cast<float>(options_.hit_log_odds);
   const float miss = static_cast<float>(options_.miss_log_odds);
@@ -208,15 +196,17 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     const Eigen::Vector2d& p = points_world[k];
     const CellIndex c = geometry_.WorldToCell(p);
     const int i = geometry_.LinearIndex(c);
-    if (labels != nullptr) labels_[i] |= static_cast<uint8_t>(1u << ((*labels)[k] & 7u));
+    if (labels != nullptr) labels_.Ref(c.x, c.y) |= static_cast<uint8_t>(1u << ((*labels)[k] & 7u));
     if (heights != nullptr && std::isfinite((*heights)[k])) {
       const uint8_t h = static_cast<uint8_t>(std::clamp(std::lround((*heights)[k] / 0.02f), 0L, 254L));
-      height_min_[i] = std::min(height_min_[i], h);
-      height_max_[i] = std::max(height_max_[i], h);
-      if (height_max_[i] - height_min_[i] >= wall_span_steps) labels_[i] |= 1u << kWallLabelBit;
+      uint8_t& low = height_min_.Ref(c.x, c.y);
+      uint8_t& high = height_max_.Ref(c.x, c.y);
+      low = std::min(low, h);
+      high = std::max(high, h);
+      if (high - low >= wall_span_steps) labels_.Ref(c.x, c.y) |= 1u << kWallLabelBit;
     }
-    if (MarkUpdated(i)) UpdateCell(i, hit, changed_cells);
-    if (IsOccupied(i)) {
+    if (MarkUpdated(i)) UpdateCell(c, i, hit, changed_cells);
+    if (log_odds_.Get(c.x, c.y) > static_cast<float>(options_.occupied_threshold_log_odds)) {
       int32_t& hit_index = hit_index_.Ref(c.x, c.y);
       if (hit_index < 0) {
         if (free_hits_.empty()) {
@@ -257,7 +247,7 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     const int max_steps = std::abs(end_cell.x - start_cell.x) + std::abs(end_cell.y - start_cell.y);
     for (int n = 0; n < max_steps && !(c == end_cell); ++n) {
       const int i = geometry_.LinearIndex(c);
-      if (MarkUpdated(i)) UpdateCell(i, miss, changed_cells);
+      if (MarkUpdated(i)) UpdateCell(c, i, miss, changed_cells);
       if (t_max_x < t_max_y) {
         t_max_x += t_delta_x;
         c.x += step_x;
@@ -277,7 +267,8 @@ void OccupancyGrid::AddCellObservation(const Eigen::Vector2d& p_world, float del
   CHECK(p_world.allFinite()) << "AddCellObservation at a non-finite point";
   CHECK(std::isfinite(delta_log_odds)) << "AddCellObservation with a non-finite log-odds change";
   EnsureContains(p_world, p_world);
-  UpdateCell(geometry_.LinearIndex(geometry_.WorldToCell(p_world)), delta_log_odds, nullptr);
+  const CellIndex c = geometry_.WorldToCell(p_world);
+  UpdateCell(c, geometry_.LinearIndex(c), delta_log_odds, nullptr);
 }
 
 void OccupancyGrid::Freeze(int margin_cells) {
@@ -293,18 +284,18 @@ void OccupancyGrid::Freeze(int margin_cells) {
   }
   const int width = x1 - x0 + 1, height = y1 - y0 + 1;
   std::vector<uint8_t> states(static_cast<size_t>(width) * height);
-  std::vector<uint8_t> labels(labels_.empty() ? 0 : states.size());
+  std::vector<uint8_t> labels(has_label_layer_ ? states.size() : 0);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
-      const int from = (y + y0) * geometry_.width() + (x + x0);
       const int to = y * width + x;
-      states[to] = static_cast<uint8_t>(State(from));
-      if (!labels.empty()) labels[to] = labels_[from];
+      states[to] = static_cast<uint8_t>(State(CellIndex{x + x0, y + y0}));
+      if (!labels.empty()) labels[to] = labels_.Get(x + x0, y + y0);
     }
   }
   frozen_states_ = SparseTiles<uint8_t>(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
   frozen_labels_ = SparseTiles<uint8_t>(labels.empty() ? std::vector<uint8_t>(states.size(), 0) : labels, width, height, 0);
-  std::vector<uint8_t>().swap(labels_);
+  labels_ = TiledGrid<uint8_t>(0, 0, 0);
+  has_label_layer_ = false;
   // The crop keeps the lattice: the new origin is the old grid's corner of cell (x0, y0).
   geometry_ = GridGeometry(geometry_.CellMinCorner({x0, y0}), geometry_.resolution_meters(), width, height);
   if (observed_max_.x >= observed_min_.x) {
@@ -312,28 +303,28 @@ void OccupancyGrid::Freeze(int margin_cells) {
     observed_max_ = {observed_max_.x - x0, observed_max_.y - y0};
   }
   frozen_ = true;
-  std::vector<float>().swap(log_odds_);
-  std::vector<uint8_t>().swap(observed_);
+  log_odds_ = TiledGrid<float>(0, 0, kUnobserved);
   hit_index_ = TiledIndex();
   std::vector<HitAccumulator>().swap(hits_);
   std::vector<int32_t>().swap(free_hits_);
   std::vector<uint64_t>().swap(updated_this_scan_);
   std::vector<int>().swap(updated_cells_);
-  std::vector<uint8_t>().swap(height_min_);
-  std::vector<uint8_t>().swap(height_max_);
+  height_min_ = TiledGrid<uint8_t>(0, 0, 255);
+  height_max_ = TiledGrid<uint8_t>(0, 0, 0);
 }
 
 size_t OccupancyGrid::MemoryBytes() const {
-  return log_odds_.capacity() * sizeof(float) + observed_.capacity() + hit_index_.MemoryBytes() +
+  return log_odds_.MemoryBytes() + hit_index_.MemoryBytes() +
          hits_.capacity() * sizeof(HitAccumulator) + free_hits_.capacity() * sizeof(int32_t) +
          updated_this_scan_.capacity() * sizeof(uint64_t) + updated_cells_.capacity() * sizeof(int) +
-         labels_.capacity() + height_min_.capacity() +
-         height_max_.capacity() + frozen_states_.MemoryBytes() + frozen_labels_.MemoryBytes();
+         labels_.MemoryBytes() + height_min_.MemoryBytes() + height_max_.MemoryBytes() + frozen_states_.MemoryBytes() +
+         frozen_labels_.MemoryBytes();
 }
 
 float OccupancyGrid::LogOdds(int i) const {
   CHECK(!frozen_) << "LogOdds on a frozen grid";
-  return log_odds_[i];
+  const float log_odds = log_odds_.GetLinear(i);
+  return log_odds == kUnobserved ? 0.f : log_odds;
 }
 
 Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
@@ -361,8 +352,9 @@ ScanLine OccupancyGrid::Line(int i) const {
 
 float OccupancyGrid::Probability(int i) const {
   CHECK(!frozen_) << "Probability on a frozen grid";
-  if (!observed_[i]) return 0.5f;
-  return 1.f - 1.f / (1.f + std::exp(log_odds_[i]));
+  const float log_odds = log_odds_.GetLinear(i);
+  if (log_odds == kUnobserved) return 0.5f;
+  return 1.f - 1.f / (1.f + std::exp(log_odds));
 }
 
 }  // namespace hetslam

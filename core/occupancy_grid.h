@@ -12,6 +12,7 @@
 #define HETSLAM_CORE_OCCUPANCY_GRID_H_
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -114,12 +115,16 @@ class OccupancyGrid {
   void AddCellObservation(const Eigen::Vector2d& p_world, float delta_log_odds);
 
   CellState State(int linear_index) const {
-    if (frozen_) return State(geometry_.FromLinearIndex(linear_index));
-    if (!observed_[linear_index]) return CellState::kUnknown;
-    return IsOccupied(linear_index) ? CellState::kOccupied : CellState::kFree;
+    return State(geometry_.FromLinearIndex(linear_index));
   }
   CellState State(const CellIndex& c) const {
-    return frozen_ ? static_cast<CellState>(frozen_states_.Get(c.x, c.y)) : State(geometry_.LinearIndex(c));
+    if (frozen_) return static_cast<CellState>(frozen_states_.Get(c.x, c.y));
+    return StateOfLogOdds(log_odds_.Get(c.x, c.y));
+  }
+  // The state a cell with these log-odds (kUnobserved: never observed) is in.
+  CellState StateOfLogOdds(float log_odds) const {
+    if (log_odds == kUnobserved) return CellState::kUnknown;
+    return log_odds > options_.occupied_threshold_log_odds ? CellState::kOccupied : CellState::kFree;
   }
   // The state of the cell holding `p_world`; unknown outside the grid.
   CellState StateAt(const Eigen::Vector2d& p_world) const {
@@ -128,15 +133,13 @@ class OccupancyGrid {
   }
   // Not kept by a frozen grid (CHECK-fails there): a finished submap is read by state.
   float LogOdds(int linear_index) const;
-  bool IsOccupied(int linear_index) const {
-    if (frozen_) return State(linear_index) == CellState::kOccupied;
-    return log_odds_[linear_index] > options_.occupied_threshold_log_odds;
-  }
-  // Raw per-cell arrays (linear index order) for vectorised readers of a grid that is not
-  // frozen: a cell is free when observed() != 0 and log_odds() <= occupied_threshold_log_odds().
-  // Both are empty once frozen; read FrozenStatesRow then.
-  const std::vector<float>& log_odds() const { return log_odds_; }
-  const std::vector<uint8_t>& observed() const { return observed_; }
+  bool IsOccupied(int linear_index) const { return State(linear_index) == CellState::kOccupied; }
+  // The log-odds of a grid that is not frozen, in 8 × 8 tiles that exist only where some cell
+  // was observed; a cell never observed holds kUnobserved (below every log-odds, so not
+  // occupied; not free either: see StateOfLogOdds). For readers that walk rows tile by tile.
+  // Empty once frozen; read FrozenStatesRow then.
+  static constexpr float kUnobserved = -std::numeric_limits<float>::max();
+  const TiledGrid<float>& log_odds() const { return log_odds_; }
   // A frozen grid's cell states (CellState values) of cells x0 .. x0 + n - 1 of row y, all
   // inside the grid, into out[0 .. n - 1].
   void FrozenStatesRow(int x0, int y, int n, uint8_t* out) const { frozen_states_.GetRow(x0, y, n, out); }
@@ -171,9 +174,9 @@ class OccupancyGrid {
       const CellIndex c = geometry_.FromLinearIndex(linear_index);
       return frozen_labels_.Get(c.x, c.y);
     }
-    return labels_.empty() ? 0 : labels_[linear_index];
+    return has_label_layer_ ? labels_.GetLinear(linear_index) : 0;
   }
-  bool has_labels() const { return frozen_ ? frozen_labels_.num_stored_tiles() > 0 : !labels_.empty(); }
+  bool has_labels() const { return frozen_ ? frozen_labels_.num_stored_tiles() > 0 : has_label_layer_; }
   // Occupancy probability in [0, 1], 0.5 for unknown. CHECK-fails on a frozen grid.
   float Probability(int linear_index) const;
 
@@ -198,12 +201,14 @@ class OccupancyGrid {
   // The bounds EnsureContains grows to; false when the box is inside already.
   bool GrownBounds(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world, Eigen::Vector2d* new_min,
                    Eigen::Vector2d* new_max) const;
-  void UpdateCell(int linear_index, float delta_log_odds, std::vector<int>* changed_cells);
+  // Cell c, linear index i (the same cell).
+  void UpdateCell(const CellIndex& c, int i, float delta_log_odds, std::vector<int>* changed_cells);
 
   OccupancyGridOptions options_;
   GridGeometry geometry_;
-  std::vector<float> log_odds_;
-  std::vector<uint8_t> observed_;
+  // Log-odds per cell, kUnobserved where never observed, tiled: a submap's box is mostly
+  // unknown space (core/tiled_index.h).
+  TiledGrid<float> log_odds_{0, 0, kUnobserved};
   // What an occupied cell accumulates from its hits. Only occupied cells accumulate (a cell
   // turning free forgets), a few percent of the cells: they are kept in a pool, indexed per
   // cell in tiles that exist only where some cell has one (core/tiled_index.h).
@@ -232,10 +237,13 @@ class OccupancyGrid {
   }
   std::vector<uint64_t> updated_this_scan_;
   std::vector<int> updated_cells_;
-  std::vector<uint8_t> labels_;  // label layer; empty until the first labelled insertion
-  // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); empty
-  // until the first insertion with heights.
-  std::vector<uint8_t> height_min_, height_max_;
+  // Label layer (0: no label); sized at the first labelled insertion. Only hit cells carry
+  // labels and heights, so their tiles follow the surfaces.
+  TiledGrid<uint8_t> labels_{0, 0, 0};
+  bool has_label_layer_ = false;
+  // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); sized at
+  // the first insertion with heights.
+  TiledGrid<uint8_t> height_min_{0, 0, 255}, height_max_{0, 0, 0};
   // Once frozen, the only per-cell data (CellState values; label masks), in tiles that leave
   // out all-unknown (all-0) 8 × 8 blocks; every array above is then empty.
   SparseTiles<uint8_t> frozen_states_;

@@ -142,8 +142,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   // A frozen grid (a finished submap) keeps only cell states (tiled, like the field's values);
   // one that is being built keeps log-odds and observed flags.
   CHECK_EQ(grid.frozen(), frozen_field) << "a LaserMap's grid and field freeze together";
-  const float* log_odds = grid.log_odds().data();
-  const uint8_t* observed = grid.observed().data();
+  const TiledGrid<float>& log_odds = grid.log_odds();
   constexpr uint8_t kFree = static_cast<uint8_t>(CellState::kFree);
   const float occupied_threshold = grid.occupied_threshold_log_odds();
   const int n = std::max(0, x_end - x_begin);
@@ -156,7 +155,6 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
     }
     std::fill(dst, dst + x_begin, 0.f);
     std::fill(dst + x_end, dst + w, 0.f);
-    const int row = gy * g.width() + s.region_min.x + x_begin;
     float* out = dst + x_begin;
     if (frozen_field) {
       // Tile by tile: a tile without values is 0 or, where free, the penalty; a tile without
@@ -183,7 +181,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       }
       continue;
     }
-    // The values tile by tile (a tile without values is 0 throughout); the grid's rows are dense.
+    // Tile by tile: a tile without values is 0 throughout, one without log-odds unknown.
     const int gx0 = s.region_min.x + x_begin;
     for (int x = 0; x < n;) {
       const int gx = gx0 + x;
@@ -194,13 +192,21 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
         // A point in known free space (observed, not occupied), away from any hit, is evidence
         // against the pose. (A plain loop: the equivalent Eigen select over a mixed-type
         // boolean expression was evaluated element by element, ~1.5x slower at -O2.)
-        const float* odds = log_odds + row + x;
-        const uint8_t* seen = observed + row + x;
-        if (value == nullptr) {
-          for (int k = 0; k < chunk; ++k) o[k] = (odds[k] <= occupied_threshold) & (seen[k] != 0) ? -free_space_penalty : 0.f;
+        const float* odds = log_odds.TileRow(gx, gy);
+        constexpr float kUnobserved = OccupancyGrid::kUnobserved;
+        if (odds == nullptr) {
+          if (value == nullptr) {
+            std::fill(o, o + chunk, 0.f);
+          } else {
+            std::copy(value, value + chunk, o);
+          }
+        } else if (value == nullptr) {
+          for (int k = 0; k < chunk; ++k) {
+            o[k] = (odds[k] <= occupied_threshold) & (odds[k] != kUnobserved) ? -free_space_penalty : 0.f;
+          }
         } else {
           for (int k = 0; k < chunk; ++k) {
-            const bool free_space = (value[k] == 0.f) & (odds[k] <= occupied_threshold) & (seen[k] != 0);
+            const bool free_space = (value[k] == 0.f) & (odds[k] <= occupied_threshold) & (odds[k] != kUnobserved);
             o[k] = free_space ? -free_space_penalty : value[k];
           }
         }

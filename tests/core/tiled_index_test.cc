@@ -1,11 +1,16 @@
 // The tiled per-cell index: -1 everywhere until set, tiles allocated only where a cell is set,
-// linear and (x, y) access agreeing, every set cell visited by ForEach.
+// linear and (x, y) access agreeing, every set cell visited by ForEach. The general TiledGrid
+// (the likelihood field's values and the log-odds of maps being built): rows, 2 x 2
+// neighbourhoods and the dense copy agree with a dense reference; writing the empty value
+// allocates nothing.
 #include "core/tiled_index.h"
 
+#include <limits>
 #include <map>
 #include <random>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "gtest/gtest.h"
 
@@ -63,6 +68,59 @@ TEST(TiledIndexTest, OneCellAllocatesOneTileAndResetForgetsEverything) {
   int count = 0;
   index.ForEach([&](int, int, int32_t) { ++count; });
   EXPECT_EQ(0, count);
+}
+
+// A TiledGrid<float> with +inf as its empty value against a dense reference: random writes
+// (some of them the empty value) on an odd-sized grid, then every reader.
+TEST(TiledGridTest, ReadersAgreeWithADenseReferenceAndEmptyWritesAllocateNothing) {
+  constexpr float kEmpty = std::numeric_limits<float>::infinity();
+  const int width = 29, height = 19;  // partial tiles on the right and top edges
+  TiledGrid<float> grid(width, height, kEmpty);
+  std::vector<float> dense(static_cast<size_t>(width) * height, kEmpty);
+  grid.Set(3, 3, kEmpty);
+  EXPECT_EQ(0, grid.num_allocated_tiles());
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> x_of(0, width - 1), y_of(0, height - 1);
+  std::uniform_real_distribution<float> value_of(-1.f, 1.f);
+  for (int k = 0; k < 60; ++k) {
+    const int x = x_of(rng), y = y_of(rng);
+    const float v = k % 5 == 0 ? kEmpty : value_of(rng);
+    grid.Set(x, y, v);
+    dense[static_cast<size_t>(y) * width + x] = v;
+  }
+  EXPECT_EQ(dense, grid.Dense());
+  for (int y = 0; y < height; ++y) {
+    std::vector<float> row(width - 2);
+    grid.GetRow(1, y, width - 2, row.data());
+    for (int x = 1; x + 1 < width; ++x) {
+      ASSERT_EQ(dense[static_cast<size_t>(y) * width + x], row[x - 1]) << x << ", " << y;
+      ASSERT_EQ(dense[static_cast<size_t>(y) * width + x], grid.GetLinear(y * width + x));
+      if (y + 1 < height) {
+        float v[4];
+        grid.Get2x2(x, y, v);
+        EXPECT_EQ(dense[static_cast<size_t>(y) * width + x], v[0]);
+        EXPECT_EQ(dense[static_cast<size_t>(y) * width + x + 1], v[1]);
+        EXPECT_EQ(dense[static_cast<size_t>(y + 1) * width + x], v[2]);
+        EXPECT_EQ(dense[static_cast<size_t>(y + 1) * width + x + 1], v[3]);
+      }
+    }
+  }
+  int visited = 0;
+  grid.ForEach([&](int x, int y, float v) {
+    EXPECT_EQ(dense[static_cast<size_t>(y) * width + x], v);
+    EXPECT_NE(kEmpty, v);
+    ++visited;
+  });
+  int expected = 0;
+  for (float v : dense) expected += v != kEmpty;
+  EXPECT_EQ(expected, visited);
+  // A tile that was never written reads as empty through every reader.
+  TiledGrid<float> far(1000, 1000, kEmpty);
+  far.Set(999, 999, 2.f);
+  EXPECT_EQ(1, far.num_allocated_tiles());
+  EXPECT_EQ(nullptr, far.TileRow(0, 0));
+  EXPECT_EQ(kEmpty, far.Get(500, 500));
+  EXPECT_EQ(2.f, far.Get(999, 999));
 }
 
 }  // namespace

@@ -82,10 +82,10 @@ TEST(MapMergeTest, RotatedTeammateLandsWhereItsFrameSays) {
 TEST(MapMergeTest, EmptyTeammateChangesNothing) {
   OccupancyGrid own{OccupancyGridOptions()};
   ObserveWall(3, &own);
-  const std::vector<float> before = own.log_odds();
+  const std::vector<float> before = own.log_odds().Dense();
   OccupancyGrid empty{OccupancyGridOptions()};
   EXPECT_EQ(0, MergeMapAsOneObservation(empty, Pose2::Identity(), MapMergeOptions(), &own));
-  EXPECT_EQ(before, own.log_odds());
+  EXPECT_EQ(before, own.log_odds().Dense());
 }
 
 // Walls around a 4 m x 3 m room seen from its centre, with a 0.4 m square box in one corner.
