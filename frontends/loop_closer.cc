@@ -141,8 +141,9 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
                                double margin_meters, std::vector<ConstraintCandidate>* closures,
                                std::optional<WideCandidate>* wide_best) {
   const Pose2 robot_T_node = graph.NodePose(node);
-  const std::vector<Eigen::Vector2f>& points = graph.NodePoints(node).matching;
-  const std::vector<float>& weights = graph.NodePoints(node).matching_weights;
+  const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints(node);
+  const std::vector<Eigen::Vector2f>& points = matching.points;
+  const std::vector<float>& weights = matching.weights;
   const int num_submaps = graph.num_submaps(node.robot);
   // The candidates, best first: the most overlap (the node's points near the submap's
   // structure at the estimate), then the node's estimate nearest the submap's trajectory box,

@@ -1,5 +1,6 @@
 #include "frontends/submap_graph.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -89,12 +90,30 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   node.local_pose = result.local_pose;
   node.pose = problem_.AddPose(robot.robot_T_local * result.local_pose, kNodeGroup);
   node.points = std::move(result.points);
-  // Every node's points live as long as the graph (FR079: 4791 nodes, the largest share of its
-  // memory after the log): heights are kept only where they mean something (a 2.5D projection;
-  // otherwise all 0 and never read, see RenderMap), and the vectors lose the slack of their
-  // growth.
+  // Kept compactly (see Node), and the vectors lose the slack of their growth.
   ScanPoints& points = node.points;
   if (!points.projected) std::vector<float>().swap(points.heights_meters);
+  if (points.all.size() <= std::numeric_limits<uint16_t>::max()) {
+    // The matching points are points of `all` in its order: find each after the previous.
+    std::vector<uint16_t> index;
+    index.reserve(points.matching.size());
+    size_t k = 0;
+    for (const Eigen::Vector2f& p : points.matching) {
+      while (k < points.all.size() && points.all[k] != p) ++k;
+      if (k == points.all.size()) break;
+      index.push_back(static_cast<uint16_t>(k++));
+    }
+    if (index.size() == points.matching.size()) {
+      node.matching_in_all = std::move(index);
+      std::vector<Eigen::Vector2f>().swap(points.matching);
+    }
+  }
+  if (!points.labels.empty() &&
+      std::all_of(points.labels.begin(), points.labels.end(), [&](PointLabel l) { return l == points.labels[0]; })) {
+    node.labels_uniform = true;
+    node.uniform_label = points.labels[0];
+    std::vector<PointLabel>().swap(points.labels);
+  }
   points.all.shrink_to_fit();
   points.labels.shrink_to_fit();
   points.heights_meters.shrink_to_fit();
@@ -269,8 +288,17 @@ bool SubmapGraph::SetAnchorEstimate(int robot_id, const Pose2& world_T_robot) {
 
 double SubmapGraph::NodeStamp(const NodeId& node) const { return robots_.at(node.robot).nodes.at(node.index).stamp_seconds; }
 
-const ScanPoints& SubmapGraph::NodePoints(const NodeId& node) const {
-  return robots_.at(node.robot).nodes.at(node.index).points;
+SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) const {
+  const Node& node = robots_.at(id.robot).nodes.at(id.index);
+  MatchingPoints matching;
+  matching.weights = node.points.matching_weights;
+  if (node.matching_in_all.empty()) {
+    matching.points = node.points.matching;
+  } else {
+    matching.points.reserve(node.matching_in_all.size());
+    for (const uint16_t k : node.matching_in_all) matching.points.push_back(node.points.all[k]);
+  }
+  return matching;
 }
 
 const Pose2& SubmapGraph::NodeLocalPose(const NodeId& node) const {
@@ -383,7 +411,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       labels.clear();
       for (size_t k = 0; k < node.points.all.size(); ++k) {
         points_world.push_back(world_T_node * node.points.all[k].cast<double>());
-        labels.push_back(static_cast<uint8_t>(node.points.labels[k]));
+        labels.push_back(static_cast<uint8_t>(node.Label(k)));
       }
       grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels,
                        node.points.projected ? &node.points.heights_meters : nullptr);

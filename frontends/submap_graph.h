@@ -162,9 +162,13 @@ class SubmapGraph {
   // The robot whose anchor is the team's world: the first robot that added a node (-1 before).
   int world_robot() const { return first_robot_; }
   double NodeStamp(const NodeId& node) const;
-  // A node's points as the LocalResult gave them, except heights_meters, which is empty unless
-  // `projected` (the heights of a scan without attitude are all 0).
-  const ScanPoints& NodePoints(const NodeId& node) const;
+  // A node's matching points (ScanPoints::matching, robot frame) and their weights (empty:
+  // every weight 1), as the LocalResult gave them (a copy: the graph keeps them compactly).
+  struct MatchingPoints {
+    std::vector<Eigen::Vector2f> points;
+    std::vector<float> weights;
+  };
+  MatchingPoints NodeMatchingPoints(const NodeId& node) const;
   const Pose2& NodeLocalPose(const NodeId& node) const;
   // A finished submap's map (null while it is active, and once evicted) and the box of its
   // nodes' positions in its own frame; the index of the last node inserted into it.
@@ -209,11 +213,22 @@ class SubmapGraph {
   const SubmapGraphOptions& options() const { return options_; }
 
  private:
+  // Every node's points live as long as the graph (FR079: 4395 nodes, the largest share of its
+  // memory after the maps), kept compactly: `points` as the LocalResult gave them, except
+  //  - heights_meters: empty unless `projected` (otherwise all 0 and never read);
+  //  - matching: empty when `matching_in_all` holds it, the index in `all` of each matching
+  //    point (they are points of `all` in its order: the voxel filter keeps a voxel's first
+  //    point; 2 bytes a point instead of 8), see NodeMatchingPoints;
+  //  - labels: empty when every point has `uniform_label` (a CARMEN scan's are all structure).
   struct Node {
     double stamp_seconds = 0.0;
     Pose2 local_pose;
     int pose = -1;  // in problem_
     ScanPoints points;
+    std::vector<uint16_t> matching_in_all;
+    bool labels_uniform = false;
+    PointLabel uniform_label = PointLabel::kStructure;
+    PointLabel Label(size_t k) const { return labels_uniform ? uniform_label : points.labels[k]; }
   };
   struct Submap {
     int pose = -1;

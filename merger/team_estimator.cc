@@ -654,8 +654,8 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
                                                                         const Pose2& submap_robot_T_node,
                                                                         double linear_window, double angular_window,
                                                                         double min_score, bool* covered) {
-  const ScanPoints& points = graph_->NodePoints(node);
-  if (points.matching.empty()) return std::nullopt;
+  const SubmapGraph::MatchingPoints matching = graph_->NodeMatchingPoints(node);
+  if (matching.points.empty()) return std::nullopt;
   // Candidate submaps: finished, near (the box of their nodes grown by submap_margin_meters), and
   // seeing most of what the node sees (the share of its points on known cells at the estimate).
   std::vector<std::pair<double, int>> candidates;  // (-overlap, submap index): best first
@@ -669,7 +669,7 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
     const Eigen::Vector2d p = predicted.translation();
     const double margin = options_.submap_margin_meters;
     if ((p.array() < box_min.array() - margin).any() || (p.array() > box_max.array() + margin).any()) continue;
-    const double overlap = KnownFraction(map->grid(), predicted, points.matching);
+    const double overlap = KnownFraction(map->grid(), predicted, matching.points);
     if (overlap >= options_.min_submap_overlap) candidates.emplace_back(-overlap, s);
   }
   std::sort(candidates.begin(), candidates.end());
@@ -681,8 +681,8 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
     const SubmapId submap{submap_robot, s};
     const Pose2 predicted = graph_->SubmapPose(submap).inverse() * submap_robot_T_node;
     const ScanMatchResult match = matcher_.MatchWithinWindow(*graph_->FinishedSubmapMap(submap), predicted,
-                                                             points.matching, linear_window, angular_window,
-                                                             points.matching_weights);
+                                                             matching.points, linear_window, angular_window,
+                                                             matching.weights);
     const double ratio = TranslationalInformationRatio(match.information);
     VLOG(2) << "match robot " << node.robot << " node " << node.index << " in robot " << submap_robot << " submap " << s
             << " (overlap " << -negative_overlap << "): converged " << match.converged << " score " << match.score
@@ -722,7 +722,7 @@ void TeamEstimator::UpdateOverlapTargets(int robot_index) {
   const Pose2 pose = graph_->NodePose(newest);
   if ((!robot.last_overlap_pose.has_value() ||
        (pose.translation() - robot.last_overlap_pose->translation()).norm() >= options_.overlap_node_spacing_meters) &&
-      !graph_->NodePoints(newest).matching.empty()) {
+      !graph_->NodeMatchingPoints(newest).points.empty()) {
     robot.overlap_nodes.push_back(newest.index);
     robot.last_overlap_pose = pose;
   }
@@ -777,7 +777,7 @@ void TeamEstimator::MatchOverlaps(int a, int b) {
         ++stats_.overlap_matches;
         const NodeId node{q, node_index};
         const SubmapId submap{p, submap_index};
-        const ScanPoints& points = graph_->NodePoints(node);
+        const SubmapGraph::MatchingPoints matching = graph_->NodeMatchingPoints(node);
         const LaserMap* evictable = graph_->FinishedSubmapMap(submap);
         if (evictable == nullptr) continue;  // evicted from a bounded map store
         const LaserMap& map = *evictable;
@@ -788,12 +788,12 @@ void TeamEstimator::MatchOverlaps(int a, int b) {
         const double window = std::min(options_.overlap_max_window_meters, 0.5 * (hi - lo).maxCoeff());
         if (!(window > 0)) continue;
         const ScanMatchResult match = overlap_matcher_.MatchWithinWindow(
-            map, Pose2(0.5 * (lo + hi), 0.0), points.matching, window, M_PI, points.matching_weights);
+            map, Pose2(0.5 * (lo + hi), 0.0), matching.points, window, M_PI, matching.weights);
         if (!match.converged || match.score < options_.overlap_min_score) continue;
         // A scan that fits elsewhere in the submap about as well (a symmetric room) says nothing.
         if (match.correlative_score - match.second_mode_correlative_score < options_.overlap_min_mode_margin) continue;
         if (TranslationalInformationRatio(match.information) < options_.min_information_ratio) continue;
-        if (KnownFraction(grid, match.pose, points.matching) < options_.min_submap_overlap) continue;
+        if (KnownFraction(grid, match.pose, matching.points) < options_.min_submap_overlap) continue;
         state.matches.push_back(InterRobotCandidate(submap, node, match.pose, match.score));
         ++stats_.overlap_kept;
         VLOG(1) << "overlap match: " << robots_[q].name << " node " << node_index << " in " << robots_[p].name

@@ -104,5 +104,44 @@ TEST(SubmapGraphTest, WeakInformationFractionScalesThePull) {
   EXPECT_GT(previous_pull, 0.02);
 }
 
+// The graph keeps a node's matching points as indices into its points when they are points of
+// them in order (the voxel filter's output), and as they are otherwise; either way
+// NodeMatchingPoints gives back exactly what the LocalResult held, weights included.
+TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsWhetherKeptAsIndicesOrNot) {
+  SubmapGraph graph{SubmapGraphOptions()};
+  std::vector<std::vector<Eigen::Vector2f>> given;
+  std::vector<std::vector<float>> given_weights;
+  for (int i = 0; i < 3; ++i) {
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.local_pose = Pose2(0.5 * i, 0.0, 0.0);
+    if (i == 0) result.new_submaps.push_back({0, result.local_pose});
+    result.insertions.push_back({0, result.local_pose});
+    for (int k = 0; k < 50; ++k) {
+      result.points.all.emplace_back(0.1f * k, 1.f - 0.03f * k);
+      result.points.labels.push_back(k % 7 == 0 && i == 1 ? PointLabel::kWall : PointLabel::kStructure);
+    }
+    if (i == 0) {  // every third point: a subset in order
+      for (int k = 0; k < 50; k += 3) result.points.matching.push_back(result.points.all[k]);
+    } else if (i == 1) {  // a subset, with weights
+      for (int k = 1; k < 50; k += 4) {
+        result.points.matching.push_back(result.points.all[k]);
+        result.points.matching_weights.push_back(0.5f + 0.01f * k);
+      }
+    } else {  // out of order and one point that is not in `all`: kept as it is
+      result.points.matching = {result.points.all[9], result.points.all[2], Eigen::Vector2f(7.f, 7.f)};
+    }
+    given.push_back(result.points.matching);
+    given_weights.push_back(result.points.matching_weights);
+    graph.AddNode(0, std::move(result));
+  }
+  for (int i = 0; i < 3; ++i) {
+    const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints({0, i});
+    EXPECT_EQ(given[i], matching.points) << "node " << i;
+    EXPECT_EQ(given_weights[i], matching.weights) << "node " << i;
+  }
+}
+
 }  // namespace
 }  // namespace hetslam
