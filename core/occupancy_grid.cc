@@ -292,7 +292,7 @@ void OccupancyGrid::Freeze(int margin_cells) {
       if (!labels.empty()) labels[to] = labels_.Get(x + x0, y + y0);
     }
   }
-  frozen_states_ = SparseTiles<uint8_t>(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
+  frozen_states_ = SparseTiles2Bit(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
   frozen_labels_ = SparseTiles<uint8_t>(labels.empty() ? std::vector<uint8_t>(states.size(), 0) : labels, width, height, 0);
   labels_ = TiledGrid<uint8_t>(0, 0, 0);
   has_label_layer_ = false;

@@ -137,14 +137,13 @@ class OccupancyGrid {
   // The log-odds of a grid that is not frozen, in 8 × 8 tiles that exist only where some cell
   // was observed; a cell never observed holds kUnobserved (below every log-odds, so not
   // occupied; not free either: see StateOfLogOdds). For readers that walk rows tile by tile.
-  // Empty once frozen; read FrozenStatesRow then.
+  // Empty once frozen; read State or FrozenStatesTileRow then.
   static constexpr float kUnobserved = -std::numeric_limits<float>::max();
   const TiledGrid<float>& log_odds() const { return log_odds_; }
-  // A frozen grid's cell states (CellState values) of cells x0 .. x0 + n - 1 of row y, all
-  // inside the grid, into out[0 .. n - 1].
-  void FrozenStatesRow(int x0, int y, int n, uint8_t* out) const { frozen_states_.GetRow(x0, y, n, out); }
-  // SparseTiles::TileRow of the frozen states (null: all unknown to the tile's right edge).
-  const uint8_t* FrozenStatesTileRow(int x, int y) const { return frozen_states_.TileRow(x, y); }
+  // A frozen grid's cell states (CellState values) of row y of the 8 × 8 tile holding (x, y),
+  // from x to the tile's right edge, decoded into `buffer` (room for 8; they are stored in two
+  // bits a cell, SparseTiles2Bit) and returned; null: all unknown to the tile's right edge.
+  const uint8_t* FrozenStatesTileRow(int x, int y, uint8_t* buffer) const { return frozen_states_.TileRow(x, y, buffer); }
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;
@@ -182,13 +181,13 @@ class OccupancyGrid {
 
   // For finished submaps that are only matched against: keeps the cell states and the label
   // layer, over the observed box grown by `margin_cells` (clipped to the grid) instead of the
-  // grid, whose growth slack and border margin hold only unknown cells, in 8 × 8 tiles of
-  // one byte a cell where a tile that is all unknown (labels: all 0) is not stored
-  // (core/sparse_tiles.h; instead of log-odds, observed flag, per-scan mark, heights and the
-  // tiled hit index). The
-  // geometry becomes that box (same lattice, origin moved by whole cells), so linear indices
-  // change; world positions, states and labels do not (every cell left out was unknown, and
-  // StateAt still says so). Idempotent. Afterwards State, StateAt, IsOccupied and LabelMask work; InsertScan, EnsureContains, AddCellObservation, HitPoint, Line, LogOdds
+  // grid, whose growth slack and border margin hold only unknown cells, in 8 × 8 tiles (states
+  // in two bits a cell, labels in a byte) where a tile that is all unknown (labels: all 0) is
+  // not stored (core/sparse_tiles.h; instead of log-odds, per-scan mark, heights and the tiled
+  // hit index). The geometry becomes that box (same lattice, origin moved by whole cells), so
+  // linear indices change; world positions, states and labels do not (every cell left out was
+  // unknown, and StateAt still says so). Idempotent. Afterwards State, StateAt, IsOccupied and
+  // LabelMask work; InsertScan, EnsureContains, AddCellObservation, HitPoint, Line, LogOdds
   // and Probability CHECK-fail.
   void Freeze(int margin_cells = 0);
   bool frozen() const { return frozen_; }
@@ -246,7 +245,7 @@ class OccupancyGrid {
   TiledGrid<uint8_t> height_min_{0, 0, 255}, height_max_{0, 0, 0};
   // Once frozen, the only per-cell data (CellState values; label masks), in tiles that leave
   // out all-unknown (all-0) 8 × 8 blocks; every array above is then empty.
-  SparseTiles<uint8_t> frozen_states_;
+  SparseTiles2Bit frozen_states_;
   SparseTiles<uint8_t> frozen_labels_;
   bool frozen_ = false;
   int num_scans_refused_ = 0;  // see InsertScan

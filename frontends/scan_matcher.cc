@@ -172,7 +172,8 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
         const int gx = gx0 + x;
         const int chunk = std::min(n - x, SparseTiles<uint16_t>::kTileSize - (gx & (SparseTiles<uint16_t>::kTileSize - 1)));
         const uint16_t* q = field.FrozenValuesTileRow(gx, gy);
-        const uint8_t* state = grid.FrozenStatesTileRow(gx, gy);
+        uint8_t state_buffer[SparseTiles2Bit::kTileSize];
+        const uint8_t* state = grid.FrozenStatesTileRow(gx, gy, state_buffer);
         float* o = out + x;
         if (q == nullptr && (state == nullptr || free_space_penalty == 0.f)) {
           std::fill(o, o + chunk, 0.f);

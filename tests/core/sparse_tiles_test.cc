@@ -1,5 +1,6 @@
 #include "core/sparse_tiles.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -58,6 +59,43 @@ TEST(SparseTilesTest, EmptyTilesAreNotStored) {
   EXPECT_EQ(1, tiles.Get(100, 100));
   EXPECT_EQ(3, tiles.Get(101, 100));
   EXPECT_LT(tiles.MemoryBytes(), dense.size() / 10);
+}
+
+// The two-bit tiles (a finished submap's cell states) against the dense array on odd sizes:
+// every cell through Get and through TileRow from every start, unstored tiles as the empty
+// value, and a quarter of the byte tiles' memory.
+TEST(SparseTiles2BitTest, AnswersLikeTheDenseArrayInAQuarterOfTheBytes) {
+  std::mt19937 rng(11);
+  for (const auto& [width, height] : {std::pair{1, 1}, std::pair{8, 8}, std::pair{37, 21}, std::pair{64, 3}}) {
+    for (const uint8_t empty : {uint8_t{0}, uint8_t{2}}) {
+      std::vector<uint8_t> dense(static_cast<size_t>(width) * height, empty);
+      std::uniform_int_distribution<int> x_of(0, width - 1), y_of(0, height - 1), value(0, 3);
+      // A block of random states, the rest empty.
+      const int cx = x_of(rng), cy = y_of(rng);
+      for (int y = cy; y < std::min(height, cy + 6); ++y) {
+        for (int x = cx; x < std::min(width, cx + 9); ++x) dense[static_cast<size_t>(y) * width + x] = value(rng);
+      }
+      const SparseTiles2Bit tiles(dense, width, height, empty);
+      for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) {
+          ASSERT_EQ(dense[static_cast<size_t>(y) * width + x], tiles.Get(x, y)) << x << ", " << y;
+          uint8_t buffer[SparseTiles2Bit::kTileSize];
+          const uint8_t* row = tiles.TileRow(x, y, buffer);
+          const int end = std::min(width, (x | (SparseTiles2Bit::kTileSize - 1)) + 1);
+          for (int k = 0; k < end - x; ++k) {
+            ASSERT_EQ(dense[static_cast<size_t>(y) * width + x + k], row == nullptr ? empty : row[k])
+                << x << ", " << y << " + " << k;
+          }
+        }
+      }
+      const SparseTiles<uint8_t> bytes(dense, width, height, empty);
+      EXPECT_EQ(bytes.num_stored_tiles(), tiles.num_stored_tiles());
+      if (tiles.num_stored_tiles() > 0) {
+        EXPECT_EQ(static_cast<size_t>(tiles.num_stored_tiles()) * 16,
+                  tiles.MemoryBytes() - (bytes.MemoryBytes() - static_cast<size_t>(bytes.num_stored_tiles()) * 64));
+      }
+    }
+  }
 }
 
 }  // namespace
