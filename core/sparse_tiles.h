@@ -1,5 +1,6 @@
 // A read-only grid of small values stored in 8 × 8 cell tiles, where a tile whose cells all
-// hold the same `empty` value is not stored: the compact form of a finished submap's cells
+// hold the same `empty` value is not stored (a TiledGrid, core/tiled_index.h, made at once from
+// a dense array, without the slack of growth): the compact form of a finished submap's cells
 // (core/occupancy_grid.h, core/likelihood_field.h Freeze). A submap's box is mostly unknown
 // space (behind walls, beyond the rooms it saw) and its likelihood field is 0 away from walls,
 // so most tiles are empty.
@@ -14,23 +15,23 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/tiled_index.h"
+
 namespace hetslam {
 
 template <typename T>
-class SparseTiles {
+class SparseTiles : private TiledGrid<T> {
  public:
-  static constexpr int kTileBits = 3;
-  static constexpr int kTileSize = 1 << kTileBits;  // cells per tile side
-  static constexpr int kTileCells = kTileSize * kTileSize;
+  using Tiles = TiledGrid<T>;
+  using Tiles::kTileBits;
+  using Tiles::kTileCells;
+  using Tiles::kTileSize;
 
   SparseTiles() = default;
   // From `dense`, width × height values in row-major order (linear index y * width + x).
-  SparseTiles(const std::vector<T>& dense, int width, int height, T empty)
-      : width_(width), height_(height), tiles_x_((width + kTileSize - 1) >> kTileBits), empty_(empty) {
-    const int tiles_y = (height + kTileSize - 1) >> kTileBits;
-    index_.assign(static_cast<size_t>(tiles_x_) * tiles_y, -1);
-    for (int ty = 0; ty < tiles_y; ++ty) {
-      for (int tx = 0; tx < tiles_x_; ++tx) {
+  SparseTiles(const std::vector<T>& dense, int width, int height, T empty) : Tiles(width, height, empty) {
+    for (int ty = 0; ty < this->tiles_y(); ++ty) {
+      for (int tx = 0; tx < this->tiles_x(); ++tx) {
         const int x0 = tx << kTileBits, y0 = ty << kTileBits;
         const int x1 = std::min(width, x0 + kTileSize), y1 = std::min(height, y0 + kTileSize);
         bool all_empty = true;
@@ -38,92 +39,29 @@ class SparseTiles {
           for (int x = x0; x < x1; ++x) all_empty = all_empty && dense[static_cast<size_t>(y) * width + x] == empty;
         }
         if (all_empty) continue;
-        index_[static_cast<size_t>(ty) * tiles_x_ + tx] = static_cast<int32_t>(cells_.size() / kTileCells);
-        const size_t base = cells_.size();
-        cells_.resize(base + kTileCells, empty);  // cells beyond the grid's edge stay empty
         for (int y = y0; y < y1; ++y) {
-          for (int x = x0; x < x1; ++x) {
-            cells_[base + ((y - y0) << kTileBits) + (x - x0)] = dense[static_cast<size_t>(y) * width + x];
-          }
+          for (int x = x0; x < x1; ++x) this->Ref(x, y) = dense[static_cast<size_t>(y) * width + x];
         }
       }
     }
-    cells_.shrink_to_fit();
+    this->ShrinkToFit();
   }
 
-  int width() const { return width_; }
-  int height() const { return height_; }
-  T empty() const { return empty_; }
-  // The value of cell (x, y), which must be inside the grid.
-  T Get(int x, int y) const {
-    const int32_t tile = index_[static_cast<size_t>(y >> kTileBits) * tiles_x_ + (x >> kTileBits)];
-    if (tile < 0) return empty_;
-    return cells_[static_cast<size_t>(tile) * kTileCells + ((y & (kTileSize - 1)) << kTileBits) + (x & (kTileSize - 1))];
-  }
-  // The stored cells of row y of the tile holding (x, y), from (x, y) to the tile's right edge
-  // (kTileSize - x % kTileSize of them, some possibly beyond the grid's edge); null when the
-  // tile is empty (every cell holds empty()). For readers that walk a row tile by tile.
-  const T* TileRow(int x, int y) const {
-    const int32_t tile = index_[static_cast<size_t>(y >> kTileBits) * tiles_x_ + (x >> kTileBits)];
-    if (tile < 0) return nullptr;
-    return cells_.data() + static_cast<size_t>(tile) * kTileCells + ((y & (kTileSize - 1)) << kTileBits) +
-           (x & (kTileSize - 1));
-  }
-  // Cells (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1), all inside the grid, into out[0..3]
-  // (one tile lookup when they share a tile: bilinear interpolation's neighbourhood).
-  void Get2x2(int x, int y, T* out) const {
-    constexpr int kLast = kTileSize - 1;
-    if ((x & kLast) == kLast || (y & kLast) == kLast) {
-      out[0] = Get(x, y);
-      out[1] = Get(x + 1, y);
-      out[2] = Get(x, y + 1);
-      out[3] = Get(x + 1, y + 1);
-      return;
-    }
-    const int32_t tile = index_[static_cast<size_t>(y >> kTileBits) * tiles_x_ + (x >> kTileBits)];
-    if (tile < 0) {
-      std::fill(out, out + 4, empty_);
-      return;
-    }
-    const T* src = cells_.data() + static_cast<size_t>(tile) * kTileCells + ((y & kLast) << kTileBits) + (x & kLast);
-    out[0] = src[0];
-    out[1] = src[1];
-    out[2] = src[kTileSize];
-    out[3] = src[kTileSize + 1];
-  }
-  // Cells x0 .. x0 + n - 1 of row y (all inside the grid) into out[0 .. n - 1].
-  void GetRow(int x0, int y, int n, T* out) const {
-    const size_t tile_row = static_cast<size_t>(y >> kTileBits) * tiles_x_;
-    const int row_in_tile = (y & (kTileSize - 1)) << kTileBits;
-    int x = x0;
-    while (x < x0 + n) {
-      const int tile_end = std::min(x0 + n, ((x >> kTileBits) + 1) << kTileBits);
-      const int32_t tile = index_[tile_row + (x >> kTileBits)];
-      if (tile < 0) {
-        std::fill(out + (x - x0), out + (tile_end - x0), empty_);
-      } else {
-        const T* src = cells_.data() + static_cast<size_t>(tile) * kTileCells + row_in_tile + (x & (kTileSize - 1));
-        std::copy(src, src + (tile_end - x), out + (x - x0));
-      }
-      x = tile_end;
-    }
-  }
-  // Tiles per row and column; whether tile (tx, ty) is stored (holds a value other than empty()).
-  int tiles_x() const { return tiles_x_; }
-  int tiles_y() const { return tiles_x_ > 0 ? static_cast<int>(index_.size()) / tiles_x_ : 0; }
-  bool TileStored(int tx, int ty) const { return index_[static_cast<size_t>(ty) * tiles_x_ + tx] >= 0; }
-  int num_stored_tiles() const { return static_cast<int>(cells_.size() / kTileCells); }
-  int num_tiles() const { return static_cast<int>(index_.size()); }
-  // Bytes held (capacity).
-  size_t MemoryBytes() const { return index_.capacity() * sizeof(int32_t) + cells_.capacity() * sizeof(T); }
-
- private:
-  int width_ = 0;
-  int height_ = 0;
-  int tiles_x_ = 0;
-  T empty_{};
-  std::vector<int32_t> index_;  // per tile, row-major: its number among the stored tiles, -1: empty
-  std::vector<T> cells_;        // stored tiles, kTileCells values each, row-major within the tile
+  // The readers of TiledGrid (core/tiled_index.h): Get, TileRow (null: every cell of the tile
+  // holds empty()), Get2x2, GetRow; tiles_x, tiles_y, TileStored, num_tiles, MemoryBytes.
+  using Tiles::empty;
+  using Tiles::Get;
+  using Tiles::Get2x2;
+  using Tiles::GetRow;
+  using Tiles::height;
+  using Tiles::MemoryBytes;
+  using Tiles::num_tiles;
+  using Tiles::TileRow;
+  using Tiles::TileStored;
+  using Tiles::tiles_x;
+  using Tiles::tiles_y;
+  using Tiles::width;
+  int num_stored_tiles() const { return this->num_allocated_tiles(); }
 };
 
 // The same tiling for values of two bits (0..3; a finished submap's cell states, CellState):

@@ -139,6 +139,13 @@ class TiledGrid {
     return dense;
   }
   int num_allocated_tiles() const { return static_cast<int>(cells_.size() / kTileCells); }
+  // Tiles per row and column; whether tile (tx, ty) is allocated.
+  int tiles_x() const { return tiles_x_; }
+  int tiles_y() const { return tiles_x_ > 0 ? static_cast<int>(tile_of_.size()) / tiles_x_ : 0; }
+  int num_tiles() const { return static_cast<int>(tile_of_.size()); }
+  bool TileStored(int tx, int ty) const { return tile_of_[static_cast<size_t>(ty) * tiles_x_ + tx] >= 0; }
+  // Drops the slack of the tiles' growth (for a grid that is written no more).
+  void ShrinkToFit() { cells_.shrink_to_fit(); }
   // Bytes held (capacity).
   size_t MemoryBytes() const { return tile_of_.capacity() * sizeof(int32_t) + cells_.capacity() * sizeof(T); }
 
