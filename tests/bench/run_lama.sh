@@ -121,39 +121,8 @@ driver="$driver_build/lama_carmen"
 logs=(intel fr079 aces mit-csail)
 [ "$quick" -eq 1 ] && logs=(intel)
 
-have_gnu_time=0
-[ -x /usr/bin/time ] && /usr/bin/time -v true >/dev/null 2>&1 && have_gnu_time=1
-
-now() { date +%s.%N; }
-
-# run_timed TIME_FILE CMD...: runs CMD with stdout/stderr as inherited; writes
-# "peak_rss_kib <n>" and "cpu_seconds <s>" to TIME_FILE (plus /usr/bin/time -v's report when available).
-run_timed() {
-  local time_file=$1
-  shift
-  if [ "$have_gnu_time" -eq 1 ]; then
-    /usr/bin/time -v -o "$time_file.raw" "$@"
-    local rc=$?
-    cp "$time_file.raw" "$time_file"
-    awk -F': ' '/Maximum resident set size/ {print "peak_rss_kib " $2}
-                /User time \(seconds\)/ {u = $2} /System time \(seconds\)/ {s = $2}
-                END {printf "cpu_seconds %.2f\n", u + s}' "$time_file.raw" >>"$time_file"
-    rm -f "$time_file.raw"
-    return $rc
-  fi
-  # No GNU time: poll the process's high-water mark (VmHWM) while it runs.
-  "$@" &
-  local pid=$! hwm=0 v
-  while kill -0 "$pid" 2>/dev/null; do
-    v=$(awk '/^VmHWM:/ {print $2}' "/proc/$pid/status" 2>/dev/null)
-    [ -n "$v" ] && [ "$v" -gt "$hwm" ] && hwm=$v
-    sleep 0.05
-  done
-  wait "$pid"
-  local rc=$?
-  echo "peak_rss_kib $hwm (VmHWM polled every 50 ms; may miss a short final peak)" >"$time_file"
-  return $rc
-}
+# now, run_timed (peak RSS and CPU time of one run).
+source "$root/tests/bench/timed_run.sh"
 
 echo "LaMa (iris_lama ${lama_version:-version unknown} lama::Slam2D, with odometry) on the shared logs:" \
   "$(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores"

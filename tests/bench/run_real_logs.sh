@@ -71,37 +71,8 @@ fi
 logs=(intel fr079 aces mit-csail)
 [ "$quick" -eq 1 ] && logs=(intel)
 
-have_gnu_time=0
-[ -x /usr/bin/time ] && /usr/bin/time -v true >/dev/null 2>&1 && have_gnu_time=1
-
-now() { date +%s.%N; }
-
-# run_timed TIME_FILE CMD...: runs CMD with stdout/stderr as inherited; writes
-# "peak_rss_kib <n>" to TIME_FILE (plus /usr/bin/time -v's report when available).
-run_timed() {
-  local time_file=$1
-  shift
-  if [ "$have_gnu_time" -eq 1 ]; then
-    /usr/bin/time -v -o "$time_file.raw" "$@"
-    local rc=$?
-    cp "$time_file.raw" "$time_file"
-    awk -F': ' '/Maximum resident set size/ {print "peak_rss_kib " $2}' "$time_file.raw" >>"$time_file"
-    rm -f "$time_file.raw"
-    return $rc
-  fi
-  # No GNU time: poll the process's high-water mark (VmHWM) while it runs.
-  "$@" &
-  local pid=$! hwm=0 v
-  while kill -0 "$pid" 2>/dev/null; do
-    v=$(awk '/^VmHWM:/ {print $2}' "/proc/$pid/status" 2>/dev/null)
-    [ -n "$v" ] && [ "$v" -gt "$hwm" ] && hwm=$v
-    sleep 0.05
-  done
-  wait "$pid"
-  local rc=$?
-  echo "peak_rss_kib $hwm (VmHWM polled every 50 ms; may miss a short final peak)" >"$time_file"
-  return $rc
-}
+# now, run_timed (peak RSS and CPU time of one run).
+source "$root/tests/bench/timed_run.sh"
 
 echo "hetslam_run on the shared logs: $(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores"
 echo "build: $build"
@@ -133,7 +104,7 @@ for name in "${logs[@]}"; do
   fi
   scans=$(sed -n 's/^scans: \([0-9]*\) processed.*/\1/p' "$out/run.log")
   duration=$(sed -n 's/.*data duration \([0-9.]*\) s.*/\1/p' "$out/run.log")
-  failures=$(sed -n 's/.* \([0-9]*\) match failures.*/\1/p' "$out/run.log")
+  failures=$(sed -n 's/.* \([0-9]*\) match failures.*/\1/p' "$out/run.log" | head -1)
   loops=$(sed -n 's/.* \([0-9]*\) loop closures accepted.*/\1/p' "$out/run.log")
   rss_kib=$(awk '$1 == "peak_rss_kib" {print $2}' "$out/time.txt")
   wall=$(awk -v a="$start" -v b="$end" 'BEGIN {printf "%.2f", b - a}')
