@@ -1,7 +1,9 @@
 // ROS 1 bags (rosbag format 2.0, plain or bz2/lz4-compressed chunks) in and out, through Debian's
 // own rosbag_storage library and message headers: no ROS installation and no hand-written
 // parser. ReadMeasurementLog (core/measurement_log.h) calls ReadRosBag for a file that starts
-// with `#ROSBAG V2.0`; this header names no ROS type, so embedders need no ROS headers.
+// with `#ROSBAG V2.0`; this header names no ROS type, so embedders need no ROS headers, and
+// hetslam_core links no ROS library: the ROS libraries are linked by a plugin loaded when a bag
+// is first read or written (CheckRosBagSupport below, core/ros_bag_plugin.h).
 //
 // What becomes what (frames: REP-103, body x forward, y left, z up, like core/measurement.h):
 //   sensor_msgs/LaserScan        -> LaserReading; beam i at angle_min + i * angle_increment,
@@ -43,8 +45,17 @@
 
 namespace hetslam {
 
-// True when this build has the ROS 1 bag libraries (CMake option HETSLAM_WITH_ROSBAG and the
-// Debian packages found); otherwise every function below returns an error saying so.
+// Ok when bags can be read and written here: this build has the ROS 1 bag support (CMake
+// option HETSLAM_WITH_ROSBAG and the Debian packages found) and its plugin,
+// libhetslam_rosbag_plugin.so, loads. The ROS libraries are only in the plugin, which is loaded
+// (dlopen) on the first call of this or a function below, so a program that never touches a bag
+// never maps them. Looked for in this order: $HETSLAM_ROSBAG_PLUGIN (its full path; nothing else
+// is tried when set), the build tree's plugin, the installed one (<libdir>/hetslam/). Otherwise
+// the error every function below returns: built without the support (the packages to install),
+// or the plugin not loaded (every path tried, with dlerror()'s reason).
+Status CheckRosBagSupport();
+
+// CheckRosBagSupport().ok().
 bool RosBagSupported();
 
 struct RosBagReadOptions {

@@ -576,8 +576,10 @@ int Run() {
   if (!FLAGS_g2o_out.empty() && FLAGS_no_loop_closure) {
     return Fail("--g2o_out needs the loop-closing pipeline (drop --no_loop_closure)"), 2;
   }
-  if (!FLAGS_trajectory_bag.empty() && !RosBagSupported()) {
-    return Fail("--trajectory_bag: this build has no ROS bag support (scripts/install_deps.sh, then configure again)"), 2;
+  if (!FLAGS_trajectory_bag.empty()) {
+    // Before the run, not after it: this loads the ROS bag plugin, which may be missing.
+    const Status bags = CheckRosBagSupport();
+    if (!bags.ok()) return Fail("--trajectory_bag: " + bags.message()), 2;
   }
 
   // Streamed (a CARMEN log is checked once, then read a measurement at a time; other formats are

@@ -16,7 +16,7 @@ if [ ${#targets[@]} -eq 0 ]; then
   targets=(carmen_log robot_log team_manifest scenario relations g2o map_yaml)
   # The ROS 1 bag reader's target exists only when core has the bag libraries. Its first runs
   # failed within seconds inside Debian's rosbag_storage (tests/fuzz/known_failures/ros_bag);
-  # core/ros_bag.cc now checks, before the library reads them, the records it reads on
+  # core/ros_bag_plugin.cc now checks, before the library reads them, the records it reads on
   # opening, the records inside every chunk (bz2 and lz4 chunks decompressed first), the index
   # entries and each message's string and array lengths; the README ("Hostile input") has the
   # figures of a 10-minute run.

@@ -35,7 +35,8 @@ foreach(header IN ITEMS pluginlib/class_loader.hpp class_loader/multi_library_cl
 endforeach()
 list(REMOVE_DUPLICATES HETSLAM_ROSBAG_INCLUDE_DIRS)
 
-# roslz4 and bz2: core/ros_bag.cc decompresses chunks itself to check their records.
+# roslz4 and bz2: core/ros_bag_plugin.cc decompresses chunks itself to check their records. These
+# libraries are linked by the plugin alone (core/CMakeLists.txt), never by hetslam_core.
 foreach(library IN ITEMS rosbag_storage roscpp_serialization rostime cpp_common roslz4 bz2 console_bridge)
   string(MAKE_C_IDENTIFIER "HETSLAM_ROSBAG_LIB_${library}" var)
   find_library(${var} ${library})

@@ -2,12 +2,21 @@
 // Once with default options (automatic topics, strict), once lenient with every topic named
 // (the conventional names the automatic choice prefers) and images written to the scratch
 // folder. Exceptions of rosbag_storage must come back as a Status, never escape.
+// The plugin's code (core/ros_bag_plugin.cc) is linked into this program rather than opened with
+// dlopen: libFuzzer's coverage and the sanitizers then see it like the rest of the program, and
+// no plugin file is looked for (core/ros_bag_plugin.h, UseLinkedPlugin).
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
 #include "core/ros_bag.h"
+#include "core/ros_bag_plugin.h"
 #include "tests/fuzz/fuzz_util.h"
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  hetslam::ros_bag_plugin::UseLinkedPlugin(hetslam_rosbag_plugin_api());
+  return 0;
+}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace hetslam;
