@@ -97,7 +97,8 @@ class LikelihoodField {
   // values over `kept`, a box of the current geometry on the same lattice (the frozen grid's,
   // OccupancyGrid::Freeze), quantised to 16 bits (kQuantizationStep), in 8 × 8 tiles where a
   // tile of zeros is not stored (core/sparse_tiles.h: 2 bytes a cell near surfaces, nothing
-  // away from them, instead of 12 bytes a cell and the pooled segments). Every value left out
+  // away from them, instead of the float values and squared distances, 8 bytes a cell of their
+  // tiles, and the pooled segments). Every value left out
   // of the box must be 0, which holds when it covers the window radius around every occupied
   // cell. A value that is not 0 stays not 0 (it rounds up to at least
   // one step), so "no surface in the window" keeps its meaning for the free-space penalty.
