@@ -143,7 +143,9 @@ class OccupancyGrid {
   // A frozen grid's cell states (CellState values) of row y of the 8 × 8 tile holding (x, y),
   // from x to the tile's right edge, decoded into `buffer` (room for 8; they are stored in two
   // bits a cell, SparseTiles2Bit) and returned; null: all unknown to the tile's right edge.
-  const uint8_t* FrozenStatesTileRow(int x, int y, uint8_t* buffer) const { return frozen_states_.TileRow(x, y, buffer); }
+  const uint8_t* FrozenStatesTileRow(int x, int y, uint8_t* buffer) const {
+    return frozen_states_.TileRow(x, y, buffer);
+  }
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;

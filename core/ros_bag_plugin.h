@@ -1,10 +1,10 @@
 // The boundary between hetslam_core and its ROS 1 bag plugin (internal; embedders use
 // core/ros_bag.h). Debian's librosbag_storage pulls in librospack and with it libpython3.11,
 // boost_program_options and more: about 4 MiB resident in every process that links it, bags or
-// not (Intel's peak RSS 39.6-39.9 -> 35.4 MiB without them). So the code that uses ROS types and libraries lives in a MODULE library,
-// libhetslam_rosbag_plugin.so (core/ros_bag_plugin.cc, built when HETSLAM_ROSBAG_ENABLED), which
-// core/ros_bag.cc loads with dlopen the first time a bag is read or written (or
-// RosBagSupported() asks). A run that never touches a bag never maps a ROS library.
+// not (Intel's peak RSS 39.6-39.9 -> 35.4 MiB without them). So the code that uses ROS types and
+// libraries lives in a MODULE library, libhetslam_rosbag_plugin.so (core/ros_bag_plugin.cc,
+// built when HETSLAM_ROSBAG_ENABLED), which core/ros_bag.cc loads with dlopen the first time a
+// bag is read or written (or RosBagSupported() asks). A run that never touches a bag never maps a ROS library.
 //
 // The plugin exports one C symbol, hetslam_rosbag_plugin_api(), returning a table of function
 // pointers. The functions take and return hetslam's own C++ types (std::string, RosBagContents,

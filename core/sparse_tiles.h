@@ -121,7 +121,9 @@ class SparseTiles2Bit {
     const int32_t tile = index_[static_cast<size_t>(y >> kTileBits) * tiles_x_ + (x >> kTileBits)];
     if (tile < 0) return nullptr;
     const uint16_t row = rows_[static_cast<size_t>(tile) * kTileSize + (y & (kTileSize - 1))];
-    for (int k = x & (kTileSize - 1), i = 0; k < kTileSize; ++k, ++i) buffer[i] = static_cast<uint8_t>((row >> (2 * k)) & 3u);
+    for (int k = x & (kTileSize - 1), i = 0; k < kTileSize; ++k, ++i) {
+      buffer[i] = static_cast<uint8_t>((row >> (2 * k)) & 3u);
+    }
     return buffer;
   }
   int num_stored_tiles() const { return static_cast<int>(rows_.size() / kTileSize); }
