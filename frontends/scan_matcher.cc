@@ -149,7 +149,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const TiledGrid<float>& values = field.values();
   constexpr float kStep = LikelihoodField::kQuantizationStep;
   // A frozen grid (a finished submap) keeps only cell states (tiled, like the field's values);
-  // one that is being built keeps log-odds and observed flags.
+  // one that is being built keeps log-odds in tiles (OccupancyGrid::kUnobserved: never observed).
   CHECK_EQ(grid.frozen(), frozen_field) << "a LaserMap's grid and field freeze together";
   const TiledGrid<float>& log_odds = grid.log_odds();
   constexpr uint8_t kFree = static_cast<uint8_t>(CellState::kFree);
