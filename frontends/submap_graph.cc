@@ -114,6 +114,18 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
     node.uniform_label = points.labels[0];
     std::vector<PointLabel>().swap(points.labels);
   }
+  // The points to the millimetre (after the matching indices, which compare them exactly).
+  constexpr float kMaxMeters = std::numeric_limits<int16_t>::max() / kPointsPerMeter;
+  if (!points.all.empty() && std::all_of(points.all.begin(), points.all.end(), [&](const Eigen::Vector2f& p) {
+        return std::abs(p.x()) <= kMaxMeters && std::abs(p.y()) <= kMaxMeters;
+      })) {
+    node.all_mm.reserve(points.all.size());
+    for (const Eigen::Vector2f& p : points.all) {
+      node.all_mm.push_back({static_cast<int16_t>(std::lround(p.x() * kPointsPerMeter)),
+                             static_cast<int16_t>(std::lround(p.y() * kPointsPerMeter))});
+    }
+    std::vector<Eigen::Vector2f>().swap(points.all);
+  }
   points.all.shrink_to_fit();
   points.labels.shrink_to_fit();
   points.heights_meters.shrink_to_fit();
@@ -296,7 +308,7 @@ SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) co
     matching.points = node.points.matching;
   } else {
     matching.points.reserve(node.matching_in_all.size());
-    for (const uint16_t k : node.matching_in_all) matching.points.push_back(node.points.all[k]);
+    for (const uint16_t k : node.matching_in_all) matching.points.push_back(node.Point(k));
   }
   return matching;
 }
@@ -372,8 +384,8 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     for (const Node& node : it->second.nodes) {
       const Pose2 world_T_node = problem_.pose(node.pose);
       walls.clear();
-      for (const Eigen::Vector2f& p : node.points.all) {
-        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+      for (size_t k = 0; k < node.num_points(); ++k) {
+        const Eigen::Vector2d world = world_T_node * node.Point(k).cast<double>();
         const int cell = all->geometry().LinearIndex(all->geometry().WorldToCell(world));
         if (all->IsOccupied(cell) && (all->LabelMask(cell) & (1u << OccupancyGrid::kWallLabelBit))) walls.push_back(world);
       }
@@ -390,13 +402,13 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector2d hi = -lo;
     for (const Node& node : it->second.nodes) {
-      if (node.points.all.empty()) continue;
+      if (node.num_points() == 0) continue;
       const Pose2 world_T_node = problem_.pose(node.pose);
       const Eigen::Vector2d sensor = world_T_node * node.points.sensor_robot;
       lo = lo.cwiseMin(sensor);
       hi = hi.cwiseMax(sensor);
-      for (const Eigen::Vector2f& p : node.points.all) {
-        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+      for (size_t k = 0; k < node.num_points(); ++k) {
+        const Eigen::Vector2d world = world_T_node * node.Point(k).cast<double>();
         lo = lo.cwiseMin(world);
         hi = hi.cwiseMax(world);
       }
@@ -405,12 +417,12 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     // refuses the offending scans one by one.
     if (lo.x() <= hi.x() && grid->CanContain(lo, hi)) grid->EnsureContains(lo, hi);
     for (const Node& node : it->second.nodes) {
-      if (node.points.all.empty()) continue;
+      if (node.num_points() == 0) continue;
       const Pose2 world_T_node = problem_.pose(node.pose);
       points_world.clear();
       labels.clear();
-      for (size_t k = 0; k < node.points.all.size(); ++k) {
-        points_world.push_back(world_T_node * node.points.all[k].cast<double>());
+      for (size_t k = 0; k < node.num_points(); ++k) {
+        points_world.push_back(world_T_node * node.Point(k).cast<double>());
         labels.push_back(static_cast<uint8_t>(node.Label(k)));
       }
       grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels,

@@ -107,11 +107,13 @@ TEST(SubmapGraphTest, WeakInformationFractionScalesThePull) {
 // The graph keeps a node's matching points as indices into its points when they are points of
 // them in order (the voxel filter's output), and as they are otherwise; either way
 // NodeMatchingPoints gives back exactly what the LocalResult held, weights included.
-TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsWhetherKeptAsIndicesOrNot) {
+// Node points are kept to the millimetre in 16 bits when every one is within 32.7 m of the
+// robot (node 3: one point 40 m away, so its points are kept as they are).
+TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsToTheMillimetre) {
   SubmapGraph graph{SubmapGraphOptions()};
   std::vector<std::vector<Eigen::Vector2f>> given;
   std::vector<std::vector<float>> given_weights;
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < 4; ++i) {
     LocalResult result;
     result.inserted = true;
     result.stamp_seconds = i;
@@ -119,7 +121,7 @@ TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsWhetherKeptAsIndicesOr
     if (i == 0) result.new_submaps.push_back({0, result.local_pose});
     result.insertions.push_back({0, result.local_pose});
     for (int k = 0; k < 50; ++k) {
-      result.points.all.emplace_back(0.1f * k, 1.f - 0.03f * k);
+      result.points.all.emplace_back(0.1234567f * k - 3.f, 1.f - 0.0314159f * k);
       result.points.labels.push_back(k % 7 == 0 && i == 1 ? PointLabel::kWall : PointLabel::kStructure);
     }
     if (i == 0) {  // every third point: a subset in order
@@ -129,17 +131,28 @@ TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsWhetherKeptAsIndicesOr
         result.points.matching.push_back(result.points.all[k]);
         result.points.matching_weights.push_back(0.5f + 0.01f * k);
       }
-    } else {  // out of order and one point that is not in `all`: kept as it is
+    } else if (i == 2) {  // out of order and one point that is not in `all`: kept as it is
       result.points.matching = {result.points.all[9], result.points.all[2], Eigen::Vector2f(7.f, 7.f)};
+    } else {  // a point beyond the 16-bit millimetres
+      result.points.all.back() = Eigen::Vector2f(40.f, 0.123456f);
+      result.points.matching = {result.points.all[0], result.points.all.back()};
     }
     given.push_back(result.points.matching);
     given_weights.push_back(result.points.matching_weights);
     graph.AddNode(0, std::move(result));
   }
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < 4; ++i) {
     const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints({0, i});
-    EXPECT_EQ(given[i], matching.points) << "node " << i;
     EXPECT_EQ(given_weights[i], matching.weights) << "node " << i;
+    ASSERT_EQ(given[i].size(), matching.points.size()) << "node " << i;
+    if (i >= 2) {
+      EXPECT_EQ(given[i], matching.points) << "node " << i << ": kept as given";
+      continue;
+    }
+    for (size_t k = 0; k < given[i].size(); ++k) {
+      EXPECT_LE((given[i][k] - matching.points[k]).cwiseAbs().maxCoeff(), 0.0005f + 1e-6f)
+          << "node " << i << " point " << k;
+    }
   }
 }
 
