@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <sstream>
 
 #include "glog/logging.h"
@@ -62,6 +64,35 @@ bool LikelihoodFieldOptions::IsValid(std::string* error) const {
   return msg.str().empty();
 }
 
+const LikelihoodField::FrozenCodes& LikelihoodField::SharedFrozenCodes(double sigma_meters, double window_meters,
+                                                                       double cap_meters) {
+  // One table per (sigma, window, cap): every field of a run shares one. Never freed.
+  static std::mutex mutex;
+  static std::vector<std::unique_ptr<FrozenCodes>> tables;
+  const std::lock_guard<std::mutex> lock(mutex);
+  for (const std::unique_ptr<FrozenCodes>& t : tables) {
+    if (t->sigma_meters == sigma_meters && t->window_meters == window_meters && t->cap_meters == cap_meters) return *t;
+  }
+  auto t = std::make_unique<FrozenCodes>();
+  t->sigma_meters = sigma_meters;
+  t->window_meters = window_meters;
+  t->cap_meters = cap_meters;
+  t->distance_step_meters = window_meters / 254.0;
+  t->squared_distance[0] = cap_meters * cap_meters;
+  for (int code = 1; code < 256; ++code) {
+    const double d = (255 - code) * t->distance_step_meters;
+    t->value[code] = std::max(static_cast<float>(std::exp(-d / sigma_meters)), std::numeric_limits<float>::min());
+    t->squared_distance[code] = std::min(d, cap_meters) * std::min(d, cap_meters);
+  }
+  tables.push_back(std::move(t));
+  return *tables.back();
+}
+
+const LikelihoodField::FrozenCodes& LikelihoodField::frozen_codes() const {
+  CHECK(frozen_) << "frozen_codes() before Freeze";
+  return *codes_;
+}
+
 LikelihoodField::LikelihoodField(const LikelihoodFieldOptions& options, uint8_t surface_labels)
     : options_(options), surface_labels_(surface_labels) {
   std::string error;
@@ -78,26 +109,33 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
   CHECK(kept.num_cells() == 0 || (x0 >= 0 && y0 >= 0 && x0 + kept.width() <= geometry_.width() &&
                                   y0 + kept.height() <= geometry_.height()))
       << "Freeze: the kept box is not inside the field";
-  std::vector<uint16_t> quantized(kept.num_cells());
-  std::vector<float> from(kept.width());
+  // The largest distance a value within the window stands for: from a cell centre R cells
+  // away along both axes to a hit point anywhere in its cell.
+  const double window_meters = (radius_cells_ + 0.5) * std::sqrt(2.0) * r;
+  codes_ = &SharedFrozenCodes(options_.sigma_meters, window_meters, radius_cells_ * r);
+  const double inv_step = 1.0 / codes_->distance_step_meters;
+  std::vector<uint8_t> codes(kept.num_cells());
+  std::vector<float> values(kept.width()), squared(kept.width());
   for (int y = 0; y < kept.height(); ++y) {
-    values_.GetRow(x0, y + y0, kept.width(), from.data());
-    uint16_t* to = quantized.data() + static_cast<size_t>(y) * kept.width();
+    values_.GetRow(x0, y + y0, kept.width(), values.data());
+    squared_distances_.GetRow(x0, y + y0, kept.width(), squared.data());
+    uint8_t* to = codes.data() + static_cast<size_t>(y) * kept.width();
     for (int x = 0; x < kept.width(); ++x) {
-      const float v = std::clamp(from[x], 0.f, 1.f);
-      // Round to nearest, but never a positive value to 0 (see Freeze in the header).
-      to[x] = v > 0.f ? static_cast<uint16_t>(std::max(1L, std::lround(v / kQuantizationStep))) : 0;
+      // Round the distance to the nearest step; a value that is not 0 keeps a code >= 1 (see
+      // Freeze in the header).
+      const long steps = std::lround(std::sqrt(static_cast<double>(squared[x])) * inv_step);
+      to[x] = values[x] > 0.f ? static_cast<uint8_t>(255 - std::clamp(steps, 0L, 254L)) : 0;
     }
   }
-  frozen_values_ = SparseTiles<uint16_t>(quantized, kept.width(), kept.height(), 0);
+  frozen_codes_ = SparseTiles<uint8_t>(codes, kept.width(), kept.height(), 0);
   // Chessboard distance transform over the tiles (two passes, 8-neighbourhood: exact for the
   // Chebyshev metric).
-  const int tx = frozen_values_.tiles_x(), ty = frozen_values_.tiles_y();
+  const int tx = frozen_codes_.tiles_x(), ty = frozen_codes_.tiles_y();
   tile_distances_.assign(static_cast<size_t>(tx) * ty, 255);
   auto at = [&](int x, int y) -> uint8_t& { return tile_distances_[static_cast<size_t>(y) * tx + x]; };
   for (int y = 0; y < ty; ++y) {
     for (int x = 0; x < tx; ++x) {
-      if (frozen_values_.TileStored(x, y)) {
+      if (frozen_codes_.TileStored(x, y)) {
         at(x, y) = 0;
         continue;
       }
@@ -142,12 +180,12 @@ bool LikelihoodField::MayBeNonZeroNear(const CellIndex& c, int radius_cells) con
   constexpr int kBits = SparseTiles<uint16_t>::kTileBits;
   // A cell within r of (x, y) lies in a tile at most (r + size - 1) / size tiles away.
   const int reach_tiles = (radius_cells + SparseTiles<uint16_t>::kTileSize - 1) >> kBits;
-  const int d = tile_distances_[static_cast<size_t>(y >> kBits) * frozen_values_.tiles_x() + (x >> kBits)];
+  const int d = tile_distances_[static_cast<size_t>(y >> kBits) * frozen_codes_.tiles_x() + (x >> kBits)];
   return d <= reach_tiles;
 }
 
 size_t LikelihoodField::MemoryBytes() const {
-  return values_.MemoryBytes() + frozen_values_.MemoryBytes() + tile_distances_.capacity() +
+  return values_.MemoryBytes() + frozen_codes_.MemoryBytes() + tile_distances_.capacity() +
          squared_distances_.MemoryBytes() +
          stale_cells_.capacity() * sizeof(int) + published_index_.MemoryBytes() +
          segments_.capacity() * sizeof(Segment) + free_segments_.capacity() * sizeof(int32_t);

@@ -93,18 +93,33 @@ class LikelihoodField {
   // Publishes every surface cell's current hit point and rebuilds.
   void RebuildFrom(const OccupancyGrid& grid);
 
-  // For a finished submap: frees the published hit points and squared distances and keeps the
-  // values over `kept`, a box of the current geometry on the same lattice (the frozen grid's,
-  // OccupancyGrid::Freeze), quantised to 16 bits (kQuantizationStep), in 8 × 8 tiles where a
-  // tile of zeros is not stored (core/sparse_tiles.h: 2 bytes a cell near surfaces, nothing
-  // away from them, instead of the float values and squared distances, 8 bytes a cell of their
-  // tiles, and the pooled segments). Every value left out
-  // of the box must be 0, which holds when it covers the window radius around every occupied
-  // cell. A value that is not 0 stays not 0 (it rounds up to at least
-  // one step), so "no surface in the window" keeps its meaning for the free-space penalty.
-  // Values stay readable through Value (0 outside, as before) and FrozenValuesRow; values()
-  // is then empty; ApplyChanges, Resize and the rebuilds CHECK-fail. Idempotent.
+  // For a finished submap: frees the published hit points and squared distances and keeps,
+  // over `kept` (a box of the current geometry on the same lattice: the frozen grid's,
+  // OccupancyGrid::Freeze), each cell's distance d to its nearest published surface as an 8-bit
+  // code (FrozenCodes: 0, no surface in the window; else d rounded to a step of 1/254 of the
+  // largest distance within the window, 1.8 mm with the defaults), in 8 × 8 tiles where a tile of
+  // zeros is not stored (core/sparse_tiles.h: a byte a cell near surfaces, nothing away from
+  // them, instead of the float values and squared distances, 8 bytes a cell of their tiles, and
+  // the pooled segments). The value of a code is exp(-d / sigma) at its distance, so a value
+  // that is not 0 stays not 0 and "no surface in the window" keeps its meaning for the
+  // free-space penalty; the refinement reads the distances themselves (FrozenCodes::
+  // squared_distance: no logarithm). Every value left out of the box must be 0, which holds
+  // when it covers the window radius around every occupied cell.
+  // Values stay readable through Value (0 outside, as before); values() is then empty;
+  // ApplyChanges, Resize and the rebuilds CHECK-fail. Idempotent.
   void Freeze(const GridGeometry& kept);
+  // What a frozen field's codes stand for (shared by every field with the same sigma, window
+  // and resolution).
+  struct FrozenCodes {
+    double sigma_meters = 0.0;
+    double window_meters = 0.0;  // the distance of code 1
+    double cap_meters = 0.0;     // of squared_distance
+    double distance_step_meters = 0.0;  // d = (255 - code) * step for code >= 1
+    float value[256] = {};               // exp(-d / sigma); value[0] = 0
+    // d^2 with d capped at the window radius (R * resolution; code 0: the cap), as the
+    // refinement reads distances (factors/scan_cost.h).
+    double squared_distance[256] = {};
+  };
   bool frozen() const { return frozen_; }
   // False only if no cell within `radius_cells` (Chebyshev distance, cells) of `c` holds a value
   // other than 0; `c` may lie outside the grid (the answer is then looser). Exact to the 8 × 8
@@ -113,16 +128,17 @@ class LikelihoodField {
   // that keeps a point within `radius_cells` of `c` gives it a likelihood (issue #15: loop
   // searches that cannot reach their score are skipped).
   bool MayBeNonZeroNear(const CellIndex& c, int radius_cells) const;
-  // A frozen field's values in their tiles (empty before Freeze): which 8 × 8 tiles hold any.
-  const SparseTiles<uint16_t>& frozen_tiles() const { return frozen_values_; }
-  static constexpr float kQuantizationStep = 1.f / 65535.f;
+  // A frozen field's codes in their tiles (empty before Freeze): which 8 × 8 tiles hold any.
+  const SparseTiles<uint8_t>& frozen_tiles() const { return frozen_codes_; }
+  // What the codes stand for (CHECK-fails before Freeze).
+  const FrozenCodes& frozen_codes() const;
   // Bytes held by the per-cell arrays (capacity).
   size_t MemoryBytes() const;
 
   // Value at a cell (0 outside the grid).
   float Value(const CellIndex& c) const {
     if (!geometry_.Contains(c)) return 0.f;
-    return frozen_ ? kQuantizationStep * frozen_values_.Get(c.x, c.y) : values_.Get(c.x, c.y);
+    return frozen_ ? codes_->value[frozen_codes_.Get(c.x, c.y)] : values_.Get(c.x, c.y);
   }
   float Value(int linear_index) const { return Value(geometry_.FromLinearIndex(linear_index)); }
   // Values of cells (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1) into v[0..3] (0 outside
@@ -133,9 +149,9 @@ class LikelihoodField {
         values_.Get2x2(x, y, v);
         return;
       }
-      uint16_t q[4];
-      frozen_values_.Get2x2(x, y, q);
-      for (int k = 0; k < 4; ++k) v[k] = kQuantizationStep * q[k];
+      uint8_t q[4];
+      frozen_codes_.Get2x2(x, y, q);
+      for (int k = 0; k < 4; ++k) v[k] = codes_->value[q[k]];
       return;
     }
     v[0] = Value(CellIndex{x, y});
@@ -147,13 +163,10 @@ class LikelihoodField {
   // 0 (within the window radius of a surface; empty, every cell 0, after Freeze). Readers walk
   // rows tile by tile (TiledGrid::TileRow) or read cells (Get, Get2x2).
   const TiledGrid<float>& values() const { return values_; }
-  // A frozen field's quantised values q (value = kQuantizationStep * q) of cells
-  // x0 .. x0 + n - 1 of row y, all inside the grid, into out[0 .. n - 1].
-  void FrozenValuesRow(int x0, int y, int n, uint16_t* out) const { frozen_values_.GetRow(x0, y, n, out); }
-  // SparseTiles::TileRow of the frozen values (null: all 0 to the tile's right edge).
-  const uint16_t* FrozenValuesTileRow(int x, int y) const { return frozen_values_.TileRow(x, y); }
-  // The same for one cell inside the grid.
-  uint16_t FrozenValue(int x, int y) const { return frozen_values_.Get(x, y); }
+  // SparseTiles::TileRow of the frozen codes (null: all 0 to the tile's right edge).
+  const uint8_t* FrozenCodesTileRow(int x, int y) const { return frozen_codes_.TileRow(x, y); }
+  // The code of one cell inside the grid.
+  uint8_t FrozenCode(int x, int y) const { return frozen_codes_.Get(x, y); }
 
  private:
   // A published surface piece: hit point relative to the cell's minimum corner (metres; NaN
@@ -178,6 +191,7 @@ class LikelihoodField {
   }
   // exp(-d / sigma) for a squared distance d^2 (0 for d^2 = +inf: nothing in the window).
   float ValueFromSquaredDistance(float squared_distance) const;
+  static const FrozenCodes& SharedFrozenCodes(double sigma_meters, double window_meters, double cap_meters);
   // Min d^2 over the published points in c's window (+inf when there is none).
   float RecomputeSquaredDistance(const CellIndex& c) const;
   bool HasPublished(int i) const { return published_index_.GetLinear(i) >= 0; }
@@ -196,9 +210,10 @@ class LikelihoodField {
   int radius_cells_ = 0;
   uint8_t surface_labels_ = 0;
   bool frozen_ = false;
-  TiledGrid<float> values_;               // empty (all 0) once frozen
-  SparseTiles<uint16_t> frozen_values_;  // empty until frozen
-  // Per tile of frozen_values_ (row-major), the Chebyshev distance in tiles to the nearest
+  TiledGrid<float> values_;             // empty (all 0) once frozen
+  SparseTiles<uint8_t> frozen_codes_;  // empty until frozen
+  const FrozenCodes* codes_ = nullptr;  // set by Freeze (shared, never freed)
+  // Per tile of frozen_codes_ (row-major), the Chebyshev distance in tiles to the nearest
   // stored tile, capped at 255 (255 also when no tile is stored); empty until frozen.
   std::vector<uint8_t> tile_distances_;
   // values_ = ValueFromSquaredDistance(squared_distances_) cell by cell (+inf, tile not

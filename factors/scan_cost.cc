@@ -10,19 +10,22 @@
 namespace hetslam {
 namespace {
 
-// A frozen field's tiled, quantised values (core/likelihood_field.h Freeze) as a Ceres grid:
-// row y, column x, clamped to the edge like ceres::Grid2D; value = kQuantizationStep * sample.
+// A frozen field's tiled distance codes (core/likelihood_field.h Freeze) as a Ceres grid of
+// what each code stands for (`table`: its value or its squared distance): row y, column x,
+// clamped to the edge like ceres::Grid2D.
+template <typename T>
 class FrozenFieldGrid {
  public:
   enum { DATA_DIMENSION = 1 };
-  explicit FrozenFieldGrid(const LikelihoodField& field) : field_(field) {}
+  FrozenFieldGrid(const LikelihoodField& field, const T* table) : field_(field), table_(table) {}
   void GetValue(int row, int col, double* f) const {
     const GridGeometry& g = field_.geometry();
-    f[0] = field_.FrozenValue(std::clamp(col, 0, g.width() - 1), std::clamp(row, 0, g.height() - 1));
+    f[0] = table_[field_.FrozenCode(std::clamp(col, 0, g.width() - 1), std::clamp(row, 0, g.height() - 1))];
   }
 
  private:
   const LikelihoodField& field_;  // outlives the cost (see the header's lifetime note)
+  const T* table_;                // 256 entries, shared and never freed (LikelihoodField::FrozenCodes)
 };
 
 // The same for a field that is being built: its values, tiled (core/likelihood_field.h values).
@@ -39,7 +42,8 @@ class BuiltFieldGrid {
   const LikelihoodField& field_;  // outlives the cost (see the header's lifetime note)
 };
 
-// The field's distances instead of its values: at each cell centre the distance d to the
+// The field's distances instead of its values (a field being built; a frozen one keeps
+// distances, FrozenFieldGrid): at each cell centre the distance d to the
 // nearest surface recovered from the stored value L = exp(-d / sigma) as d = -sigma ln L (the
 // window's radius where L is 0 or below exp(-radius / sigma)), served squared. Near a straight
 // wall d^2 is a quadratic in the position, which the bicubic (Catmull-Rom) interpolation
@@ -72,9 +76,10 @@ class SquaredDistanceGrid {
   const double min_value_;
 };
 
-// `Grid` is the field's storage: BuiltFieldGrid over values() while the field is built,
-// FrozenFieldGrid once frozen (quantised: value = value_scale * sample; interpolation is linear
-// in the samples, so scaling the interpolated sample is scaling the samples).
+// `Grid` is the field's storage: BuiltFieldGrid over values() (or SquaredDistanceGrid of it)
+// while the field is built, FrozenFieldGrid over its codes' values or squared distances once
+// frozen; value = value_scale * sample (interpolation is linear in the samples, so scaling the
+// interpolated sample is scaling the samples).
 template <typename Grid>
 class ScanToLikelihoodFieldFunctor {
  public:
@@ -167,12 +172,14 @@ ceres::CostFunction* CreateScanToLikelihoodFieldCost(const LikelihoodField& fiel
   const double sigma = field.options().sigma_meters;
   const double max_distance = field.window_radius_cells() * field.geometry().resolution_meters();
   if (field.frozen()) {
+    // The codes are distances: their squares are served as they are (capped at max_distance
+    // like SquaredDistanceGrid's), their values from the same table as every other reader's.
+    const LikelihoodField::FrozenCodes& codes = field.frozen_codes();
     if (interpolation == ScanCostInterpolation::kDistances) {
-      return MakeCost(SquaredDistanceGrid<FrozenFieldGrid>(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep,
-                                                           sigma, max_distance),
-                      1.0, sigma, field, points_robot, weights);
+      return MakeCost(FrozenFieldGrid<double>(field, codes.squared_distance), 1.0, sigma, field, points_robot,
+                      weights);
     }
-    return MakeCost(FrozenFieldGrid(field), LikelihoodField::kQuantizationStep, 0.0, field, points_robot, weights);
+    return MakeCost(FrozenFieldGrid<float>(field, codes.value), 1.0, 0.0, field, points_robot, weights);
   }
   if (interpolation == ScanCostInterpolation::kDistances) {
     return MakeCost(SquaredDistanceGrid<BuiltFieldGrid>(BuiltFieldGrid(field), 1.0, sigma, max_distance), 1.0, sigma,

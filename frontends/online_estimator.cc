@@ -430,7 +430,7 @@ void OnlineEstimator::EnforceMapStoreBound() {
     for (size_t k = 0; k + 1 < kept.size(); ++k) {
       const SubmapId a{robot, kept[k]};
       const LaserMap& map = *graph_->FinishedSubmapMap(a);
-      const SparseTiles<uint16_t>& tiles = map.field().frozen_tiles();
+      const SparseTiles<uint8_t>& tiles = map.field().frozen_tiles();
       const GridGeometry& g = map.field().geometry();
       const Pose2 world_T_a = graph_->SubmapPose(a);
       // The other kept submaps, with the transform carrying a's points into each.
@@ -441,7 +441,7 @@ void OnlineEstimator::EnforceMapStoreBound() {
         others.push_back({&graph_->FinishedSubmapMap(other)->field(), graph_->SubmapPose(other).inverse() * world_T_a});
       }
       constexpr float kCovered = 0.36787944f;  // exp(-1): within one sigma of a hit
-      constexpr int kTile = SparseTiles<uint16_t>::kTileSize;
+      constexpr int kTile = SparseTiles<uint8_t>::kTileSize;
       // Every kSample-th occupied cell (in row order within tiles) is checked: the share is
       // the same to a few percent at a quarter of the cost.
       constexpr int kSample = 4;

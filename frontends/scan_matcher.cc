@@ -147,7 +147,8 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   // A frozen field (a finished submap) holds its values quantised.
   const bool frozen_field = field.frozen();
   const TiledGrid<float>& values = field.values();
-  constexpr float kStep = LikelihoodField::kQuantizationStep;
+  // A frozen field's codes stand for values (LikelihoodField::FrozenCodes).
+  const float* code_value = frozen_field ? field.frozen_codes().value : nullptr;
   // A frozen grid (a finished submap) keeps only cell states (tiled, like the field's values);
   // one that is being built keeps log-odds in tiles (OccupancyGrid::kUnobserved: never observed).
   CHECK_EQ(grid.frozen(), frozen_field) << "a LaserMap's grid and field freeze together";
@@ -171,8 +172,8 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       const int gx0 = s.region_min.x + x_begin;
       for (int x = 0; x < n;) {
         const int gx = gx0 + x;
-        const int chunk = std::min(n - x, SparseTiles<uint16_t>::kTileSize - (gx & (SparseTiles<uint16_t>::kTileSize - 1)));
-        const uint16_t* q = field.FrozenValuesTileRow(gx, gy);
+        const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - (gx & (SparseTiles<uint8_t>::kTileSize - 1)));
+        const uint8_t* q = field.FrozenCodesTileRow(gx, gy);
         uint8_t state_buffer[SparseTiles2Bit::kTileSize];
         const uint8_t* state = grid.FrozenStatesTileRow(gx, gy, state_buffer);
         float* o = out + x;
@@ -181,10 +182,10 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
         } else if (q == nullptr) {
           for (int k = 0; k < chunk; ++k) o[k] = state[k] == kFree ? -free_space_penalty : 0.f;
         } else if (state == nullptr || free_space_penalty == 0.f) {
-          for (int k = 0; k < chunk; ++k) o[k] = kStep * q[k];
+          for (int k = 0; k < chunk; ++k) o[k] = code_value[q[k]];
         } else {
           for (int k = 0; k < chunk; ++k) {
-            o[k] = (q[k] == 0) & (state[k] == kFree) ? -free_space_penalty : kStep * q[k];
+            o[k] = (q[k] == 0) & (state[k] == kFree) ? -free_space_penalty : code_value[q[k]];
           }
         }
         x += chunk;
@@ -245,10 +246,11 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       if (frozen_field) {
         for (int x = 0; x < n;) {
           const int gx = gx0 + x;
-          const int chunk = std::min(n - x, SparseTiles<uint16_t>::kTileSize - (gx & (SparseTiles<uint16_t>::kTileSize - 1)));
-          const uint16_t* q = wall_field->FrozenValuesTileRow(gx, gy);
+          const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - (gx & (SparseTiles<uint8_t>::kTileSize - 1)));
+          const uint8_t* q = wall_field->FrozenCodesTileRow(gx, gy);
+          const float* wall_value = wall_field->frozen_codes().value;
           if (q != nullptr) {
-            for (int k = 0; k < chunk; ++k) out[x + k] += extra * (kStep * q[k]);
+            for (int k = 0; k < chunk; ++k) out[x + k] += extra * wall_value[q[k]];
           }
           x += chunk;
         }

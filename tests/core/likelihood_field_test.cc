@@ -136,8 +136,8 @@ TEST(LikelihoodFieldTest, WallFieldIsTheFieldOfTheWallCellsAlone) {
   EXPECT_TRUE(frozen.wall_field()->frozen());
   EXPECT_EQ(frozen.field().geometry().origin(), frozen.wall_field()->geometry().origin());
   const GridGeometry& f = frozen.grid().geometry();
-  EXPECT_NEAR(walls.Value(wall_cell), frozen.wall_field()->Value(f.WorldToCell({1.025, 0.025})),
-              LikelihoodField::kQuantizationStep);
+  // On the wall d = 0: code 255, value 1 exactly.
+  EXPECT_NEAR(walls.Value(wall_cell), frozen.wall_field()->Value(f.WorldToCell({1.025, 0.025})), 1e-5);
   EXPECT_EQ(0.f, frozen.wall_field()->Value(f.WorldToCell({1.525, 0.025})));
 }
 
@@ -212,6 +212,10 @@ TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
   for (int i = 0; i < before.num_cells(); ++i) states.push_back(map.grid().State(i));
   const size_t bytes_before = map.MemoryBytes();
   map.Freeze();
+  const LikelihoodField::FrozenCodes& codes = map.field().frozen_codes();
+  const double sigma = map.field().options().sigma_meters, step = codes.distance_step_meters;
+  const double cap = map.field().window_radius_cells() * map.field().geometry().resolution_meters();
+  EXPECT_NEAR(0.3 / 254 * (6.5 / 6) * std::sqrt(2.0), step, 1e-9);  // the window's corner over 254 steps
   EXPECT_TRUE(map.grid().frozen());
   EXPECT_TRUE(map.field().frozen());
   EXPECT_EQ(0, map.field().values().width());
@@ -229,10 +233,18 @@ TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
       const Eigen::Vector2d centre = before.CellCenter({x, y});
       const int i = before.LinearIndex({x, y});
       ASSERT_EQ(states[i], map.grid().StateAt(centre)) << "cell " << x << ", " << y;
-      // Quantised to the nearest step; a surface in the window stays a surface (not 0).
-      const float frozen_value = map.field().Value(after.WorldToCell(centre));
-      ASSERT_NEAR(values[i], frozen_value, 0.5f * LikelihoodField::kQuantizationStep) << "cell " << x << ", " << y;
+      // The distance rounded to the nearest step (the value exp(-d / sigma) then within
+      // value * half a step / sigma); a surface in the window stays a surface (not 0); the
+      // refinement's squared distance is that distance, capped at the window radius.
+      const CellIndex at = after.WorldToCell(centre);
+      const float frozen_value = map.field().Value(at);
+      ASSERT_NEAR(values[i], frozen_value, values[i] * 0.5 * step / sigma * 1.01 + 1e-6) << "cell " << x << ", " << y;
       ASSERT_EQ(values[i] == 0.f, frozen_value == 0.f) << "cell " << x << ", " << y;
+      if (values[i] > 0.f && after.Contains(at)) {
+        const double d = std::min(-sigma * std::log(static_cast<double>(values[i])), cap);
+        ASSERT_NEAR(d, std::sqrt(codes.squared_distance[map.field().FrozenCode(at.x, at.y)]), 0.5 * step + 1e-5)
+            << "cell " << x << ", " << y;
+      }
       kept += after.Contains(after.WorldToCell(centre));
     }
   }
@@ -283,7 +295,7 @@ TEST(LikelihoodFieldTest, MayBeNonZeroNearAgreesWithABruteForceSearch) {
       ASSERT_TRUE(may) << "cell " << c.x << ", " << c.y << " radius " << r;
       ++sound;
     }
-    if (g.Contains(c) && !any_within(c, r + 2 * SparseTiles<uint16_t>::kTileSize)) {
+    if (g.Contains(c) && !any_within(c, r + 2 * SparseTiles<uint8_t>::kTileSize)) {
       ASSERT_FALSE(may) << "cell " << c.x << ", " << c.y << " radius " << r;
       ++tight;
     }

@@ -398,9 +398,12 @@ TEST(ScanCostTest, TranslationByWholeCellsLeavesResidualsUnchanged) {
   }
 }
 
-// A frozen field (cropped, values quantised to 16 bits) gives the residuals of the field it was,
-// within the quantisation step (scaled by the weight / sqrt(N)), and Jacobians within the step
-// over the cell size, at seeded random poses over the posts.
+// A frozen field (cropped, distances in 8-bit codes) gives the residuals of the field it was,
+// within what the distance step allows, at seeded random poses over the posts: each sample's
+// distance is off by at most half a step Δ, the interpolation (Catmull-Rom weights, at most
+// 1.25 in absolute value per axis) carries that to the interpolated distance, and the kernel
+// exp(-d / sigma) changes by at most 1 / sigma per metre (scaled by the weight / sqrt(N)).
+// Jacobians: within that over the cell size, four times (d/dx of the interpolation).
 TEST(ScanCostTest, FrozenFieldGivesTheSameResiduals) {
   const LaserMap map = MapFromHits(PostHits());
   LaserMap frozen = map;
@@ -411,9 +414,9 @@ TEST(ScanCostTest, FrozenFieldGivesTheSameResiduals) {
   std::unique_ptr<ceres::CostFunction> frozen_cost(CreateScanToLikelihoodFieldCost(frozen.field(), points_robot));
   std::mt19937 rng(41);
   std::uniform_real_distribution<double> xy(-0.3, 0.3), yaw(-M_PI, M_PI);
-  // Bicubic (Catmull-Rom) weights sum to 1 in absolute value at most 1.25 per axis.
-  const double step = LikelihoodField::kQuantizationStep;
-  const double residual_tolerance = 1.25 * 1.25 * 0.5 * step / std::sqrt(3.0) + kResidualTolerance;
+  const double sigma = frozen.field().options().sigma_meters;
+  const double step = 1.25 * 1.25 * 0.5 * frozen.field().frozen_codes().distance_step_meters / sigma;
+  const double residual_tolerance = step / std::sqrt(3.0) + kResidualTolerance;
   for (int i = 0; i < 30; ++i) {
     Block block = {0.3 + xy(rng), 0.3 + xy(rng), yaw(rng)};
     const double* parameters[1] = {block.data()};
@@ -424,7 +427,6 @@ TEST(ScanCostTest, FrozenFieldGivesTheSameResiduals) {
     ASSERT_TRUE(cost->Evaluate(parameters, residuals, jacobians));
     ASSERT_TRUE(frozen_cost->Evaluate(parameters, frozen_residuals, frozen_jacobians));
     for (int r = 0; r < 3; ++r) EXPECT_NEAR(residuals[r], frozen_residuals[r], residual_tolerance) << "pose " << i;
-    // d/dx of the interpolation: up to ~4 steps' worth of sample error per cell of motion.
     for (int k = 0; k < 9; ++k) EXPECT_NEAR(jacobian[k], frozen_jacobian[k], 4 * step / kResolutionMeters) << "pose " << i;
   }
 }
