@@ -713,8 +713,8 @@ int Run() {
   estimator.reset();  // the picture is drawn without the graph in memory
 #ifdef __GLIBC__
   // ... and without the pages it left in the heap (small blocks: nodes, points, Ceres): glibc
-  // keeps freed memory for reuse, and the picture's buffers (~45 MB for Intel) would come on
-  // top of it. Intel's peak RSS 104 -> 85 MiB (the peak is then mapping, not drawing).
+  // keeps freed memory for reuse, and the picture (8.6 MB for Intel: 1708 x 1670 RGB) would
+  // come on top of it.
   malloc_trim(0);
 #endif
   written.push_back(

@@ -27,8 +27,10 @@ constexpr Rgb kConstraintLineRgb = {70, 70, 70};
 constexpr Rgb kPanelLineRgb = {160, 160, 160};
 constexpr Rgb kNoteTextRgb = {90, 90, 90};
 
-cv::Scalar Bgr(const Rgb& c) { return cv::Scalar(c[2], c[1], c[0]); }
-cv::Vec3b Bgr3b(const Rgb& c) { return cv::Vec3b(c[2], c[1], c[0]); }
+// The picture is held in RGB order, as the PNG stores it (OpenCV's drawing calls do not care
+// what the channels mean): no conversion, and no second copy of the picture, before writing.
+cv::Scalar Pixel(const Rgb& c) { return cv::Scalar(c[0], c[1], c[2]); }
+cv::Vec3b Pixel3b(const Rgb& c) { return cv::Vec3b(c[0], c[1], c[2]); }
 
 // OpenCV puts pixel centres at integer coordinates; ours (MapPictureLayout) at +0.5.
 cv::Point Fixed(const Eigen::Vector2d& pixel) {
@@ -58,11 +60,11 @@ struct TextStyle {
   }
   // `origin` is the left end of the baseline.
   void Draw(cv::Mat& image, const std::string& text, cv::Point origin, const Rgb& color) const {
-    cv::putText(image, text, origin, kFont, font_scale, Bgr(color), thickness, cv::LINE_AA);
+    cv::putText(image, text, origin, kFont, font_scale, Pixel(color), thickness, cv::LINE_AA);
   }
   // Text with a white halo: readable over any map colour.
   void DrawHaloed(cv::Mat& image, const std::string& text, cv::Point origin) const {
-    cv::putText(image, text, origin, kFont, font_scale, Bgr(kWhite), thickness + 3, cv::LINE_AA);
+    cv::putText(image, text, origin, kFont, font_scale, Pixel(kWhite), thickness + 3, cv::LINE_AA);
     Draw(image, text, origin, kBlack);
   }
 };
@@ -92,8 +94,8 @@ double NiceLength(double target) {
 // ---- Glyphs, drawn around a point in picture pixels (our convention). ----
 
 void DrawStartDisc(cv::Mat& image, const Eigen::Vector2d& at, const Rgb& color, int ui) {
-  cv::circle(image, Fixed(at), FixedLength(5.0 * ui), Bgr(color), cv::FILLED, cv::LINE_AA, kShift);
-  cv::circle(image, Fixed(at), FixedLength(5.0 * ui), Bgr(kBlack), ui, cv::LINE_AA, kShift);
+  cv::circle(image, Fixed(at), FixedLength(5.0 * ui), Pixel(color), cv::FILLED, cv::LINE_AA, kShift);
+  cv::circle(image, Fixed(at), FixedLength(5.0 * ui), Pixel(kBlack), ui, cv::LINE_AA, kShift);
 }
 
 // An arrow head centred on `at`, pointing along `direction` (unit, picture pixels).
@@ -105,8 +107,8 @@ void DrawArrowHead(cv::Mat& image, const Eigen::Vector2d& at, const Eigen::Vecto
   const std::vector<cv::Point> corners = {Fixed(at + 0.65 * length * direction),
                                           Fixed(base + 0.4 * length * normal),
                                           Fixed(base - 0.4 * length * normal)};
-  cv::fillConvexPoly(image, corners, Bgr(color), cv::LINE_AA, kShift);
-  cv::polylines(image, corners, true, Bgr(kBlack), ui, cv::LINE_AA, kShift);
+  cv::fillConvexPoly(image, corners, Pixel(color), cv::LINE_AA, kShift);
+  cv::polylines(image, corners, true, Pixel(kBlack), ui, cv::LINE_AA, kShift);
 }
 
 void DrawMarkerGlyph(cv::Mat& image, const Eigen::Vector2d& at, MapPictureMarker::Kind kind,
@@ -115,10 +117,10 @@ void DrawMarkerGlyph(cv::Mat& image, const Eigen::Vector2d& at, MapPictureMarker
     case MapPictureMarker::Kind::kTag: {
       const double half = 6.0 * ui, inner = 2.5 * ui;
       cv::rectangle(image, Fixed(at - Eigen::Vector2d(half, half)),
-                    Fixed(at + Eigen::Vector2d(half, half)), Bgr(kBlack), cv::FILLED,
+                    Fixed(at + Eigen::Vector2d(half, half)), Pixel(kBlack), cv::FILLED,
                     cv::LINE_AA, kShift);
       cv::rectangle(image, Fixed(at - Eigen::Vector2d(inner, inner)),
-                    Fixed(at + Eigen::Vector2d(inner, inner)), Bgr(kWhite), cv::FILLED,
+                    Fixed(at + Eigen::Vector2d(inner, inner)), Pixel(kWhite), cv::FILLED,
                     cv::LINE_AA, kShift);
       break;
     }
@@ -127,16 +129,16 @@ void DrawMarkerGlyph(cv::Mat& image, const Eigen::Vector2d& at, MapPictureMarker
       const std::vector<cv::Point> corners = {
           Fixed(at + Eigen::Vector2d(0, -r)), Fixed(at + Eigen::Vector2d(r, 0)),
           Fixed(at + Eigen::Vector2d(0, r)), Fixed(at + Eigen::Vector2d(-r, 0))};
-      cv::fillConvexPoly(image, corners, Bgr(kWhite), cv::LINE_AA, kShift);
-      cv::polylines(image, corners, true, Bgr(kBlack), 2 * ui, cv::LINE_AA, kShift);
+      cv::fillConvexPoly(image, corners, Pixel(kWhite), cv::LINE_AA, kShift);
+      cv::polylines(image, corners, true, Pixel(kBlack), 2 * ui, cv::LINE_AA, kShift);
       break;
     }
     case MapPictureMarker::Kind::kPoint: {
       const double r = 6.0 * ui;
       cv::line(image, Fixed(at + Eigen::Vector2d(-r, -r)), Fixed(at + Eigen::Vector2d(r, r)),
-               Bgr(kBlack), 2 * ui, cv::LINE_AA, kShift);
+               Pixel(kBlack), 2 * ui, cv::LINE_AA, kShift);
       cv::line(image, Fixed(at + Eigen::Vector2d(-r, r)), Fixed(at + Eigen::Vector2d(r, -r)),
-               Bgr(kBlack), 2 * ui, cv::LINE_AA, kShift);
+               Pixel(kBlack), 2 * ui, cv::LINE_AA, kShift);
       break;
     }
   }
@@ -150,7 +152,7 @@ void DrawDashedLine(cv::Mat& image, const Eigen::Vector2d& from, const Eigen::Ve
   const Eigen::Vector2d along = (to - from) / length;
   for (double s = 0.0; s < length; s += dash + gap) {
     cv::line(image, Fixed(from + s * along), Fixed(from + std::min(length, s + dash) * along),
-             Bgr(kConstraintLineRgb), 2 * ui, cv::LINE_AA, kShift);
+             Pixel(kConstraintLineRgb), 2 * ui, cv::LINE_AA, kShift);
   }
 }
 
@@ -351,17 +353,11 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
     shown.unknown = true;
     return kMapPictureUnknownRgb;
   };
-  cv::Mat map_part(map_height, map_width, CV_8UC3);
+  // The legend shows only what the map does: a pass over the cells first, so that the picture
+  // is allocated once at its final size and the cells drawn straight into it (a separate map
+  // image copied in would double the picture's memory: Intel's peak RSS).
   for (int row_cell = 0; row_cell < height_cells; ++row_cell) {
-    const int64_t y = min_y + height_cells - 1 - row_cell;  // row 0 shows the largest y
-    cv::Vec3b* first_row = map_part.ptr<cv::Vec3b>(row_cell * scale);
-    for (int col_cell = 0; col_cell < width_cells; ++col_cell) {
-      const cv::Vec3b color = Bgr3b(cell_color(min_x + col_cell, y));
-      std::fill(first_row + col_cell * scale, first_row + (col_cell + 1) * scale, color);
-    }
-    for (int r = 1; r < scale; ++r) {
-      std::memcpy(map_part.ptr(row_cell * scale + r), first_row, map_part.step[0]);
-    }
+    for (int col_cell = 0; col_cell < width_cells; ++col_cell) cell_color(min_x + col_cell, min_y + row_cell);
   }
 
   // ---- Legend: only what the picture shows. ----
@@ -410,9 +406,18 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   const int width = map_width + panel_width;
   const int height = std::max(map_height + strip_height, legend_height);
 
-  cv::Mat picture(height, width, CV_8UC3, Bgr(kWhite));
-  map_part.copyTo(picture(cv::Rect(0, 0, map_width, map_height)));
-  map_part.release();
+  cv::Mat picture(height, width, CV_8UC3, Pixel(kWhite));
+  for (int row_cell = 0; row_cell < height_cells; ++row_cell) {
+    const int64_t y = min_y + height_cells - 1 - row_cell;  // row 0 shows the largest y
+    cv::Vec3b* first_row = picture.ptr<cv::Vec3b>(row_cell * scale);
+    for (int col_cell = 0; col_cell < width_cells; ++col_cell) {
+      const cv::Vec3b color = Pixel3b(cell_color(min_x + col_cell, y));
+      std::fill(first_row + col_cell * scale, first_row + (col_cell + 1) * scale, color);
+    }
+    for (int r = 1; r < scale; ++r) {
+      std::memcpy(picture.ptr(row_cell * scale + r), first_row, static_cast<size_t>(map_width) * 3);
+    }
+  }
   cv::Mat map = picture(cv::Rect(0, 0, map_width, map_height));  // drawing clips to the map
   auto to_pixel = [&](const Eigen::Vector2d& p_world) { return geometry.WorldToPixel(p_world); };
 
@@ -433,7 +438,7 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
       const cv::Point p = Fixed(to_pixel(pose.translation()));
       if (line.empty() || line.back() != p) line.push_back(p);
     }
-    cv::polylines(map, line, false, Bgr({rgb[0], rgb[1], rgb[2]}),
+    cv::polylines(map, line, false, Pixel({rgb[0], rgb[1], rgb[2]}),
                   options.trajectory_width_pixels * ui, cv::LINE_AA, kShift);
   }
   for (size_t t = 0; t < trajectories.size(); ++t) {
@@ -469,7 +474,7 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
 
   // ---- Legend panel, right of the map, over the whole height. ----
   cv::line(picture, cv::Point(map_width, 0), cv::Point(map_width, height - 1),
-           Bgr(kPanelLineRgb), 1);
+           Pixel(kPanelLineRgb), 1);
   for (size_t k = 0; k < legend.size(); ++k) {
     const LegendEntry& entry = legend[k];
     const int x0 = map_width + margin;
@@ -478,14 +483,14 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
     switch (entry.icon) {
       case LegendEntry::Icon::kSwatch: {
         const cv::Rect box(x0, centre_y - swatch / 2, swatch, swatch);
-        cv::rectangle(picture, box, Bgr(entry.color), cv::FILLED);
-        cv::rectangle(picture, box, Bgr(kPanelLineRgb), 1);
+        cv::rectangle(picture, box, Pixel(entry.color), cv::FILLED);
+        cv::rectangle(picture, box, Pixel(kPanelLineRgb), 1);
         break;
       }
       case LegendEntry::Icon::kTrajectory: {
         const Eigen::Vector2d from(x0 + 0.5, centre_y + 0.5);
         const Eigen::Vector2d to(x0 + icon_width - 11.0 * ui, centre_y + 0.5);
-        cv::line(picture, Fixed(from), Fixed(to), Bgr(entry.color),
+        cv::line(picture, Fixed(from), Fixed(to), Pixel(entry.color),
                  options.trajectory_width_pixels * ui, cv::LINE_AA, kShift);
         DrawArrowHead(picture, to, Eigen::Vector2d(1.0, 0.0), entry.color, ui);
         break;
@@ -507,10 +512,10 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   const int bar_y = map_height + margin + text.height;
   const int bar_thickness = 4 * ui;
   cv::rectangle(picture, cv::Rect(margin, bar_y - bar_thickness / 2, bar_length, bar_thickness),
-                Bgr(kBlack), cv::FILLED);
+                Pixel(kBlack), cv::FILLED);
   for (const int x : {margin, margin + bar_length - ui}) {
     cv::rectangle(picture, cv::Rect(x, bar_y - 3 * bar_thickness / 2, ui, 3 * bar_thickness),
-                  Bgr(kBlack), cv::FILLED);
+                  Pixel(kBlack), cv::FILLED);
   }
   const std::string bar_text = LengthText(geometry.scale_bar_meters);
   text.Draw(picture, bar_text, cv::Point(margin + bar_length + margin, bar_y + text.height / 2),
@@ -527,7 +532,6 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   // load ~130 shared libraries (GDAL, codecs) and ~45 MiB into every program that draws a map.
   // In place and straight from the image's buffer (continuous: allocated whole above): a
   // copy of the picture each would double or triple its memory (Intel's peak RSS).
-  cv::cvtColor(picture, picture, cv::COLOR_BGR2RGB);
   CHECK(picture.isContinuous()) << "the picture is one allocation";
   HETSLAM_RETURN_IF_ERROR(WritePngFromBuffer(path, picture.cols, picture.rows, 3, picture.data));
   if (layout != nullptr) *layout = geometry;
