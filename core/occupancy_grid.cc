@@ -293,7 +293,7 @@ void OccupancyGrid::Freeze(int margin_cells) {
     }
   }
   frozen_states_ = SparseTiles2Bit(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
-  frozen_labels_ = SparseTiles<uint8_t>(labels.empty() ? std::vector<uint8_t>(states.size(), 0) : labels, width, height, 0);
+  frozen_labels_ = labels.empty() ? SparseTiles<uint8_t>() : SparseTiles<uint8_t>(labels, width, height, 0);
   labels_ = TiledGrid<uint8_t>(0, 0, 0);
   has_label_layer_ = false;
   // The crop keeps the lattice: the new origin is the old grid's corner of cell (x0, y0).

@@ -172,6 +172,7 @@ class OccupancyGrid {
   // by a labelled point (and everywhere before the first labelled insertion: no memory).
   uint8_t LabelMask(int linear_index) const {
     if (frozen_) {
+      if (frozen_labels_.width() == 0) return 0;  // frozen without a label layer
       const CellIndex c = geometry_.FromLinearIndex(linear_index);
       return frozen_labels_.Get(c.x, c.y);
     }
@@ -245,8 +246,9 @@ class OccupancyGrid {
   // Lowest and highest hit height per cell in 2 cm steps (0..5.1 m; 255 = none yet); sized at
   // the first insertion with heights.
   TiledGrid<uint8_t> height_min_{0, 0, 255}, height_max_{0, 0, 0};
-  // Once frozen, the only per-cell data (CellState values; label masks), in tiles that leave
-  // out all-unknown (all-0) 8 × 8 blocks; every array above is then empty.
+  // Once frozen, the only per-cell data (CellState values; label masks, none at all, not even a
+  // tile index, without a label layer), in tiles that leave out all-unknown (all-0) 8 × 8
+  // blocks; every array above is then empty.
   SparseTiles2Bit frozen_states_;
   SparseTiles<uint8_t> frozen_labels_;
   bool frozen_ = false;
