@@ -123,8 +123,12 @@ void LikelihoodField::Freeze(const GridGeometry& kept) {
     for (int x = 0; x < kept.width(); ++x) {
       // Round the distance to the nearest step; a value that is not 0 keeps a code >= 1 (see
       // Freeze in the header).
-      const long steps = std::lround(std::sqrt(static_cast<double>(squared[x])) * inv_step);
-      to[x] = values[x] > 0.f ? static_cast<uint8_t>(255 - std::clamp(steps, 0L, 254L)) : 0;
+      if (!(values[x] > 0.f)) {
+        to[x] = 0;
+        continue;
+      }
+      const double steps = std::round(std::sqrt(static_cast<double>(squared[x])) * inv_step);
+      to[x] = static_cast<uint8_t>(255 - static_cast<int>(std::clamp(steps, 0.0, 254.0)));
     }
   }
   frozen_codes_ = SparseTiles<uint8_t>(codes, kept.width(), kept.height(), 0);
