@@ -69,6 +69,12 @@ DEFINE_int32(overlap_min_matches, 3, "Scans of different places (1.5 m apart) wh
              "map-overlap link. At least 2.");
 DEFINE_double(overlap_max_conflict, 0.05, "Largest share of compared occupied cells that may land on the other "
               "robot's free space for a map-overlap link. In [0, 1].");
+DEFINE_double(overlap_confirm_seconds, 5.0, "A map-overlap pose that passes every check is held, not linked, until it "
+              "passes again, as the only passing pose, at least this many seconds later (with the tags and maps as "
+              "they are then); not held when the pose puts a tag both sides have confirmed at one place. 0 with "
+              "--overlap_confirm_new_nodes=0: linked at the first pass.");
+DEFINE_int32(overlap_confirm_new_nodes, 1, "Query nodes that did not support a held map-overlap pose when it was "
+             "held and must support it when it is re-confirmed (new travel). At least 0.");
 DEFINE_string(refine_interpolation, "distances", "What each robot's front end refines its scan matches on between "
               "cell centres: distances (to the nearest surface; the default; see hetslam_run --help and "
               "factors/scan_cost.h) or values (the likelihood field's).");
@@ -119,6 +125,8 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->overlap_search = FLAGS_overlap_search;
   team->overlap_min_matches = FLAGS_overlap_min_matches;
   team->overlap_max_conflict = FLAGS_overlap_max_conflict;
+  team->overlap_confirm_seconds = FLAGS_overlap_confirm_seconds;
+  team->overlap_confirm_new_nodes = FLAGS_overlap_confirm_new_nodes;
   team->inter_min_score = FLAGS_inter_min_score;
   team->second_constraint_min_distance_meters = FLAGS_second_constraint_min_distance;
   team->tag_min_separation_meters = FLAGS_tag_min_separation;
@@ -349,9 +357,10 @@ int Run() {
               s.link_attempts, s.links, s.link_seconds, s.inter_constraints, s.inter_searches, s.inter_search_seconds,
               accepted, rejected);
   std::printf("map overlap (no shared tag): %d attempts, %d wide matches (%d kept), %d hypotheses checked against the "
-              "whole maps, %d links, %d withdrawn when the tags contradicted them (%.2f s)\n",
-              s.overlap_attempts, s.overlap_matches, s.overlap_kept, s.overlap_map_checks, s.overlap_links,
-              s.overlap_links_withdrawn, s.overlap_seconds);
+              "whole maps, %d poses held for re-confirmation (%d of them failed it), %d links, %d withdrawn when "
+              "the tags contradicted them (%.2f s)\n",
+              s.overlap_attempts, s.overlap_matches, s.overlap_kept, s.overlap_map_checks, s.overlap_held,
+              s.overlap_held_dropped, s.overlap_links, s.overlap_links_withdrawn, s.overlap_seconds);
   if (FLAGS_max_map_store_mib > 0) {
     std::printf("map store: %d submaps evicted (%.1f MiB) to stay within --max_map_store_mib=%g per robot\n",
                 team.graph().stats().submaps_evicted, team.graph().stats().evicted_bytes / 1048576.0,

@@ -184,6 +184,8 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   if (!(overlap_min_score >= 0 && overlap_min_score < 1 && overlap_max_conflict >= 0 && overlap_max_conflict <= 1))
     msg << "overlap_min_score must be in [0, 1), overlap_max_conflict in [0, 1]; ";
   if (!(overlap_min_mode_margin >= 0)) msg << "overlap_min_mode_margin must be >= 0; ";
+  if (!(overlap_confirm_seconds >= 0) || overlap_confirm_new_nodes < 0)
+    msg << "overlap_confirm_seconds and overlap_confirm_new_nodes must be >= 0; ";
   if (overlap_min_matches < 2 || overlap_max_matches_per_attempt < 1 || overlap_min_agreeing_cells < 1)
     msg << "overlap_min_matches must be >= 2, overlap_max_matches_per_attempt and overlap_min_agreeing_cells >= 1; ";
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
@@ -883,18 +885,29 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
   // at least two sightings count, confirmed or not: a merge refused is the safe side.
   const std::unique_ptr<OccupancyGrid> map_a = RenderGroupMap(a);
   const std::unique_ptr<OccupancyGrid> map_b = RenderGroupMap(b);
+  struct GroupTag {
+    int id;
+    Pose2 root_T_tag;
+    bool confirmed;  // a confirmed, unambiguous place (TagPlace)
+  };
   const auto group_tags = [&](int root) {
-    std::vector<std::pair<int, Pose2>> tags;  // (id, root_T_tag)
+    std::vector<GroupTag> tags;
     for (int r : Group(root)) {
       for (const TagPlace& place : Places(r)) {
-        if (place.votes >= 2) tags.emplace_back(place.tag_id, AnchorRelative(root, r) * place.robot_T_tag);
+        if (place.votes >= 2) {
+          tags.push_back({place.tag_id, AnchorRelative(root, r) * place.robot_T_tag,
+                          place.confirmed && !place.ambiguous});
+        }
       }
     }
     return tags;
   };
-  const std::vector<std::pair<int, Pose2>> tags_a = group_tags(a), tags_b = group_tags(b);
+  const std::vector<GroupTag> tags_a = group_tags(a), tags_b = group_tags(b);
   std::vector<int> passing;
   std::vector<std::string> outcomes;
+  // Per candidate: a tag id both groups have a confirmed place of, which the pose puts at one
+  // place (within tag_agreement_*); -1 when none.
+  std::vector<int> corroborating_tag(candidates.size(), -1);
   for (size_t k = 0; k < candidates.size(); ++k) {
     ++stats_.overlap_map_checks;
     const Pose2& hypothesis = a_T_b[candidates[k].best];
@@ -905,10 +918,18 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
             << " matches): " << agreement.agreeing << " map cells agree, " << agreement.conflicting << " conflict ("
             << 100.0 * agreement.ConflictFraction() << "%)";
     bool tags_agree = true;
-    for (const auto& [id_a, a_T_tag] : tags_a) {
-      for (const auto& [id_b, b_T_tag] : tags_b) {
-        const std::string contradiction = TagsContradict(id_a, a_T_tag, id_b, hypothesis * b_T_tag);
-        if (contradiction.empty()) continue;
+    for (const GroupTag& tag_a : tags_a) {
+      for (const GroupTag& tag_b : tags_b) {
+        const Pose2 a_T_tag_b = hypothesis * tag_b.root_T_tag;
+        const std::string contradiction = TagsContradict(tag_a.id, tag_a.root_T_tag, tag_b.id, a_T_tag_b);
+        if (contradiction.empty()) {
+          if (tag_a.id == tag_b.id && tag_a.confirmed && tag_b.confirmed && corroborating_tag[k] < 0 &&
+              Within(Between(tag_a.root_T_tag, a_T_tag_b), options_.tag_agreement_meters,
+                     options_.tag_agreement_radians)) {
+            corroborating_tag[k] = tag_a.id;
+          }
+          continue;
+        }
         if (tags_agree) outcome << "; " << contradiction;
         tags_agree = false;
       }
@@ -928,6 +949,8 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
     Record(std::move(r));
   };
   if (passing.size() != 1) {
+    // A held pose that no longer passes alone failed its re-confirmation.
+    if (overlap_held_.erase({a, b}) > 0) ++stats_.overlap_held_dropped;
     std::ostringstream summary;
     summary << (passing.empty() ? "rejected: " : "ambiguous: ") << passing.size() << " of " << candidates.size()
             << " hypotheses pass the map check (" << options_.overlap_min_agreeing_cells << " agreeing cells, at most "
@@ -938,6 +961,51 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
     return;
   }
   const Cluster& chosen = candidates[passing.front()];
+  std::set<std::pair<int, int>> chosen_nodes;
+  for (int j : chosen.members) chosen_nodes.insert({matches[j]->node.robot, matches[j]->node.index});
+  std::string confirmation;
+  if (corroborating_tag[passing.front()] >= 0) {
+    // A tag both groups placed where the pose puts it tells congruent places apart: no hold.
+    confirmation = "; corroborated by tag " + std::to_string(corroborating_tag[passing.front()]);
+    overlap_held_.erase({a, b});
+  } else if (options_.overlap_confirm_seconds > 0 || options_.overlap_confirm_new_nodes > 0) {
+    // Held until re-confirmed (see the options): the same pose (compared where it acts, at the
+    // chosen match's node), the same groups, later and with new query nodes.
+    const std::vector<int> side_a = Group(a), side_b = Group(b);
+    const auto held = overlap_held_.find({a, b});
+    const int k = chosen.best;
+    const bool in_b = Root(matches[k]->node.robot) == b;
+    const auto at_node = [&](const Pose2& pose) {
+      return in_b ? pose * node_in_group[k] : pose.inverse() * node_in_group[k];
+    };
+    const bool same = held != overlap_held_.end() && held->second.side_a == side_a && held->second.side_b == side_b &&
+                      Within(Between(at_node(held->second.a_T_b), at_node(a_T_b[k])),
+                             options_.overlap_agreement_meters, options_.overlap_agreement_radians);
+    if (!same) {
+      if (held != overlap_held_.end()) ++stats_.overlap_held_dropped;
+      overlap_held_[{a, b}] = HeldOverlap{stamp_seconds, side_a, side_b, a_T_b[k], chosen_nodes};
+      ++stats_.overlap_held;
+      std::ostringstream reason;
+      reason << "held: map overlap " << outcomes[passing.front()] << "; to be re-confirmed after "
+             << options_.overlap_confirm_seconds << " s by " << options_.overlap_confirm_new_nodes
+             << " new query nodes";
+      last_outcome = reason.str();
+      record(passing.front(), false, reason.str());
+      return;
+    }
+    int new_nodes = 0;
+    for (const auto& node : chosen_nodes) new_nodes += held->second.nodes.count(node) == 0 ? 1 : 0;
+    const double waited = stamp_seconds - held->second.stamp_seconds;
+    if (stamp_seconds < held->second.stamp_seconds + options_.overlap_confirm_seconds ||
+        new_nodes < options_.overlap_confirm_new_nodes) {
+      return;  // waiting (recorded when it was held)
+    }
+    std::ostringstream text;
+    text.precision(3);
+    text << "; re-confirmed after " << waited << " s by " << new_nodes << " new query nodes";
+    confirmation = text.str();
+    overlap_held_.erase(held);
+  }
   std::vector<ConstraintCandidate> agreeing;
   for (int j : chosen.members) agreeing.push_back(*matches[j]);
   std::vector<bool> added;
@@ -946,7 +1014,7 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
   if (linked) overlap_links_.push_back(std::move(link));
   std::ostringstream reason;
   reason << (linked ? "accepted" : "rejected after the solve (the graph's consistency check removed it)")
-         << ": map overlap " << outcomes[passing.front()];
+         << ": map overlap " << outcomes[passing.front()] << confirmation;
   last_outcome = reason.str();
   record(passing.front(), linked, reason.str());
   if (!linked) return;
@@ -961,7 +1029,7 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
   event.stamp_seconds = stamp_seconds;
   event.robot_a = a;
   event.robot_b = b;
-  event.description = "map overlap (no shared tag): " + outcomes[passing.front()];
+  event.description = "map overlap (no shared tag): " + outcomes[passing.front()] + confirmation;
   event.after = GroupPairPoses(a);
   events_.push_back(event);
   SearchRetrospectively(stamp_seconds, a);

@@ -65,6 +65,16 @@
 //    rooms with a tag in each). Exactly one pose must pass; two passing are reported ambiguous
 //    and the groups stay apart. Checking groups, not robot pairs, lets a teammate that has seen
 //    both of two congruent rooms expose the ambiguity.
+//  - Held: the one passing pose is not linked at once (a "held:" record). It is linked when it
+//    passes again, still the only passing pose and with the groups unchanged, at an attempt at
+//    least overlap_confirm_seconds later, supported then by at least overlap_confirm_new_nodes
+//    query nodes that did not support it when held; a held pose that fails (refuted by the maps
+//    or by a tag seen meanwhile, or a rival passes) is dropped. At the moment a wrong pose in
+//    congruent rooms first passes, nothing in either map can refute it (the rooms are the same);
+//    the hold gives the robots time to see what does (a tag, the rest of a room). It costs every
+//    map-overlap link one retry period or more. Not held: a pose that puts a tag id both groups
+//    have a confirmed place of at one place (within tag_agreement_*): the shared tag tells
+//    congruent places apart.
 //  - Accepted: the agreeing matches enter the graph as inter-robot constraints, as a tag link's
 //    do (record kind map_overlap); the search for more constraints follows.
 //  - Withdrawn: every link_retry_seconds each joined group's tag places (two sightings or more)
@@ -200,6 +210,15 @@ struct TeamEstimatorOptions {
   int overlap_max_matches_per_attempt = 60;  // (node, submap) matches per pair and attempt
   int overlap_min_agreeing_cells = 300;
   double overlap_max_conflict = 0.05;
+  // Re-confirmation: a pose that passes every check is held, not linked, until it passes again
+  // as the only passing pose at an attempt at least overlap_confirm_seconds later, supported
+  // then by at least overlap_confirm_new_nodes query nodes that did not support it when it was
+  // first held, and checked against the maps and tags as they are then. In a building of
+  // congruent rooms a wrong pose fits both maps until a robot sees what tells the rooms apart (a
+  // tag, the far side of a door). Both 0: linked at the first pass. A pose that puts a tag both
+  // groups have a confirmed place of at one place is linked without the hold.
+  double overlap_confirm_seconds = 5.0;
+  int overlap_confirm_new_nodes = 1;
   int max_iterations_per_solve = 20;
   int max_iterations_final = 50;
 
@@ -289,6 +308,8 @@ struct TeamEstimatorStats {
   int overlap_map_checks = 0; // hypotheses checked against the whole maps
   int overlap_links = 0;
   int overlap_links_withdrawn = 0;  // undone when the joined group's tags contradicted them
+  int overlap_held = 0;             // poses held for re-confirmation (each time a new one is held)
+  int overlap_held_dropped = 0;     // held poses that failed their re-confirmation
   double overlap_seconds = 0.0;
 };
 
@@ -470,6 +491,15 @@ class TeamEstimator {
   std::map<std::pair<int, int>, std::string> overlap_outcomes_;  // per pair of group roots: the last recorded
   double next_overlap_attempt_stamp_ = -INFINITY;
   std::vector<OverlapLink> overlap_links_;
+  // A map-overlap pose that passed once and waits for its re-confirmation, per pair of group
+  // roots (a < b).
+  struct HeldOverlap {
+    double stamp_seconds = 0.0;          // when it first passed
+    std::vector<int> side_a, side_b;     // the groups then
+    Pose2 a_T_b;                         // root a's frame to root b's
+    std::set<std::pair<int, int>> nodes; // (robot, node index): the query nodes that supported it
+  };
+  std::map<std::pair<int, int>, HeldOverlap> overlap_held_;
   double next_tag_check_stamp_ = -INFINITY;
   std::vector<TeamConstraintRecord> records_;
   std::vector<TeamMergeEvent> events_;

@@ -44,9 +44,10 @@ struct SimulatedRobot {
   Pose2 world_T_start;
 };
 
-SimulatedRobot Simulate(const std::string& route, uint64_t seed) {
+// `route` driven in `world` (the scenario's statements without the route).
+SimulatedRobot Simulate(const std::string& route, uint64_t seed, const std::string& world = kWorld) {
   sim::Scenario scenario;
-  const Status parsed = sim::ParseScenario(std::string(kWorld) + route, "team_test", &scenario);
+  const Status parsed = sim::ParseScenario(world + route, "team_test", &scenario);
   CHECK(parsed.ok()) << parsed.message();
   std::mt19937_64 rng(seed);
   SimulatedRobot robot;
@@ -77,7 +78,8 @@ OnlineEstimatorOptions TestRobotOptions() {
 // Feeds the robots' scans interleaved by stamp; after each scan, the tags within 3.5 m whose
 // normal faces the robot (within 60°) are reported as sightings with their true planar pose,
 // under the id `ids` maps them to.
-void RunTeam(const std::vector<SimulatedRobot>& robots, const std::vector<IdMap>& ids, TeamEstimator* team) {
+void RunTeam(const std::vector<SimulatedRobot>& robots, const std::vector<IdMap>& ids, TeamEstimator* team,
+             const std::vector<TagTruthPose>& tags = std::vector<TagTruthPose>(std::begin(kTags), std::end(kTags))) {
   for (size_t r = 0; r < robots.size(); ++r) {
     TeamRobotOptions options;
     options.name = "robot" + std::to_string(r);
@@ -102,7 +104,7 @@ void RunTeam(const std::vector<SimulatedRobot>& robots, const std::vector<IdMap>
     const LaserReading& reading = robots[pick].simulation.log.lasers[k];
     ASSERT_TRUE(team->Add(pick, reading).ok());
     const Pose2& world_T_body = robots[pick].simulation.truth[k].pose;
-    for (const TagTruthPose& tag : kTags) {
+    for (const TagTruthPose& tag : tags) {
       const auto id = ids[pick].find(tag.id);
       if (id == ids[pick].end() || id->second < 0) continue;
       PlanarTagSighting sighting;
@@ -308,6 +310,88 @@ TEST(TeamEstimatorTest, AMapOverlapThatPutsTwoTagsAtOnePlaceDoesNotStand) {
            r.reason.find("tags 1 and 3 placed") != std::string::npos &&
            r.reason.find("facing the same way") != std::string::npos;
   }));
+}
+
+// Two congruent rooms 20 m apart (the same walls and boxes, no symmetry within a room), a tag at
+// the same place of each: tag 1 in the west room, tag 2 in the east one. Robot 0 maps the west
+// room and sees tag 1 at once; robot 1 maps the east room and reaches tag 2 only at the end of
+// its short route. Robot 1's scans fit robot 0's room perfectly 20 m off: the map-overlap pose
+// passes every check while robot 1 has no tag place yet. It is held, not linked; by its
+// re-confirmation robot 1 has placed tag 2 where robot 0's tag 1 hangs (two tags at one place):
+// the pose is dropped and refused from then on. The robots are never merged (they share no
+// place), and no wrong link is ever made and withdrawn (without the hold the pose is linked at
+// t = 10 s and withdrawn at t = 14 s, when robot 1's tag 2 place has two sightings).
+TEST(TeamEstimatorTest, AMapOverlapPoseInCongruentRoomsIsHeldAndNeverLinked) {
+  const std::string rooms = R"(
+wall 0 0 8 0
+wall 8 0 8 6
+wall 8 6 0 6
+wall 0 6 0 0
+box 2 4.8 1.2 0.6
+box 6 1.2 0.8 0.8 20
+box 5.5 4 0.4 0.4
+box 1.2 1.5 0.5 0.5 45
+wall 20 0 28 0
+wall 28 0 28 6
+wall 28 6 20 6
+wall 20 6 20 0
+box 22 4.8 1.2 0.6
+box 26 1.2 0.8 0.8 20
+box 25.5 4 0.4 0.4
+box 21.2 1.5 0.5 0.5 45
+laser 360 361 10 0.01 0.002 5
+robot 0.5 45
+)";
+  const std::vector<SimulatedRobot> robots = {
+      Simulate("start 2 3 0\nwaypoint 4 2.5\nwaypoint 6.5 3\nwaypoint 6.5 5\nwaypoint 3.5 3\nwaypoint 2 2\n", 1, rooms),
+      Simulate("start 26.5 3 90\nwaypoint 26.5 5\nwaypoint 24 4\nwaypoint 22.5 3\n", 2, rooms)};
+  const std::vector<TagTruthPose> tags = {{1, Pose2(0.0, 3.0, 0.0)}, {2, Pose2(20.0, 3.0, 0.0)}};
+  TeamEstimatorOptions options = TestTeamOptions();
+  options.tag_sizes_meters = {{1, 0.2}, {2, 0.2}};
+  options.overlap_search = true;
+  TeamEstimator team(options);
+  RunTeam(robots, {{{1, 1}}, {{2, 2}}}, &team, tags);
+  std::string records;
+  for (const TeamConstraintRecord& r : team.constraints()) {
+    records += std::to_string(r.stamp_seconds) + " " + TeamConstraintKindName(r.kind) + " " + r.reason + "\n";
+  }
+  EXPECT_FALSE(team.InCommonFrame(1)) << records;
+  EXPECT_EQ(0, team.stats().overlap_links) << records;
+  EXPECT_EQ(0, team.stats().overlap_links_withdrawn) << records;
+  // The wrong pose was held, and its re-confirmation failed on the tags.
+  EXPECT_GE(team.stats().overlap_held, 1) << records;
+  EXPECT_GE(team.stats().overlap_held_dropped, 1) << records;
+  const auto& all = team.constraints();
+  EXPECT_TRUE(std::any_of(all.begin(), all.end(), [](const TeamConstraintRecord& r) {
+    return r.kind == TeamConstraintKind::kMapOverlap && !r.accepted &&
+           r.reason.find("tags 1 and 2 placed") != std::string::npos;
+  })) << records;
+}
+
+// Both robots pass tag 1. The map-overlap pose is held when it first passes (neither place of
+// tag 1 is confirmed yet); once both are and the pose puts them together, the shared tag tells
+// congruent places apart and the pose is linked at once, long before its re-confirmation (held
+// here beyond the end of the run) would link it.
+TEST(TeamEstimatorTest, ASharedTagThatTheMapOverlapPosePutsTogetherLinksItWithoutWaiting) {
+  const std::vector<SimulatedRobot> robots = {Simulate(kRouteA, 1), Simulate(kRouteB, 2)};
+  TeamEstimatorOptions options = TestTeamOptions();
+  options.overlap_search = true;
+  options.overlap_confirm_seconds = 1000.0;
+  options.link_min_matches = 100;  // no tag link: the map overlap links them
+  TeamEstimator team(options);
+  RunTeam(robots, {{{1, 1}}, {{1, 1}}}, &team);
+  std::string records;
+  for (const TeamConstraintRecord& r : team.constraints()) {
+    records += std::to_string(r.stamp_seconds) + " " + TeamConstraintKindName(r.kind) + " " + r.reason + "\n";
+  }
+  ASSERT_TRUE(team.InCommonFrame(1)) << records;
+  ExpectRelativePoseNear(team, robots, 0, 1, 0.10, 1.0 * kDeg);
+  EXPECT_EQ(1, team.stats().overlap_links) << records;
+  const auto& all = team.constraints();
+  EXPECT_TRUE(std::any_of(all.begin(), all.end(), [](const TeamConstraintRecord& r) {
+    return r.kind == TeamConstraintKind::kMapOverlap && r.accepted &&
+           r.reason.find("corroborated by tag 1") != std::string::npos;
+  })) << records;
 }
 
 TEST(TeamEstimatorTest, ErrorsAreReturned) {
