@@ -145,6 +145,26 @@ int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map,
   return left_out;
 }
 
+int AddFloorObstaclesOnMappedStructure(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
+                                       ScanPoints* points) {
+  if (!options.match_floor_obstacles_on_mapped_structure || map.num_scans_inserted() == 0 ||
+      points->floor_obstacles.empty() || !points->matching_weights.empty()) {
+    return 0;
+  }
+  std::vector<Eigen::Vector2f> matching = points->matching;
+  const size_t before = matching.size();
+  for (const Eigen::Vector2f& p : points->floor_obstacles) {
+    if (map.grid().StateAt(predicted * p.cast<double>()) == CellState::kOccupied) matching.push_back(p);
+  }
+  const int on_structure = static_cast<int>(matching.size() - before);
+  if (on_structure == 0) return 0;
+  // The matching points first: a voxel they hold keeps its point.
+  points->matching = options.matching_voxel_meters > 0
+                         ? VoxelFilter(matching, static_cast<float>(options.matching_voxel_meters))
+                         : std::move(matching);
+  return on_structure;
+}
+
 Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,
                           bool* degenerate, Eigen::Vector2d* weak_direction) {
   if (degenerate != nullptr) *degenerate = false;
@@ -404,6 +424,8 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
     if (prediction.external && prediction.measures_translation) {
       result.frontier_points = LeaveOutFrontierPoints(options_, *target.map, predicted_submap, &points);
     }
+    result.structure_floor_obstacles =
+        AddFloorObstaclesOnMappedStructure(options_, *target.map, predicted_submap, &points);
     if (prediction.covariance.has_value()) {
       const ScanMatcherOptions& m = options_.matcher;
       const Eigen::Matrix3d& covariance = *prediction.covariance;

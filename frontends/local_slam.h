@@ -83,6 +83,20 @@ struct LocalSlamOptions {
   // 5 cm box the band would call floor). It still counts as a floor hit for suspension
   // (suspend_floor_fraction). 0 = off.
   double floor_obstacle_min_height_above_floor_meters = 0.03;
+  // Paper §III-E, walls are the invariants of the 2.5D assumption. A head tilted a few degrees
+  // down (before the floor dominates and matching is suspended) hits the far walls low, below
+  // floor_obstacle_max_height_meters: by height alone those hits are floor obstacles, and only
+  // the near structure is left to match. team_three's nao (seed 2), the last scan before a
+  // suspension: 294 of 418 beams labelled floor obstacles, 27 matching points, a match 1° and
+  // 7 cm off that the EKF then carried through the 3.5 s of suspension (the README's heading
+  // 1.2° off). With this on, the floor obstacles that the prediction puts on a cell the matched
+  // submap holds as occupied (structure seen at other heights: floor obstacles never enter it)
+  // are matched as structure (AddFloorObstaclesOnMappedStructure), on every scan (also the few
+  // far wall hits a walking humanoid's sway puts low; applied only where floor obstacles
+  // outnumber the structure, the worst rotation rmse of team_two's and humanoid_explore's nao
+  // was 0.09 and 0.05° larger). They are not mapped: they stay floor obstacles for the planner
+  // map, and the map and its layers keep their labels.
+  bool match_floor_obstacles_on_mapped_structure = true;
   // Paper §III-A: when more than this fraction of a scan's valid beams hit the floor, the
   // laser faces the floor: the scan is neither matched nor inserted (suspended) and the
   // caller's prediction (the EKF) carries the pose. 1 = never suspend.
@@ -252,6 +266,15 @@ bool RunsIntoUnobservedGround(const LaserMap& map, const Pose2& world_T_robot, c
 int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
                            ScanPoints* points);
 
+// Adds to points->matching (after its points, voxel-thinned with them: only voxels it does not
+// hold yet) the floor obstacles of `points` that `predicted` (the map's frame) puts on a cell
+// `map` holds as occupied (see match_floor_obstacles_on_mapped_structure); returns how many
+// floor obstacles lie there. points->all and points->floor_obstacles do not change. Nothing is
+// added (0) when the option is off, the map is empty, or the scan carries matching weights
+// (one per matching point: the added points would have none).
+int AddFloorObstaclesOnMappedStructure(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
+                                       ScanPoints* points);
+
 // The matched pose with the correction from `predicted` removed along a degenerate direction
 // (see degenerate_eigenvalue_ratio and degenerate_max_drop_ratio); `match.pose` itself when the
 // match constrains both directions, both criteria are off or the match carries no information
@@ -308,6 +331,8 @@ struct LocalResult {
   bool degenerate = false;     // the weak direction kept the prediction
   Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();  // local frame, unit, when degenerate
   int frontier_points = 0;     // points left out of the match (frontier_margin_meters)
+  // Floor obstacles on the map's structure, matched as structure (match_floor_obstacles_on_mapped_structure).
+  int structure_floor_obstacles = 0;
   double match_seconds = 0.0;   // wall time of the match (frontier rule, search, refinement)
   double insert_seconds = 0.0;  // wall time of the insertion into the active submaps
   ScanMatchResult match;

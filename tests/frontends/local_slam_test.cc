@@ -331,6 +331,78 @@ TEST(LocalSlamTest, PoorMatchOutsideThePredictionCovarianceIsRefused) {
   }
 }
 
+// Paper §III-E, walls are the invariants of the 2.5D assumption. A laser with a 120° field of
+// view on a head pitched 4° down in the room hits the walls more than 2.1 m ahead (x = 3 and the
+// front of y = ±2) below 0.35 m: by height alone, floor obstacles, more than the structure left
+// to match (the walls beside, flat along x). Against a map built from level scans, the
+// prediction puts them on the mapped walls: they are matched as structure
+// (AddFloorObstaclesOnMappedStructure) but stay floor obstacles, out of the map, and the match
+// stays at the true pose. A low hit away from the mapped structure is not matched. With the
+// option off none is, and the match slides along the walls beside.
+TEST(LocalSlamTest, FloorObstaclesOnMappedWallsAreMatchedAsStructure) {
+  const double pitch = 4 * M_PI / 180;
+  for (const bool on : {true, false}) {
+    SCOPED_TRACE(testing::Message() << "match_floor_obstacles_on_mapped_structure " << on);
+    LocalSlamOptions options;
+    options.prediction = MotionPrediction::kStationary;
+    options.motion_filter_distance_meters = 0;
+    options.match_floor_obstacles_on_mapped_structure = on;
+    LocalSlam slam(options);
+    for (int k = 0; k < 3; ++k) {
+      const double t = 0.1 * k;
+      const LaserScan level = NoddingRoomScan(Pose2::Identity(), 0.0, t);
+      ASSERT_TRUE(slam.AddScan(t, PrepareScanPoints(options, level, BodyAttitude()), slam.Predict(std::nullopt)).inserted);
+    }
+    BodyAttitude pitched;
+    pitched.pitch_radians = pitch;
+    LaserScan scan = NoddingRoomScan(Pose2::Identity(), pitch, 0.3);
+    LaserScan ahead = scan;  // the beams within ±60°
+    ahead.angles_radians.clear();
+    ahead.ranges_meters.clear();
+    for (size_t i = 0; i < scan.angles_radians.size(); ++i) {
+      if (std::abs(scan.angles_radians[i]) > M_PI / 3 + 1e-9) continue;
+      ahead.angles_radians.push_back(scan.angles_radians[i]);
+      ahead.ranges_meters.push_back(scan.ranges_meters[i]);
+    }
+    ScanPoints points = PrepareScanPoints(options, ahead, pitched);
+    const int low = static_cast<int>(points.floor_obstacles.size());
+    EXPECT_EQ(0, points.floor_points);
+    EXPECT_GT(low, static_cast<int>(points.all.size()));  // the walls ahead, by height
+    ASSERT_GT(points.all.size(), static_cast<size_t>(options.min_points));
+    // One low hit in the middle of the room, away from any wall.
+    const Eigen::Vector2f middle(1.0f, 0.0f);
+    points.floor_obstacles.push_back(middle);
+    const std::vector<Eigen::Vector2f> structure = points.all;
+    const size_t structure_matching = points.matching.size();
+    const LocalResult result = slam.AddScan(0.3, std::move(points), slam.Predict(std::nullopt));
+    ASSERT_TRUE(result.inserted);
+    ASSERT_TRUE(result.match.converged);
+    // Labels and the map's points do not change.
+    EXPECT_EQ(structure, result.points.all);
+    EXPECT_EQ(static_cast<size_t>(low + 1), result.points.floor_obstacles.size());
+    if (!on) {
+      // The walls beside alone are flat along x: the match slides along them (0.36 m).
+      EXPECT_GT(result.local_pose.translation().norm(), 0.1);
+      EXPECT_EQ(0, result.structure_floor_obstacles);
+      EXPECT_EQ(structure_matching, result.points.matching.size());
+      continue;
+    }
+    EXPECT_LT(result.local_pose.translation().norm(), 0.02);
+    EXPECT_LT(std::abs(result.local_pose.theta()), 0.5 * M_PI / 180);
+    // Most of the walls' low hits (not those in cells the level scans' 1° beams left unmapped).
+    EXPECT_GE(result.structure_floor_obstacles, 3 * low / 4);
+    EXPECT_LE(result.structure_floor_obstacles, low);
+    // The structure's matching points come first and stay; the walls' low hits fill the voxels
+    // they do not hold.
+    ASSERT_GT(result.points.matching.size(), structure_matching + 10);
+    for (size_t i = structure_matching; i < result.points.matching.size(); ++i) {
+      const Eigen::Vector2f& p = result.points.matching[i];
+      EXPECT_NE(middle, p);
+      EXPECT_LT(std::min(std::abs(std::abs(p.x()) - 3.f), std::abs(std::abs(p.y()) - 2.f)), 0.05f) << p.transpose();
+    }
+  }
+}
+
 TEST(LocalSlamOptionsTest, MotionFilterRanges) {
   LocalSlamOptions options;
   std::string error;
