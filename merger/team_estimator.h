@@ -249,6 +249,12 @@ enum class TeamConstraintKind {
 // "tag_eq4", "tag_scan_match", "scan_match", "map_overlap"
 const char* TeamConstraintKindName(TeamConstraintKind kind);
 
+// Whether a match's correction (its pose relative to the prediction the search was centred on)
+// is one to keep: within `angular_window`, and translated at most `linear_window` less a margin
+// of one cell (at most half the window) along each axis. A peak within a cell of the window's
+// border is the search pressing against it, and the true peak may lie outside.
+bool InsideSearchWindow(const Pose2& correction, double linear_window, double angular_window, double cell_meters);
+
 // One inter-robot constraint proposed, accepted or rejected.
 struct TeamConstraintRecord {
   double stamp_seconds = 0.0;  // when it was proposed (the stamp of the measurement being added)

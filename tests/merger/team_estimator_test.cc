@@ -431,6 +431,20 @@ void AddStraightRobot(int robot, int nodes, SubmapGraph* graph) {
 
 // Robot 1's frame sits at (3, 4, 30°) in robot 0's: two inter-robot constraints that say so,
 // robot 1's anchor started 0.5 m and 5° off (SetAnchorEstimate), solve: the anchor is the answer.
+// A match whose correction lies within a cell of its search window's border is not kept (the
+// peak may lie beyond it); inside, and on the angular border, it is.
+TEST(TeamEstimatorTest, AMatchPressingAgainstTheWindowBorderIsNotKept) {
+  constexpr double kWindow = 0.3, kAngle = 0.05, kCell = 0.05;
+  EXPECT_TRUE(InsideSearchWindow(Pose2(0.0, 0.0, 0.0), kWindow, kAngle, kCell));
+  EXPECT_TRUE(InsideSearchWindow(Pose2(0.25, -0.25, kAngle), kWindow, kAngle, kCell));
+  EXPECT_FALSE(InsideSearchWindow(Pose2(0.26, 0.0, 0.0), kWindow, kAngle, kCell));
+  EXPECT_FALSE(InsideSearchWindow(Pose2(0.0, -0.2995, 0.0), kWindow, kAngle, kCell));  // team_three seed 3's
+  EXPECT_FALSE(InsideSearchWindow(Pose2(0.0, 0.0, 1.01 * kAngle), kWindow, kAngle, kCell));
+  // A window narrower than two cells keeps its inner half.
+  EXPECT_TRUE(InsideSearchWindow(Pose2(0.02, 0.0, 0.0), 0.04, kAngle, kCell));
+  EXPECT_FALSE(InsideSearchWindow(Pose2(0.021, 0.0, 0.0), 0.04, kAngle, kCell));
+}
+
 TEST(TeamGraphTest, AnchorSolveRecoversAKnownRelativePose) {
   SubmapGraph graph{SubmapGraphOptions()};
   AddStraightRobot(0, 5, &graph);
