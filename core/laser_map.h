@@ -46,8 +46,8 @@ class LaserMap {
                   const std::vector<Eigen::Vector2f>& points_robot,
                   const std::vector<PointLabel>* labels = nullptr, const std::vector<float>* heights = nullptr);
 
-  // Keeps only what matching needs (cell states, labels, likelihood values, the wall field's
-  // values in the same compact 16-bit tiles: nothing stored away from walls) over the observed
+  // Keeps only what matching needs (cell states, labels, likelihood distance codes, the wall
+  // field's in the same compact 8-bit tiles: nothing stored away from walls) over the observed
   // box grown by the likelihood window and two cells (so the border values stay 0, as
   // factors/scan_cost.h assumes); no more insertion. See OccupancyGrid::Freeze.
   void Freeze();

@@ -16,7 +16,8 @@
 //
 // No robust loss: the field is already bounded in [0, 1].
 //
-// A frozen field (core/likelihood_field.h) is read in its quantised form, without a copy.
+// A frozen field (core/likelihood_field.h) is read in its quantised form (8-bit distance codes:
+// the squared distances, or the values, from its code table), without a copy.
 //
 // Lifetime: the cost keeps a pointer to `field.values()` (to `field` itself when frozen) and
 // a copy of `field.geometry()` —

@@ -144,7 +144,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
-  // A frozen field (a finished submap) holds its values quantised.
+  // A frozen field (a finished submap) holds distance codes (LikelihoodField::FrozenCodes).
   const bool frozen_field = field.frozen();
   const TiledGrid<float>& values = field.values();
   // A frozen field's codes stand for values (LikelihoodField::FrozenCodes).
