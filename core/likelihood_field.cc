@@ -181,9 +181,9 @@ bool LikelihoodField::MayBeNonZeroNear(const CellIndex& c, int radius_cells) con
   const int outside = std::max({-c.x, c.x - (w - 1), -c.y, c.y - (h - 1), 0});
   if (outside > radius_cells) return false;
   const int x = std::clamp(c.x, 0, w - 1), y = std::clamp(c.y, 0, h - 1);
-  constexpr int kBits = SparseTiles<uint16_t>::kTileBits;
+  constexpr int kBits = SparseTiles<uint8_t>::kTileBits;
   // A cell within r of (x, y) lies in a tile at most (r + size - 1) / size tiles away.
-  const int reach_tiles = (radius_cells + SparseTiles<uint16_t>::kTileSize - 1) >> kBits;
+  const int reach_tiles = (radius_cells + SparseTiles<uint8_t>::kTileSize - 1) >> kBits;
   const int d = tile_distances_[static_cast<size_t>(y >> kBits) * frozen_codes_.tiles_x() + (x >> kBits)];
   return d <= reach_tiles;
 }

@@ -151,18 +151,18 @@ int AddFloorObstaclesOnMappedStructure(const LocalSlamOptions& options, const La
       points->floor_obstacles.empty() || !points->matching_weights.empty()) {
     return 0;
   }
-  std::vector<Eigen::Vector2f> matching = points->matching;
-  const size_t before = matching.size();
+  std::vector<Eigen::Vector2f> on_structure;
   for (const Eigen::Vector2f& p : points->floor_obstacles) {
-    if (map.grid().StateAt(predicted * p.cast<double>()) == CellState::kOccupied) matching.push_back(p);
+    if (map.grid().StateAt(predicted * p.cast<double>()) == CellState::kOccupied) on_structure.push_back(p);
   }
-  const int on_structure = static_cast<int>(matching.size() - before);
-  if (on_structure == 0) return 0;
+  if (on_structure.empty()) return 0;
   // The matching points first: a voxel they hold keeps its point.
+  std::vector<Eigen::Vector2f> matching = points->matching;
+  matching.insert(matching.end(), on_structure.begin(), on_structure.end());
   points->matching = options.matching_voxel_meters > 0
                          ? VoxelFilter(matching, static_cast<float>(options.matching_voxel_meters))
                          : std::move(matching);
-  return on_structure;
+  return static_cast<int>(on_structure.size());
 }
 
 Pose2 DegeneracyAwarePose(const LocalSlamOptions& options, const Pose2& predicted, const ScanMatchResult& match,

@@ -144,10 +144,10 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
   const int x_begin = std::max(0, -s.region_min.x), x_end = std::min(w, g.width() - s.region_min.x);
-  // A frozen field (a finished submap) holds distance codes (LikelihoodField::FrozenCodes).
+  // A frozen field (a finished submap) holds distance codes, each standing for a value
+  // (LikelihoodField::FrozenCodes).
   const bool frozen_field = field.frozen();
   const TiledGrid<float>& values = field.values();
-  // A frozen field's codes stand for values (LikelihoodField::FrozenCodes).
   const float* code_value = frozen_field ? field.frozen_codes().value : nullptr;
   // A frozen grid (a finished submap) keeps only cell states (tiled, like the field's values);
   // one that is being built keeps log-odds in tiles (OccupancyGrid::kUnobserved: never observed).
@@ -238,6 +238,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
     CHECK(wall_field->geometry().num_cells() == g.num_cells() && wall_field->geometry().origin() == g.origin())
         << "the wall field's geometry differs from the field's";
     const float extra = wall_weight - 1.f;
+    const float* wall_value = frozen_field ? wall_field->frozen_codes().value : nullptr;
     for (int y = 0; y < h; ++y) {
       const int gy = s.region_min.y + y;
       if (gy < 0 || gy >= g.height() || n == 0) continue;
@@ -248,7 +249,6 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
           const int gx = gx0 + x;
           const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - (gx & (SparseTiles<uint8_t>::kTileSize - 1)));
           const uint8_t* q = wall_field->FrozenCodesTileRow(gx, gy);
-          const float* wall_value = wall_field->frozen_codes().value;
           if (q != nullptr) {
             for (int k = 0; k < chunk; ++k) out[x + k] += extra * wall_value[q[k]];
           }

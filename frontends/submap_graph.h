@@ -240,7 +240,8 @@ class SubmapGraph {
     PointLabel Label(size_t k) const { return labels_uniform ? uniform_label : points.labels[k]; }
     size_t num_points() const { return all_mm.empty() ? points.all.size() : all_mm.size(); }
     Eigen::Vector2f Point(size_t k) const {
-      return all_mm.empty() ? points.all[k] : Eigen::Vector2f(all_mm[k].x / kPointsPerMeter, all_mm[k].y / kPointsPerMeter);
+      if (all_mm.empty()) return points.all[k];
+      return Eigen::Vector2f(all_mm[k].x / kPointsPerMeter, all_mm[k].y / kPointsPerMeter);
     }
   };
   struct Submap {
