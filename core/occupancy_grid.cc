@@ -327,6 +327,52 @@ float OccupancyGrid::LogOdds(int i) const {
   return log_odds == kUnobserved ? 0.f : log_odds;
 }
 
+int OccupancyGrid::DropWeakOccupiedCells(double min_share) {
+  CHECK(!frozen_) << "DropWeakOccupiedCells on a frozen grid";
+  if (min_share <= 0.0 || observed_max_.x < observed_min_.x) return 0;
+  auto occupied_at = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < geometry_.width() && y < geometry_.height() &&
+           StateOfLogOdds(log_odds_.Get(x, y)) == CellState::kOccupied;
+  };
+  auto unknown_at = [&](int x, int y) {
+    return x < 0 || y < 0 || x >= geometry_.width() || y >= geometry_.height() || log_odds_.Get(x, y) == kUnobserved;
+  };
+  auto count_at = [&](int x, int y) -> uint32_t {
+    if (!occupied_at(x, y)) return 0;
+    const int32_t hit = hit_index_.Get(x, y);
+    return hit < 0 ? 0 : hits_[hit].count;
+  };
+  std::vector<CellIndex> weak;
+  for (int y = observed_min_.y; y <= observed_max_.y; ++y) {
+    for (int x = observed_min_.x; x <= observed_max_.x; ++x) {
+      if (hit_index_.Get(x, y) < 0 || !occupied_at(x, y)) continue;
+      // Behind a stronger neighbour: the cell on the far side, away from it, was never observed
+      // (beyond the surface lies what no ray reached). A weaker cell along a surface has the
+      // surface going on at its far side, one in front of it free space: both stay.
+      const double count = count_at(x, y);
+      bool behind = false;
+      for (int dy = -1; dy <= 1 && !behind; ++dy) {
+        for (int dx = -1; dx <= 1 && !behind; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          behind = count < min_share * count_at(x + dx, y + dy) && unknown_at(x - dx, y - dy);
+        }
+      }
+      if (behind) weak.push_back({x, y});
+    }
+  }
+  for (const CellIndex& c : weak) {
+    const int32_t hit = hit_index_.Get(c.x, c.y);
+    hits_[hit] = HitAccumulator();
+    free_hits_.push_back(hit);
+    hit_index_.Ref(c.x, c.y) = -1;
+    log_odds_.Set(c.x, c.y, kUnobserved);
+    if (has_label_layer_) labels_.Set(c.x, c.y, 0);
+    if (height_min_.width() > 0) height_min_.Set(c.x, c.y, 255);
+    if (height_max_.width() > 0) height_max_.Set(c.x, c.y, 0);
+  }
+  return static_cast<int>(weak.size());
+}
+
 Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {
   CHECK(!frozen_) << "HitPoint on a frozen grid";
   const CellIndex c = geometry_.FromLinearIndex(i);

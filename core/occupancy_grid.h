@@ -131,6 +131,17 @@ class OccupancyGrid {
     const CellIndex c = geometry_.WorldToCell(p_world);
     return geometry_.Contains(c) ? State(c) : CellState::kUnknown;
   }
+  // Drops the tails of surfaces. Range and pose noise spread a wall's end points over the cells
+  // on both sides of its surface; the cells in front are crossed by rays and cleared, those
+  // behind it never are, so one stray end point there stays occupied for good and thickens the
+  // wall outwards. An occupied cell is such a tail when some neighbour n (of the eight) was hit
+  // more than 1 / `min_share` times as often and the cell on its far side from n was never
+  // observed: it sits behind n, at the edge of what the rays reached. A weaker cell along a
+  // surface (the surface goes on at its far side) or in front of it (free space there) stays. Tails become unknown again (hit point, label
+  // and heights forgotten). Decided on the grid before any cell is dropped (order-independent).
+  // Returns the number of cells dropped; min_share <= 0 drops none. CHECK-fails on a frozen
+  // grid.
+  int DropWeakOccupiedCells(double min_share);
   // Not kept by a frozen grid (CHECK-fails there): a finished submap is read by state.
   float LogOdds(int linear_index) const;
   bool IsOccupied(int linear_index) const { return State(linear_index) == CellState::kOccupied; }

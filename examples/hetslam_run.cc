@@ -142,6 +142,10 @@ DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score
               "dropped. 0 = off.");
 DEFINE_double(loop_weak_sigma, 2.0, "Largest standard deviation (metres) of a degenerate loop closure along its weak "
               "direction (see --loop_degenerate_drop_ratio); the consistency check ignores that direction.");
+DEFINE_double(map_min_hit_share, 0.2, "The written maps (map.pgm, walls.pgm, planner.pgm and the structure in map.png) "
+              "drop every occupied cell hit fewer times than this share of its most-hit neighbour: the noise tail "
+              "behind a wall, which no ray ever clears. 0 keeps every hit cell. Matching and loop closure are "
+              "unaffected.");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
@@ -290,6 +294,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"degenerate_max_drop_ratio", "--degenerate_drop_ratio"},
       {"loop: degenerate_max_drop_ratio", "--loop_degenerate_drop_ratio"},
       {"loop_weak_translation_sigma_meters", "--loop_weak_sigma"},
+      {"map_min_hit_share", "--map_min_hit_share"},
       {"degenerate_eigenvalue_ratio", "--degenerate_ratio"},
       {"frontier_margin_meters", "--frontier_margin"},
       {"covariance_sigmas", "--covariance_sigmas"},
@@ -421,6 +426,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->degenerate_max_drop_ratio = FLAGS_loop_degenerate_drop_ratio;
   loop->max_submaps_per_search = FLAGS_loop_max_submaps;
   estimator->graph.loop_weak_translation_sigma_meters = FLAGS_loop_weak_sigma;
+  estimator->graph.map_min_hit_share = FLAGS_map_min_hit_share;
   loop->min_node_separation = FLAGS_loop_min_node_separation;
   loop->search_min_travel_meters = FLAGS_loop_search_min_travel;
   loop->search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;

@@ -92,6 +92,9 @@ DEFINE_int32(loop_max_submaps, 4, "Each robot's loop search budget (see hetslam_
 DEFINE_double(max_map_store_mib, 0.0, "Each robot's map store bound (see hetslam_run --help): the finished submaps' "
               "maps beyond this many MiB are evicted, the most covered first (no longer searched, still rendered); 0 = "
               "no bound.");
+DEFINE_double(map_min_hit_share, 0.2, "Every robot's rendered maps (its map.pgm, the merged map, and the maps the "
+              "map-overlap checks compare) drop every occupied cell hit fewer times than this share of its most-hit "
+              "neighbour: the noise tail behind a wall (see hetslam_run --help). 0 keeps every hit cell.");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {
@@ -130,6 +133,7 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->inter_min_score = FLAGS_inter_min_score;
   team->second_constraint_min_distance_meters = FLAGS_second_constraint_min_distance;
   team->tag_min_separation_meters = FLAGS_tag_min_separation;
+  team->graph.map_min_hit_share = FLAGS_map_min_hit_share;
   robot->local.motion_filter_distance_meters = FLAGS_motion_filter_distance;
   robot->local.motion_filter_angle_radians = FLAGS_motion_filter_angle_deg * kDeg;
   robot->loop.max_submaps_per_search = FLAGS_loop_max_submaps;

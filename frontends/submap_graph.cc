@@ -62,6 +62,7 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
     msg << "loop consistency bounds must be > 0; ";
   if (!(loop_weak_translation_sigma_meters > 0 && loop_weak_translation_sigma_meters <= 1e3))
     msg << "loop_weak_translation_sigma_meters must be in (0, 1000]; ";
+  if (!(map_min_hit_share >= 0 && map_min_hit_share <= 1)) msg << "map_min_hit_share must be in [0, 1]; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -428,6 +429,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels,
                        node.points.projected ? &node.points.heights_meters : nullptr);
     }
+    grid->DropWeakOccupiedCells(options_.map_min_hit_share);
     return grid;
   }
   // Floor obstacles, over the structure for a planner. A floor-obstacle point within a cell of

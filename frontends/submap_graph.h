@@ -67,6 +67,12 @@ struct SubmapGraphOptions {
   // (ConstraintCandidate::weak_direction: a corridor, where the match cannot place the node
   // along the walls); the consistency check looks only across that direction.
   double loop_weak_translation_sigma_meters = 2.0;
+  // RenderMap's structure (and so the walls and planner layers drawn from it) drops the noise
+  // tail behind surfaces: occupied cells hit fewer times than this share of a neighbour they
+  // lie behind (OccupancyGrid::DropWeakOccupiedCells). Only the rendered maps: the submaps
+  // that scans and loop closures are matched against keep every cell. 0 keeps every cell.
+  // In [0, 1].
+  double map_min_hit_share = 0.2;
 
   bool IsValid(std::string* error) const;
 };

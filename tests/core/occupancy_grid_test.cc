@@ -129,6 +129,57 @@ TEST(OccupancyGridTest, HitPointRestartsAfterTheCellTurnsFree) {
   EXPECT_NEAR(0.0, (grid.HitPoint(cell) - second).norm(), 1e-6);
 }
 
+// The noise tail behind a wall: a wall at x = 1.0 m seen 20 times from the origin, plus one stray
+// end point 7 cm behind it. Rays clear what lies in front of the wall, never what lies behind,
+// so the stray cell stays occupied on a single hit; DropWeakOccupiedCells (share 0.2) makes it
+// unknown again: a wall cell was hit 20 times as often and nothing lies beyond the stray one. A
+// lone post hit once, with no stronger neighbour, the wall's own cells and weak cells along the
+// wall or in front of it stay.
+TEST(OccupancyGridTest, DropWeakOccupiedCellsForgetsTheNoiseTailBehindAWall) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  const Eigen::Vector2d sensor(0.0, 0.0);
+  std::vector<Eigen::Vector2d> wall;
+  for (double y = -0.5; y <= 0.5; y += 0.01) wall.push_back({1.02, y});
+  for (int k = 0; k < 20; ++k) grid.InsertScan(sensor, wall, nullptr);
+  grid.InsertScan(sensor, {{1.09, 0.02}, {0.5, 2.0}}, nullptr);  // the stray hit; a post elsewhere
+  const GridGeometry& g = grid.geometry();
+  auto index = [&](double x, double y) { return g.LinearIndex(g.WorldToCell({x, y})); };
+  ASSERT_EQ(CellState::kOccupied, grid.State(index(1.09, 0.02)));
+  ASSERT_EQ(1, grid.HitCount(index(1.09, 0.02)));
+  ASSERT_GE(grid.HitCount(index(1.02, 0.02)), 20);
+
+  EXPECT_EQ(0, grid.DropWeakOccupiedCells(0.0));  // 0 keeps every cell
+  EXPECT_EQ(1, grid.DropWeakOccupiedCells(0.2));
+  EXPECT_EQ(CellState::kUnknown, grid.State(index(1.09, 0.02)));
+  EXPECT_EQ(0, grid.HitCount(index(1.09, 0.02)));
+  EXPECT_EQ(CellState::kOccupied, grid.State(index(0.5, 2.0)));  // no stronger neighbour
+  for (double y = -0.45; y <= 0.45; y += 0.05) {
+    EXPECT_EQ(CellState::kOccupied, grid.State(index(1.02, y))) << "wall cell at y = " << y;
+  }
+  EXPECT_EQ(0, grid.DropWeakOccupiedCells(0.2));  // nothing weak is left
+  // A wall cell seen once between cells seen 20 times stays: the wall goes on at its far side.
+  OccupancyGrid along{OccupancyGridOptions()};
+  for (int k = 0; k < 20; ++k) along.InsertScan(sensor, {{1.02, 0.02}, {1.02, 0.12}}, nullptr);
+  along.InsertScan(sensor, {{1.02, 0.07}}, nullptr);
+  const GridGeometry& ga = along.geometry();
+  ASSERT_EQ(1, along.HitCount(ga.LinearIndex(ga.WorldToCell({1.02, 0.07}))));
+  EXPECT_EQ(0, along.DropWeakOccupiedCells(0.2));
+  // A weak cell in front of the wall (something the robot saw there a few times) stays: the rays
+  // crossed the cell on its far side, which is free, not unseen.
+  OccupancyGrid front{OccupancyGridOptions()};
+  for (int k = 0; k < 20; ++k) front.InsertScan(sensor, wall, nullptr);
+  for (int k = 0; k < 5; ++k) front.InsertScan(sensor, {{0.97, 0.02}}, nullptr);
+  const GridGeometry& gf = front.geometry();
+  const int in_front = gf.LinearIndex(gf.WorldToCell({0.97, 0.02}));
+  ASSERT_EQ(CellState::kOccupied, front.State(in_front));
+  ASSERT_LT(front.HitCount(in_front), 4);
+  EXPECT_EQ(0, front.DropWeakOccupiedCells(0.2));
+  // The grid takes hits as before: the dropped cell starts afresh.
+  grid.InsertScan(sensor, {{1.09, 0.02}}, nullptr);
+  EXPECT_EQ(CellState::kOccupied, grid.State(index(1.09, 0.02)));
+  EXPECT_EQ(1, grid.HitCount(index(1.09, 0.02)));
+}
+
 TEST(OccupancyGridTest, ResolutionOutsideItsRangeIsInvalid) {
   OccupancyGridOptions options;
   options.resolution_meters = 1e-4;

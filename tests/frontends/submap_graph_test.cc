@@ -156,5 +156,39 @@ TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsToTheMillimetre) {
   }
 }
 
+// The rendered map leaves out the noise tail behind a wall (SubmapGraphOptions::
+// map_min_hit_share; OccupancyGrid::DropWeakOccupiedCells): ten nodes see a wall 2 m ahead,
+// one of them with a stray point 6 cm behind it, in the next cell. By default the stray cell
+// is unknown in the map and the wall is whole; with the share at 0 it is occupied.
+TEST(SubmapGraphTest, RenderedMapLeavesOutTheNoiseTailBehindAWall) {
+  auto render = [](double share) {
+    SubmapGraphOptions options;
+    options.map_min_hit_share = share;
+    SubmapGraph graph{options};
+    for (int i = 0; i < 10; ++i) {
+      LocalResult result;
+      result.inserted = true;
+      result.stamp_seconds = i;
+      result.local_pose = Pose2(0.0, 0.05 * i, 0.0);
+      if (i == 0) result.new_submaps.push_back({0, Pose2::Identity()});
+      result.insertions.push_back({0, result.local_pose});
+      for (int k = -20; k <= 20; ++k) result.points.all.emplace_back(2.02f, 0.02f * k);  // the wall at x = 2.02 m
+      if (i == 4) result.points.all.emplace_back(2.08f, 0.01f);                         // the stray point
+      result.points.labels.assign(result.points.all.size(), PointLabel::kStructure);
+      graph.AddNode(0, std::move(result));
+    }
+    return graph.RenderMap(0, OccupancyGridOptions());
+  };
+  // World positions: node 4 is at y = 0.2, so its stray point lies at (2.08, 0.21).
+  const std::unique_ptr<OccupancyGrid> kept_all = render(0.0);
+  const std::unique_ptr<OccupancyGrid> cleaned = render(SubmapGraphOptions().map_min_hit_share);
+  EXPECT_EQ(CellState::kOccupied, kept_all->StateAt({2.08, 0.21}));
+  EXPECT_EQ(CellState::kUnknown, cleaned->StateAt({2.08, 0.21}));
+  for (double y = -0.35; y <= 0.55; y += 0.05) {
+    EXPECT_EQ(CellState::kOccupied, cleaned->StateAt({2.02, y})) << "wall at y = " << y;
+  }
+  EXPECT_EQ(CellState::kFree, cleaned->StateAt({1.0, 0.2}));
+}
+
 }  // namespace
 }  // namespace hetslam
