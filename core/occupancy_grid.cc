@@ -360,17 +360,62 @@ int OccupancyGrid::DropWeakOccupiedCells(double min_share) {
       if (behind) weak.push_back({x, y});
     }
   }
-  for (const CellIndex& c : weak) {
-    const int32_t hit = hit_index_.Get(c.x, c.y);
+  for (const CellIndex& c : weak) ForgetCell(c);
+  return static_cast<int>(weak.size());
+}
+
+int OccupancyGrid::DropSmallOccupiedPieces(double min_extent_meters, int link_cells) {
+  CHECK(!frozen_) << "DropSmallOccupiedPieces on a frozen grid";
+  CHECK_GE(link_cells, 0) << "DropSmallOccupiedPieces: negative link_cells";
+  if (min_extent_meters <= 0.0 || observed_max_.x < observed_min_.x) return 0;
+  const int x0 = observed_min_.x, y0 = observed_min_.y;
+  const int width = observed_max_.x - x0 + 1, height = observed_max_.y - y0 + 1;
+  auto occupied = [&](int x, int y) {
+    return x >= x0 && y >= y0 && x < x0 + width && y < y0 + height &&
+           StateOfLogOdds(log_odds_.Get(x, y)) == CellState::kOccupied;
+  };
+  std::vector<uint8_t> seen(static_cast<size_t>(width) * height, 0);
+  auto seen_at = [&](int x, int y) -> uint8_t& { return seen[static_cast<size_t>(y - y0) * width + (x - x0)]; };
+  std::vector<CellIndex> piece, small;
+  for (int y = y0; y < y0 + height; ++y) {
+    for (int x = x0; x < x0 + width; ++x) {
+      if (seen_at(x, y) || !occupied(x, y)) continue;
+      // One piece, breadth first.
+      piece.assign(1, CellIndex{x, y});
+      seen_at(x, y) = 1;
+      CellIndex lo{x, y}, hi{x, y};
+      for (size_t k = 0; k < piece.size(); ++k) {
+        const CellIndex c = piece[k];
+        lo = {std::min(lo.x, c.x), std::min(lo.y, c.y)};
+        hi = {std::max(hi.x, c.x), std::max(hi.y, c.y)};
+        for (int dy = -link_cells; dy <= link_cells; ++dy) {
+          for (int dx = -link_cells; dx <= link_cells; ++dx) {
+            const int nx = c.x + dx, ny = c.y + dy;
+            if (!occupied(nx, ny) || seen_at(nx, ny)) continue;
+            seen_at(nx, ny) = 1;
+            piece.push_back({nx, ny});
+          }
+        }
+      }
+      const double extent = std::hypot(hi.x - lo.x + 1, hi.y - lo.y + 1) * geometry_.resolution_meters();
+      if (extent < min_extent_meters) small.insert(small.end(), piece.begin(), piece.end());
+    }
+  }
+  for (const CellIndex& c : small) ForgetCell(c);
+  return static_cast<int>(small.size());
+}
+
+void OccupancyGrid::ForgetCell(const CellIndex& c) {
+  const int32_t hit = hit_index_.Get(c.x, c.y);
+  if (hit >= 0) {
     hits_[hit] = HitAccumulator();
     free_hits_.push_back(hit);
     hit_index_.Ref(c.x, c.y) = -1;
-    log_odds_.Set(c.x, c.y, kUnobserved);
-    if (has_label_layer_) labels_.Set(c.x, c.y, 0);
-    if (height_min_.width() > 0) height_min_.Set(c.x, c.y, 255);
-    if (height_max_.width() > 0) height_max_.Set(c.x, c.y, 0);
   }
-  return static_cast<int>(weak.size());
+  log_odds_.Set(c.x, c.y, kUnobserved);
+  if (has_label_layer_) labels_.Set(c.x, c.y, 0);
+  if (height_min_.width() > 0) height_min_.Set(c.x, c.y, 255);
+  if (height_max_.width() > 0) height_max_.Set(c.x, c.y, 0);
 }
 
 Eigen::Vector2d OccupancyGrid::HitPoint(int i) const {

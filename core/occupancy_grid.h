@@ -142,6 +142,13 @@ class OccupancyGrid {
   // Returns the number of cells dropped; min_share <= 0 drops none. CHECK-fails on a frozen
   // grid.
   int DropWeakOccupiedCells(double min_share);
+  // Drops small pieces of structure: occupied cells are grouped into pieces (two cells within
+  // `link_cells` of each other, Chebyshev, are in one piece, bridging gaps a sparse scan leaves),
+  // and every cell of a piece whose bounding box has a diagonal shorter than `min_extent_meters`
+  // (cells counted whole) becomes unknown again. The walls layer uses it: a wall is a surface,
+  // not a post (a table leg is hit at several heights too). Returns the number of cells dropped;
+  // min_extent_meters <= 0 drops none. CHECK-fails on a frozen grid or a negative link_cells.
+  int DropSmallOccupiedPieces(double min_extent_meters, int link_cells);
   // Not kept by a frozen grid (CHECK-fails there): a finished submap is read by state.
   float LogOdds(int linear_index) const;
   bool IsOccupied(int linear_index) const { return State(linear_index) == CellState::kOccupied; }
@@ -214,6 +221,8 @@ class OccupancyGrid {
   // The bounds EnsureContains grows to; false when the box is inside already.
   bool GrownBounds(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world, Eigen::Vector2d* new_min,
                    Eigen::Vector2d* new_max) const;
+  // Makes an occupied or free cell unknown again: log-odds, hit point, label and heights.
+  void ForgetCell(const CellIndex& c);
   // Cell c, linear index i (the same cell).
   void UpdateCell(const CellIndex& c, int i, float delta_log_odds, std::vector<int>* changed_cells);
 

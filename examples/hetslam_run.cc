@@ -146,6 +146,9 @@ DEFINE_double(map_min_hit_share, 0.2, "The written maps (map.pgm, walls.pgm, pla
               "drop every occupied cell hit fewer times than this share of its most-hit neighbour: the noise tail "
               "behind a wall, which no ray ever clears. 0 keeps every hit cell. Matching and loop closure are "
               "unaffected.");
+DEFINE_double(wall_min_length, 0.25, "walls.pgm keeps only pieces of wall at least this long (metres, the diagonal of "
+              "a piece's bounding box; hits two cells apart join one piece): a table leg or a post is hit at several "
+              "heights like a wall but is no surface. 0 keeps every piece.");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
@@ -295,6 +298,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"loop: degenerate_max_drop_ratio", "--loop_degenerate_drop_ratio"},
       {"loop_weak_translation_sigma_meters", "--loop_weak_sigma"},
       {"map_min_hit_share", "--map_min_hit_share"},
+      {"wall_min_length_meters", "--wall_min_length"},
       {"degenerate_eigenvalue_ratio", "--degenerate_ratio"},
       {"frontier_margin_meters", "--frontier_margin"},
       {"covariance_sigmas", "--covariance_sigmas"},
@@ -427,6 +431,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->max_submaps_per_search = FLAGS_loop_max_submaps;
   estimator->graph.loop_weak_translation_sigma_meters = FLAGS_loop_weak_sigma;
   estimator->graph.map_min_hit_share = FLAGS_map_min_hit_share;
+  estimator->graph.wall_min_length_meters = FLAGS_wall_min_length;
   loop->min_node_separation = FLAGS_loop_min_node_separation;
   loop->search_min_travel_meters = FLAGS_loop_search_min_travel;
   loop->search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;

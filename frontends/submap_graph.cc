@@ -18,6 +18,9 @@ constexpr int kNodeGroup = 0;
 constexpr int kSubmapGroup = 1;
 // Floor-obstacle points this close (cells) to mapped structure are left out of the obstacle layers.
 constexpr int kStructureClearanceCells = 2;
+// Wall cells this close (cells) join one piece of wall: a one-cell gap a sparse scan leaves
+// between hits does not split a wall (SubmapGraphOptions::wall_min_length_meters).
+constexpr int kWallPieceLinkCells = 2;
 
 // Square-root information of a loop closure submap_T_node (residual in the measured node's
 // frame, factors/relative_pose_cost.h): the loop sigmas, and along a weak direction w (submap
@@ -63,6 +66,7 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
   if (!(loop_weak_translation_sigma_meters > 0 && loop_weak_translation_sigma_meters <= 1e3))
     msg << "loop_weak_translation_sigma_meters must be in (0, 1000]; ";
   if (!(map_min_hit_share >= 0 && map_min_hit_share <= 1)) msg << "map_min_hit_share must be in [0, 1]; ";
+  if (!(wall_min_length_meters >= 0 && wall_min_length_meters <= 100)) msg << "wall_min_length_meters must be in [0, 100]; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -392,6 +396,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       }
       if (!walls.empty()) grid->InsertScan(world_T_node * node.points.sensor_robot, walls, nullptr);
     }
+    grid->DropSmallOccupiedPieces(options_.wall_min_length_meters, kWallPieceLinkCells);
     return grid;
   }
   std::vector<Eigen::Vector2d> points_world;

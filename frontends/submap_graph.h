@@ -73,6 +73,11 @@ struct SubmapGraphOptions {
   // that scans and loop closures are matched against keep every cell. 0 keeps every cell.
   // In [0, 1].
   double map_min_hit_share = 0.2;
+  // RenderMap's walls layer keeps only pieces of wall at least this long (the diagonal of a
+  // piece's bounding box; cells two apart join one piece): a wall is a surface, while a table
+  // leg or a post is hit at several heights as well (OccupancyGrid::DropSmallOccupiedPieces).
+  // 0 keeps every piece. In [0, 100] metres.
+  double wall_min_length_meters = 0.25;
 
   bool IsValid(std::string* error) const;
 };

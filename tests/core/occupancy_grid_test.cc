@@ -180,6 +180,42 @@ TEST(OccupancyGridTest, DropWeakOccupiedCellsForgetsTheNoiseTailBehindAWall) {
   EXPECT_EQ(1, grid.HitCount(index(1.09, 0.02)));
 }
 
+// Pieces of structure: a wall 1 m long with a one-cell gap in it (one piece: cells two apart
+// join), and a post of one cell 1 m away from it. With a minimum extent of 0.25 m the post goes
+// (its diagonal is 0.07 m) and the whole wall, gap and all, stays.
+TEST(OccupancyGridTest, DropSmallOccupiedPiecesKeepsWallsAndDropsPosts) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  const Eigen::Vector2d sensor(0.0, 0.0);
+  std::vector<Eigen::Vector2d> points;
+  for (double y = -0.5; y <= 0.5; y += 0.01) {
+    if (y < 0.05 || y > 0.1) points.push_back({1.02, y});  // a gap of one cell at y in [0.05, 0.1)
+  }
+  points.push_back({0.02, 1.02});  // the post
+  grid.InsertScan(sensor, points, nullptr);
+  const GridGeometry& g = grid.geometry();
+  auto state = [&](double x, double y) { return grid.State(g.LinearIndex(g.WorldToCell({x, y}))); };
+  ASSERT_EQ(CellState::kOccupied, state(0.02, 1.02));
+  ASSERT_NE(CellState::kOccupied, state(1.02, 0.07));
+
+  EXPECT_EQ(0, grid.DropSmallOccupiedPieces(0.0, 2));  // 0 keeps every piece
+  EXPECT_EQ(1, grid.DropSmallOccupiedPieces(0.25, 2));
+  EXPECT_EQ(CellState::kUnknown, state(0.02, 1.02));
+  for (double y = -0.45; y <= 0.45; y += 0.05) {
+    if (y < 0.04 || y > 0.11) {
+      EXPECT_EQ(CellState::kOccupied, state(1.02, y)) << "wall cell at y = " << y;
+    }
+  }
+  // Without the link across the gap the wall is two pieces of about 0.5 m: both still stay; at
+  // 0.6 m both go.
+  EXPECT_EQ(0, grid.DropSmallOccupiedPieces(0.25, 1));
+  int wall_cells = 0;
+  for (int i = 0; i < g.width() * g.height(); ++i) wall_cells += grid.IsOccupied(i) ? 1 : 0;
+  EXPECT_GE(wall_cells, 19);
+  EXPECT_EQ(wall_cells, grid.DropSmallOccupiedPieces(0.6, 1));
+  EXPECT_EQ(CellState::kUnknown, state(1.02, 0.0));
+  EXPECT_EQ(CellState::kUnknown, state(1.02, 0.3));
+}
+
 TEST(OccupancyGridTest, ResolutionOutsideItsRangeIsInvalid) {
   OccupancyGridOptions options;
   options.resolution_meters = 1e-4;
