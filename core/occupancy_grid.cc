@@ -335,7 +335,8 @@ int OccupancyGrid::DropWeakOccupiedCells(double min_share) {
            StateOfLogOdds(log_odds_.Get(x, y)) == CellState::kOccupied;
   };
   auto unknown_at = [&](int x, int y) {
-    return x < 0 || y < 0 || x >= geometry_.width() || y >= geometry_.height() || log_odds_.Get(x, y) == kUnobserved;
+    return x < 0 || y < 0 || x >= geometry_.width() || y >= geometry_.height() ||
+           log_odds_.Get(x, y) == kUnobserved;
   };
   auto count_at = [&](int x, int y) -> uint32_t {
     if (!occupied_at(x, y)) return 0;

@@ -137,10 +137,10 @@ class OccupancyGrid {
   // wall outwards. An occupied cell is such a tail when some neighbour n (of the eight) was hit
   // more than 1 / `min_share` times as often and the cell on its far side from n was never
   // observed: it sits behind n, at the edge of what the rays reached. A weaker cell along a
-  // surface (the surface goes on at its far side) or in front of it (free space there) stays. Tails become unknown again (hit point, label
-  // and heights forgotten). Decided on the grid before any cell is dropped (order-independent).
-  // Returns the number of cells dropped; min_share <= 0 drops none. CHECK-fails on a frozen
-  // grid.
+  // surface (the surface goes on at its far side) or in front of it (free space there) stays.
+  // Tails become unknown again (hit point, label and heights forgotten). Decided on the grid
+  // before any cell is dropped (order-independent). Returns the number of cells dropped;
+  // min_share <= 0 drops none. CHECK-fails on a frozen grid.
   int DropWeakOccupiedCells(double min_share);
   // Drops small pieces of structure: occupied cells are grouped into pieces (two cells within
   // `link_cells` of each other, Chebyshev, are in one piece, bridging gaps a sparse scan leaves),
@@ -221,7 +221,8 @@ class OccupancyGrid {
   // The bounds EnsureContains grows to; false when the box is inside already.
   bool GrownBounds(const Eigen::Vector2d& min_world, const Eigen::Vector2d& max_world, Eigen::Vector2d* new_min,
                    Eigen::Vector2d* new_max) const;
-  // Makes an occupied or free cell unknown again: log-odds, hit point, label and heights.
+  // Makes an occupied or free cell unknown again: log-odds, hit point, label and heights (the
+  // observed box is not shrunk: it may hold unknown cells at its edge).
   void ForgetCell(const CellIndex& c);
   // Cell c, linear index i (the same cell).
   void UpdateCell(const CellIndex& c, int i, float delta_log_odds, std::vector<int>* changed_cells);

@@ -143,12 +143,12 @@ DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score
 DEFINE_double(loop_weak_sigma, 2.0, "Largest standard deviation (metres) of a degenerate loop closure along its weak "
               "direction (see --loop_degenerate_drop_ratio); the consistency check ignores that direction.");
 DEFINE_double(map_min_hit_share, 0.2, "The written maps (map.pgm, walls.pgm, planner.pgm and the structure in map.png) "
-              "drop every occupied cell hit fewer times than this share of its most-hit neighbour: the noise tail "
-              "behind a wall, which no ray ever clears. 0 keeps every hit cell. Matching and loop closure are "
-              "unaffected.");
+              "leave out the noise tail behind walls, which no ray ever clears: an occupied cell hit fewer times than "
+              "this share of a neighbour's hits, with never-observed space on its far side from that neighbour, is "
+              "unknown. In [0, 1]; 0 keeps every hit cell. Matching, loop closure and the trajectory are unaffected.");
 DEFINE_double(wall_min_length, 0.25, "walls.pgm keeps only pieces of wall at least this long (metres, the diagonal of "
               "a piece's bounding box; hits two cells apart join one piece): a table leg or a post is hit at several "
-              "heights like a wall but is no surface. 0 keeps every piece.");
+              "heights like a wall but is no surface. In [0, 100]; 0 keeps every piece.");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "

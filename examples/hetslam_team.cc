@@ -93,8 +93,9 @@ DEFINE_double(max_map_store_mib, 0.0, "Each robot's map store bound (see hetslam
               "maps beyond this many MiB are evicted, the most covered first (no longer searched, still rendered); 0 = "
               "no bound.");
 DEFINE_double(map_min_hit_share, 0.2, "Every robot's rendered maps (its map.pgm, the merged map, and the maps the "
-              "map-overlap checks compare) drop every occupied cell hit fewer times than this share of its most-hit "
-              "neighbour: the noise tail behind a wall (see hetslam_run --help). 0 keeps every hit cell.");
+              "map-overlap checks compare) leave out the noise tail behind walls: an occupied cell hit fewer times than "
+              "this share of a neighbour's hits, with never-observed space beyond it (see hetslam_run --help). In "
+              "[0, 1]; 0 keeps every hit cell.");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {

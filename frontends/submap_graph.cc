@@ -66,7 +66,8 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
   if (!(loop_weak_translation_sigma_meters > 0 && loop_weak_translation_sigma_meters <= 1e3))
     msg << "loop_weak_translation_sigma_meters must be in (0, 1000]; ";
   if (!(map_min_hit_share >= 0 && map_min_hit_share <= 1)) msg << "map_min_hit_share must be in [0, 1]; ";
-  if (!(wall_min_length_meters >= 0 && wall_min_length_meters <= 100)) msg << "wall_min_length_meters must be in [0, 100]; ";
+  if (!(wall_min_length_meters >= 0 && wall_min_length_meters <= 100))
+    msg << "wall_min_length_meters must be in [0, 100]; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
