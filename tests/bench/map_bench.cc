@@ -33,6 +33,7 @@
 //   BM_ScanMatchBruteForce/<window>/<points>
 //                                  ScanMatcher::BruteForceSearch: every discrete candidate of
 //                                  the same window scored, same discretisation and result.
+//   BM_DropWeakOccupiedCells/N     the rendered maps' tail rule (see its comment below).
 //   BM_SubmapFreeze/N, BM_SubmapLoopMatch/<frozen>/N
 //                                  the finished-submap store: freezing a submap of N scans,
 //                                  and loop-closure matching against it frozen or not (see
@@ -216,6 +217,32 @@ void BM_LaserMapInsertScan(benchmark::State& state) {
   state.counters["grid_cells"] = map.grid().geometry().num_cells();
 }
 BENCHMARK(BM_LaserMapInsertScan)->Arg(1)->Arg(10)->Arg(100)->Arg(1000)->Unit(benchmark::kMicrosecond);
+
+//   BM_DropWeakOccupiedCells/N    OccupancyGrid::DropWeakOccupiedCells(0.2), the noise tail
+//                                 behind the walls left out of a rendered map (SubmapGraph::
+//                                 RenderMap does it once per map written), on the grid of the
+//                                 20 × 12 m room mapped by N scans (copying the grid back is not
+//                                 timed). Counters: occupied cells before, cells dropped.
+void BM_DropWeakOccupiedCells(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  CHECK_LE(n, kMaxInsertScans) << "room has " << kMaxInsertScans + 1 << " scans";
+  const OccupancyGrid& base = MapWithScans(n).grid();
+  OccupancyGrid grid = base;
+  int dropped = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    grid = base;
+    state.ResumeTiming();
+    dropped = grid.DropWeakOccupiedCells(0.2);
+    benchmark::ClobberMemory();
+  }
+  int occupied = 0;
+  for (int i = 0; i < base.geometry().num_cells(); ++i) occupied += base.IsOccupied(i) ? 1 : 0;
+  state.counters["grid_cells"] = base.geometry().num_cells();
+  state.counters["occupied"] = occupied;
+  state.counters["dropped"] = dropped;
+}
+BENCHMARK(BM_DropWeakOccupiedCells)->Arg(10)->Arg(100)->Arg(1000)->Unit(benchmark::kMicrosecond);
 
 // ---------------------------------------------------------------------------------------
 // LikelihoodField: incremental update vs full rebuild, same change set.
