@@ -129,7 +129,7 @@ TEST(OccupancyGridTest, HitPointRestartsAfterTheCellTurnsFree) {
   EXPECT_NEAR(0.0, (grid.HitPoint(cell) - second).norm(), 1e-6);
 }
 
-// The noise tail behind a wall: a wall at x = 1.0 m seen 20 times from the origin, plus one stray
+// The noise tail behind a wall: a wall at x = 1.02 m seen 20 times from the origin, plus one stray
 // end point 7 cm behind it. Rays clear what lies in front of the wall, never what lies behind,
 // so the stray cell stays occupied on a single hit; DropWeakOccupiedCells (share 0.2) makes it
 // unknown again: a wall cell was hit 20 times as often and nothing lies beyond the stray one. A
