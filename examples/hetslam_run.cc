@@ -111,6 +111,11 @@ DEFINE_double(max_map_store_mib, 0.0, "Lifelong memory: bound the finished subma
               "finished submap takes them over it, the submaps other kept ones cover most are evicted (no longer searched "
               "for loop closures; the trajectory and the rendered maps keep them) and counted in the summary. 0 = no "
               "bound (offline runs keep every map).");
+DEFINE_double(retire_revisited_share, 0.9, "Revisits attach to the map they revisit: a submap that finishes with at "
+              "least this share of its occupied cells within 0.1 m of earlier submaps' structure (those a loop search of "
+              "its scans could find) adds nothing new; its map is freed at once (no longer searched for loop closures; "
+              "the trajectory and the rendered maps keep it) and counted in the summary. In [0, 1]; 0 = off (every "
+              "submap kept).");
 DEFINE_int32(solve_min_new_nodes, 20, "Scans added since the last solve before the graph is re-optimised again "
              "(bounds the solves of dense logs, where closures arrive at almost every scan).");
 DEFINE_int32(loop_min_node_separation, 40, "Do not search for loop closures in submaps whose last scan is fewer than "
@@ -317,6 +322,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"motion_filter_attitude_radians", "--motion_filter_attitude_deg"},
       {"motion_filter_time_seconds", "--motion_filter_time"},
       {"wall_weight", "--wall_weight"},
+      {"retire_revisited_share", "--retire_revisited_share"},
   };
   std::string flags;
   for (const auto& [field, flag] : kFlagOf) {
@@ -444,6 +450,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
            false;
   }
   estimator->max_map_store_bytes = static_cast<size_t>(FLAGS_max_map_store_mib * 1048576.0);
+  estimator->retire_revisited_share = FLAGS_retire_revisited_share;
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
@@ -554,6 +561,13 @@ std::string Summary(const OnlineEstimator& estimator) {
                 store.submaps_evicted, store.evicted_bytes / 1048576.0, FLAGS_max_map_store_mib);
   if (estimator.options().max_map_store_bytes == 0) line[0] = '\0';
   out += line;
+  if (estimator.options().loop_closure && estimator.options().retire_revisited_share > 0) {
+    std::snprintf(line, sizeof(line),
+                  "revisits: %d finished submaps retired (%.1f MiB freed): earlier submaps covered at least %.0f%% of "
+                  "them (--retire_revisited_share)\n",
+                  store.submaps_retired, store.retired_bytes / 1048576.0, 100.0 * estimator.options().retire_revisited_share);
+    out += line;
+  }
   if (!estimator.options().loop_closure) return out;
   std::snprintf(line, sizeof(line),
                 "graph: %d nodes, %d submaps, %d loop searches (%d submaps over the budget skipped, %d that could not "

@@ -69,6 +69,8 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
   if (!(max_scan_jump_meters > 0)) msg << "max_scan_jump_meters must be > 0; ";
   if (!(min_well_constrained_fraction >= 0 && min_well_constrained_fraction <= 1))
     msg << "min_well_constrained_fraction must be in [0, 1]; ";
+  if (!(retire_revisited_share >= 0 && retire_revisited_share <= 1))
+    msg << "retire_revisited_share must be in [0, 1] (0 = off), got " << retire_revisited_share << "; ";
   if (!(scan_match_translation_sigma_meters > 0 && scan_match_rotation_sigma_radians > 0))
     msg << "scan-match sigmas must be > 0; ";
   if (error != nullptr) *error = msg.str();
@@ -385,7 +387,11 @@ void OnlineEstimator::AddNode(LocalResult result) {
                 : 0.0;
   const auto add_start = std::chrono::steady_clock::now();
   const bool finishes_a_submap = result.finished.has_value();
+  const int finished_index = finishes_a_submap ? result.finished->index : -1;
   const NodeId node = graph_->AddNode(options_.robot, std::move(result));
+  if (finishes_a_submap && options_.loop_closure && options_.retire_revisited_share > 0.0) {
+    RetireIfRevisited(finished_index);
+  }
   if (finishes_a_submap && options_.max_map_store_bytes > 0) EnforceMapStoreBound();
   stats_.add_node_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - add_start).count();
   if (!options_.loop_closure) return;
@@ -405,73 +411,46 @@ void OnlineEstimator::AddNode(LocalResult result) {
 void OnlineEstimator::EnforceMapStoreBound() {
   const int robot = options_.robot;
   while (graph_->FinishedSubmapBytes(robot) > options_.max_map_store_bytes) {
-    std::vector<int> kept;
+    std::vector<SubmapId> kept;
     for (int s = 0; s < graph_->num_submaps(robot); ++s) {
-      if (graph_->FinishedSubmapMap({robot, s}) != nullptr) kept.push_back(s);
+      if (graph_->FinishedSubmapMap({robot, s}) != nullptr) kept.push_back({robot, s});
     }
     if (kept.size() < 2) return;  // the newest finished submap always stays
-    // Redundancy of each kept submap but the newest: the share of its occupied cells at which
-    // another kept submap has structure within the likelihood field's sigma (L >= exp(-1)).
-    // Each kept submap's grid as a box in the robot frame: only overlapping boxes can cover.
-    std::vector<Eigen::AlignedBox2d> boxes;
-    for (const int s : kept) {
-      const GridGeometry& g = graph_->FinishedSubmapMap({robot, s})->field().geometry();
-      const Pose2 robot_T_submap = graph_->SubmapPose({robot, s});
-      Eigen::AlignedBox2d box;
-      const Eigen::Vector2d lo = g.origin(), size(g.width() * g.resolution_meters(), g.height() * g.resolution_meters());
-      for (const Eigen::Vector2d& corner : {lo, Eigen::Vector2d(lo + Eigen::Vector2d(size.x(), 0.0)),
-                                            Eigen::Vector2d(lo + Eigen::Vector2d(0.0, size.y())), Eigen::Vector2d(lo + size)}) {
-        box.extend(robot_T_submap * corner);
-      }
-      boxes.push_back(box);
-    }
+    // The most redundant kept submap but the newest: the largest share of its occupied cells
+    // that another kept submap covers (every fourth cell checked: the share is the same to a
+    // few percent at a quarter of the cost); ties the older; a submap without structure first.
     int victim = -1;
-    double most_covered = -1.0;
+    double most_covered = -2.0;
     for (size_t k = 0; k + 1 < kept.size(); ++k) {
-      const SubmapId a{robot, kept[k]};
-      const LaserMap& map = *graph_->FinishedSubmapMap(a);
-      const SparseTiles<uint8_t>& tiles = map.field().frozen_tiles();
-      const GridGeometry& g = map.field().geometry();
-      const Pose2 world_T_a = graph_->SubmapPose(a);
-      // The other kept submaps, with the transform carrying a's points into each.
-      std::vector<std::pair<const LikelihoodField*, Pose2>> others;
-      for (size_t j = 0; j < kept.size(); ++j) {
-        if (j == k || !boxes[j].intersects(boxes[k])) continue;
-        const SubmapId other{robot, kept[j]};
-        others.push_back({&graph_->FinishedSubmapMap(other)->field(), graph_->SubmapPose(other).inverse() * world_T_a});
-      }
-      constexpr float kCovered = 0.36787944f;  // exp(-1): within one sigma of a hit
-      constexpr int kTile = SparseTiles<uint8_t>::kTileSize;
-      // Every kSample-th occupied cell (in row order within tiles) is checked: the share is
-      // the same to a few percent at a quarter of the cost.
-      constexpr int kSample = 4;
-      int occupied = 0, covered = 0, seen = 0;
-      // Occupied cells lie in the tiles holding field values (the field is 1 on a hit).
-      for (int ty = 0; ty < tiles.tiles_y(); ++ty) {
-        for (int tx = 0; tx < tiles.tiles_x(); ++tx) {
-          if (!tiles.TileStored(tx, ty)) continue;
-          for (int y = ty * kTile; y < std::min(g.height(), (ty + 1) * kTile); ++y) {
-            for (int x = tx * kTile; x < std::min(g.width(), (tx + 1) * kTile); ++x) {
-              if (map.grid().State(CellIndex{x, y}) != CellState::kOccupied || seen++ % kSample != 0) continue;
-              ++occupied;
-              const Eigen::Vector2d centre = g.CellCenter({x, y});
-              for (const auto& [other, b_T_a] : others) {
-                if (other->Value(other->geometry().WorldToCell(b_T_a * centre)) >= kCovered) {
-                  ++covered;
-                  break;
-                }
-              }
-            }
-          }
-        }
-      }
-      const double fraction = occupied > 0 ? static_cast<double>(covered) / occupied : 1.0;
-      if (fraction > most_covered) {  // ties: the older (first) one
-        most_covered = fraction;
-        victim = kept[k];
+      double share = graph_->CoveredShare(kept[k], kept, /*sample_every=*/4);
+      if (share < 0.0) share = 1.0;
+      if (share > most_covered) {
+        most_covered = share;
+        victim = kept[k].index;
       }
     }
     graph_->EvictSubmapMap({robot, victim});
+  }
+}
+
+void OnlineEstimator::RetireIfRevisited(int finished) {
+  const SubmapId submap{options_.robot, finished};
+  // What a loop search of its nodes could have found: submaps finished at least
+  // min_node_separation nodes before its first node (LoopCloserOptions).
+  const int first_node = graph_->SubmapFirstNode(submap);
+  std::vector<SubmapId> earlier;
+  for (int s = 0; s < finished; ++s) {
+    const SubmapId other{options_.robot, s};
+    if (graph_->FinishedSubmapMap(other) == nullptr) continue;
+    if (graph_->SubmapLastNode(other) + options_.loop.min_node_separation > first_node) continue;
+    earlier.push_back(other);
+  }
+  if (earlier.empty()) return;
+  const double share = graph_->CoveredShare(submap, earlier, /*sample_every=*/1);
+  VLOG(1) << "submap " << finished << " (nodes " << first_node << "-" << graph_->SubmapLastNode(submap)
+          << "): " << share << " of its occupied cells covered by " << earlier.size() << " earlier submaps";
+  if (share >= options_.retire_revisited_share) {
+    graph_->EvictSubmapMap(submap, SubmapGraph::EvictionReason::kRevisited);
   }
 }
 

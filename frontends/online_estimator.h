@@ -89,6 +89,15 @@ struct OnlineEstimatorOptions {
   // no longer searched for loop closures; the trajectory and the maps rendered from the nodes
   // keep it.
   size_t max_map_store_bytes = 0;
+  // Revisits attach to the map they revisit (issue #15): a submap that finishes with at least
+  // this share of its occupied cells covered by earlier submaps (SubmapGraph::CoveredShare:
+  // structure within the likelihood field's sigma at the current poses; only submaps a loop
+  // search of its nodes could have found, LoopCloserOptions::min_node_separation) adds
+  // nothing to the map: its map is freed at once (SubmapGraph::EvictSubmapMap, counted as
+  // retired). Its pose, nodes and constraints stay, and so does what its nodes saw in the
+  // rendered maps; loop searches, the particle filter and a team's overlap search use the
+  // earlier submaps instead. Only with loop closure. 0 = off.
+  double retire_revisited_share = 0.9;
 
   AttitudeSource attitude_source = AttitudeSource::kMargFilter;
   MargFilterOptions marg;
@@ -245,6 +254,9 @@ class OnlineEstimator {
   void AddNode(LocalResult result);
   void RecordParticleCount(double stamp_seconds, int particles);
   void Solve(int max_iterations);
+  // Frees the map of the submap that just finished when earlier ones cover it (see
+  // retire_revisited_share).
+  void RetireIfRevisited(int finished);
   // Evicts finished submaps until the store fits max_map_store_bytes (see the option).
   void EnforceMapStoreBound();
   void Prune(double newest_stamp_seconds);

@@ -124,6 +124,7 @@ bool ParticleFilterOptions::IsValid(std::string* error) const {
   if (!(settled_min_score >= 0 && settled_min_score <= 1)) msg << "settled_min_score must be in [0, 1]; ";
   if (!(decisive_weight_ratio >= 1 && std::isfinite(decisive_weight_ratio)))
     msg << "decisive_weight_ratio must be >= 1; ";
+  if (std::isnan(collapse_map_margin)) msg << "collapse_map_margin must be a number (negative: off); ";
   if (!(collapse_spread_meters >= 0 && collapse_spread_radians >= 0))
     msg << "collapse spreads must be >= 0; ";
   if (max_ambiguous_scans < 1) msg << "max_ambiguous_scans must be >= 1; ";
@@ -363,6 +364,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
 
   // Several particles: weights from the scan at each particle's matched pose.
   ++ambiguous_scans_;
+  map_scores_.clear();
   const auto weight_start = std::chrono::steady_clock::now();
   if (results[0].inserted || results[0].awaiting_insertion) {
     // Against the submaps as they were at the spawn (shared by all particles, so the
@@ -423,7 +425,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   for (const Particle& p : particles_) {
     if (!p.state.recent.empty() && !WithinSpread(options_, p.state.recent.back().pose, best_pose)) agree = false;
   }
-  if (weights[best_] >= options_.collapse_weight || agree || ambiguous_scans_ >= options_.max_ambiguous_scans) {
+  if (WeightSettles(options_, weights, best_, map_scores_) || agree || ambiguous_scans_ >= options_.max_ambiguous_scans) {
     step.committed = Collapse();
     step.collapsed = true;
     if (!inserted) step.current = std::move(not_inserted);
@@ -433,6 +435,17 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   }
   step.particles = n;
   return step;
+}
+
+bool WeightSettles(const ParticleFilterOptions& options, const std::vector<double>& weights, int best,
+                   const std::vector<double>& map_scores) {
+  CHECK(best >= 0 && best < static_cast<int>(weights.size()));
+  if (weights[best] < options.collapse_weight) return false;
+  if (options.collapse_map_margin < 0 || map_scores.size() != weights.size()) return true;
+  for (const double score : map_scores) {
+    if (score > map_scores[best] + options.collapse_map_margin) return false;
+  }
+  return true;
 }
 
 void ParticleLocalSlam::ScoreAgainstGraph(const ScanPoints& points, const std::vector<LocalResult>& results,
@@ -464,6 +477,7 @@ void ParticleLocalSlam::ScoreAgainstGraph(const ScanPoints& points, const std::v
   if (!any) return;
   ++stats_.global_scorings;
   for (int i = 0; i < n; ++i) particles_[i].log_weight += ScanLogLikelihood(options_, best_score[i]);
+  map_scores_ = std::move(best_score);
 }
 
 void ParticleLocalSlam::Resample() {

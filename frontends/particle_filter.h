@@ -91,6 +91,14 @@ std::vector<int> LowVarianceResample(const std::vector<double>& weights, int cou
 // heading).
 double SideslipMeters(const Pose2& motion);
 
+struct ParticleFilterOptions;
+// Whether the normalised `weights` settle an ambiguity on the `best` particle
+// (ParticleFilterOptions::collapse_weight): its weight reaches collapse_weight, and the
+// particles' scores against the earlier map (`map_scores`, one per particle; empty when none
+// was near) do not prefer another one by more than collapse_map_margin.
+bool WeightSettles(const ParticleFilterOptions& options, const std::vector<double>& weights, int best,
+                   const std::vector<double>& map_scores);
+
 // Uniform in [0, 1) from the top 53 bits of one draw; standard normal by Box-Muller from two.
 double UniformDraw(std::mt19937_64* rng);
 double NormalDraw(std::mt19937_64* rng);
@@ -157,6 +165,14 @@ struct ParticleFilterOptions {
   // noise: measured on humanoid_explore, picking the best by weight alone put the first scans
   // after a spawn up to 0.19 m off).
   double decisive_weight_ratio = 20.0;
+  // The earlier map has the last word: a collapse on weight (collapse_weight) waits while the
+  // graph's finished submaps, scored at this scan, prefer another particle by more than this
+  // mean likelihood. The spawn's submaps are a few scans old and may hold the very scans that
+  // made the ambiguity (a robot carried ~1 m at Intel x 5's pass boundaries put one there, and
+  // that particle reached the weight by them: the fifth pass ended 1.3 m off); the finished
+  // submaps do not. Agreement of the particles and max_ambiguous_scans still collapse.
+  // Negative: off.
+  double collapse_map_margin = 0.02;
   // The graph's finished submaps scored for a particle: those whose nodes' box, grown by this,
   // holds the particle's position.
   double global_margin_meters = 1.0;
@@ -284,6 +300,9 @@ class ParticleLocalSlam {
   std::vector<ActiveSubmap> spawn_submaps_;
   bool after_suspension_ = false;
   int ambiguous_scans_ = 0;
+  // Each particle's best score against the graph's finished submaps at the last weighted scan
+  // (ScoreAgainstGraph); empty when no finished submap was near.
+  std::vector<double> map_scores_;
   ParticleFilterStats stats_;
 };
 

@@ -6,6 +6,9 @@
 #include <limits>
 #include <sstream>
 
+#include "Eigen/Geometry"
+#include "core/likelihood_field.h"
+#include "core/sparse_tiles.h"
 #include "factors/sqrt_information.h"
 #include "glog/logging.h"
 
@@ -156,6 +159,7 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
     c.edge = problem_.AddEdge(EdgeKind::kSequential, submap.pose, robot.nodes.back().pose, c.submap_T_node,
                               sqrt_information);
     constraints_.push_back(c);
+    if (submap.first_node < 0) submap.first_node = id.index;
     submap.last_node = id.index;
     submap.min_submap = submap.min_submap.cwiseMin(insertion.submap_T_node.translation());
     submap.max_submap = submap.max_submap.cwiseMax(insertion.submap_T_node.translation());
@@ -334,15 +338,74 @@ bool SubmapGraph::SubmapFinished(const SubmapId& id) const {
   return submap != robot->second.submaps.end() && submap->second.finished;
 }
 
-bool SubmapGraph::EvictSubmapMap(const SubmapId& id) {
+bool SubmapGraph::EvictSubmapMap(const SubmapId& id, EvictionReason reason) {
   const auto robot = robots_.find(id.robot);
   if (robot == robots_.end()) return false;
   const auto submap = robot->second.submaps.find(id.index);
   if (submap == robot->second.submaps.end() || submap->second.map == nullptr) return false;
-  ++stats_.submaps_evicted;
-  stats_.evicted_bytes += submap->second.map->MemoryBytes();
+  const size_t bytes = submap->second.map->MemoryBytes();
+  if (reason == EvictionReason::kRevisited) {
+    ++stats_.submaps_retired;
+    stats_.retired_bytes += bytes;
+  } else {
+    ++stats_.submaps_evicted;
+    stats_.evicted_bytes += bytes;
+  }
   submap->second.map.reset();
   return true;
+}
+
+double SubmapGraph::CoveredShare(const SubmapId& id, const std::vector<SubmapId>& others, int sample_every) const {
+  CHECK_GE(sample_every, 1);
+  const LaserMap* map = FinishedSubmapMap(id);
+  if (map == nullptr) return -1.0;
+  const GridGeometry& g = map->field().geometry();
+  const Pose2 robot_T_a = SubmapPose(id);
+  // A map's grid as a box in the robot frame: only overlapping boxes can cover.
+  auto box_of = [this](const LaserMap& m, const SubmapId& s) {
+    const GridGeometry& mg = m.field().geometry();
+    const Pose2 robot_T_s = SubmapPose(s);
+    const Eigen::Vector2d lo = mg.origin();
+    const Eigen::Vector2d size(mg.width() * mg.resolution_meters(), mg.height() * mg.resolution_meters());
+    Eigen::AlignedBox2d box;
+    for (const Eigen::Vector2d& corner : {lo, Eigen::Vector2d(lo + Eigen::Vector2d(size.x(), 0.0)),
+                                          Eigen::Vector2d(lo + Eigen::Vector2d(0.0, size.y())), Eigen::Vector2d(lo + size)}) {
+      box.extend(robot_T_s * corner);
+    }
+    return box;
+  };
+  const Eigen::AlignedBox2d box = box_of(*map, id);
+  // The other maps, with the transform carrying the submap's cells into each.
+  std::vector<std::pair<const LikelihoodField*, Pose2>> covering;
+  for (const SubmapId& other : others) {
+    const LaserMap* other_map = FinishedSubmapMap(other);
+    if (other_map == nullptr || other == id || !box_of(*other_map, other).intersects(box)) continue;
+    covering.push_back({&other_map->field(), SubmapPose(other).inverse() * robot_T_a});
+  }
+  constexpr float kCovered = 0.36787944f;  // exp(-1): within one sigma of a hit
+  const SparseTiles<uint8_t>& tiles = map->field().frozen_tiles();
+  constexpr int kTile = SparseTiles<uint8_t>::kTileSize;
+  int occupied = 0, covered = 0, seen = 0;
+  // Occupied cells lie in the tiles holding field values (the field is 1 on a hit).
+  for (int ty = 0; ty < tiles.tiles_y(); ++ty) {
+    for (int tx = 0; tx < tiles.tiles_x(); ++tx) {
+      if (!tiles.TileStored(tx, ty)) continue;
+      for (int y = ty * kTile; y < std::min(g.height(), (ty + 1) * kTile); ++y) {
+        for (int x = tx * kTile; x < std::min(g.width(), (tx + 1) * kTile); ++x) {
+          if (map->grid().State(CellIndex{x, y}) != CellState::kOccupied || seen++ % sample_every != 0) continue;
+          ++occupied;
+          const Eigen::Vector2d centre = g.CellCenter({x, y});
+          for (const auto& [other, b_T_a] : covering) {
+            if (other->Value(other->geometry().WorldToCell(b_T_a * centre)) >= kCovered) {
+              ++covered;
+              break;
+            }
+          }
+        }
+      }
+    }
+  }
+  return occupied > 0 ? static_cast<double>(covered) / occupied : -1.0;
 }
 
 size_t SubmapGraph::FinishedSubmapBytes(int robot) const {
@@ -363,6 +426,10 @@ bool SubmapGraph::SubmapBox(const SubmapId& id, Eigen::Vector2d* min, Eigen::Vec
   *min = submap->second.min_submap;
   *max = submap->second.max_submap;
   return true;
+}
+
+int SubmapGraph::SubmapFirstNode(const SubmapId& submap) const {
+  return robots_.at(submap.robot).submaps.at(submap.index).first_node;
 }
 
 int SubmapGraph::SubmapLastNode(const SubmapId& submap) const {

@@ -129,8 +129,10 @@ struct SubmapGraphStats {
   int loop_closures_rejected_after_solve = 0;
   int inter_robot_constraints = 0;
   int inter_robot_constraints_withdrawn = 0;  // by RemoveInterRobotConstraint
-  int submaps_evicted = 0;                    // by EvictSubmapMap
+  int submaps_evicted = 0;                    // by EvictSubmapMap for the map store's bound
   size_t evicted_bytes = 0;                   // their maps' MemoryBytes
+  int submaps_retired = 0;                    // by EvictSubmapMap: revisits of mapped space
+  size_t retired_bytes = 0;                   // their maps' MemoryBytes
   int solves = 0;            // Ceres solves (a Solve() call may run two)
   int solver_iterations = 0;
   int failed_solves = 0;     // solutions Ceres reported unusable (poses kept)
@@ -186,14 +188,26 @@ class SubmapGraph {
   const LaserMap* FinishedSubmapMap(const SubmapId& submap) const;
   // Whether the submap was finished (its map may have been evicted since); false if unknown.
   bool SubmapFinished(const SubmapId& submap) const;
-  // Frees a finished submap's map (a bounded map store, OnlineEstimatorOptions::
-  // max_map_store_bytes): its pose, nodes and constraints stay in the graph, and the maps
-  // rendered from node points are unchanged, but it is no longer searched for loop closures.
-  // False (nothing done) for an unknown, active or already evicted submap.
-  bool EvictSubmapMap(const SubmapId& submap);
+  // Frees a finished submap's map: its pose, nodes and constraints stay in the graph, and the
+  // maps rendered from node points are unchanged, but it is no longer searched for loop
+  // closures. Counted by `reason` (SubmapGraphStats). False (nothing done) for an unknown,
+  // active or already evicted submap.
+  enum class EvictionReason {
+    kMapStoreBound,  // OnlineEstimatorOptions::max_map_store_bytes
+    kRevisited,      // OnlineEstimatorOptions::retire_revisited_share
+  };
+  bool EvictSubmapMap(const SubmapId& submap, EvictionReason reason = EvictionReason::kMapStoreBound);
+  // The share of `submap`'s occupied cells (every `sample_every`-th, in row order within its
+  // field's tiles) at which one of `others` has structure within the likelihood field's sigma
+  // (value >= exp(-1)) at the graph's current poses: how much of what it holds the others hold
+  // too. Submaps of `others` without a map, or whose box cannot overlap, count for nothing.
+  // -1 when `submap` has no map or no occupied cell.
+  double CoveredShare(const SubmapId& submap, const std::vector<SubmapId>& others, int sample_every) const;
   // Heap bytes of `robot`'s finished submaps' maps (LaserMap::MemoryBytes); 0 for an unknown robot.
   size_t FinishedSubmapBytes(int robot) const;
   bool SubmapBox(const SubmapId& submap, Eigen::Vector2d* min, Eigen::Vector2d* max) const;
+  // The first and the last node inserted into a known submap.
+  int SubmapFirstNode(const SubmapId& submap) const;
   int SubmapLastNode(const SubmapId& submap) const;
 
   // Optimised poses of a robot's nodes, robot frame.
@@ -259,6 +273,7 @@ class SubmapGraph {
     int pose = -1;
     std::shared_ptr<const LaserMap> map;  // set when finished, reset when evicted
     bool finished = false;
+    int first_node = -1;
     int last_node = 0;
     Eigen::Vector2d min_submap = Eigen::Vector2d::Zero(), max_submap = Eigen::Vector2d::Zero();
   };

@@ -130,11 +130,57 @@ TEST(OnlineEstimatorTest, BoundedMapStoreEvictsSubmapsAndStaysWithinTheBound) {
   const PipelineRun evicting = RunPipeline(simulation, bounded);
   EXPECT_GT(evicting.graph.submaps_evicted, 0);
   EXPECT_LE(evicting.finished_submap_bytes, bounded.max_map_store_bytes);
-  EXPECT_EQ(unbounded.finished_submaps_kept, evicting.finished_submaps_kept + evicting.graph.submaps_evicted);
+  EXPECT_EQ(unbounded.finished_submaps_kept + unbounded.graph.submaps_retired,
+            evicting.finished_submaps_kept + evicting.graph.submaps_evicted + evicting.graph.submaps_retired);
   EXPECT_GT(evicting.graph.evicted_bytes, 0u);
   EXPECT_EQ(unbounded.trajectory.size(), evicting.trajectory.size());
   const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(evicting.trajectory, simulation.truth);
   EXPECT_LT(ate.translation_rmse_meters, 0.08);
+}
+
+// Issue #15, revisits attach to the map they revisit: the ring's last quarter drives the first
+// one again, and the submaps it makes are retired (their maps freed, the earlier submaps
+// searched instead); none of the first lap is; the trajectory stays on the truth.
+TEST(OnlineEstimatorTest, SubmapsOfARevisitAreRetired) {
+  const sim::SimulationResult simulation = Simulate(5);
+  OnlineEstimatorOptions keep_all = TestOptions();
+  keep_all.retire_revisited_share = 0.0;
+  const PipelineRun all = RunPipeline(simulation, keep_all);
+  ASSERT_GT(TestOptions().retire_revisited_share, 0.0) << "on by default";
+  PipelineRun retiring;
+  retiring.simulation = simulation;
+  OnlineEstimator estimator(TestOptions());
+  Feed(simulation, &estimator);
+  estimator.Finish();
+  Collect(estimator, &retiring);
+
+  EXPECT_EQ(0, all.graph.submaps_retired);
+  EXPECT_GT(retiring.graph.submaps_retired, 0);
+  EXPECT_EQ(0, retiring.graph.submaps_evicted);
+  EXPECT_EQ(all.finished_submaps_kept, retiring.finished_submaps_kept + retiring.graph.submaps_retired);
+  EXPECT_LT(retiring.finished_submap_bytes, all.finished_submap_bytes);
+  // The revisit starts when the robot is back within 2 m of its start, having been 5 m away.
+  const Eigen::Vector2d start = simulation.truth.front().pose.translation();
+  double revisit_stamp = -1.0;
+  bool away = false;
+  for (const StampedPose2& truth : simulation.truth) {
+    const double d = (truth.pose.translation() - start).norm();
+    away |= d > 5.0;
+    if (away && d < 2.0) {
+      revisit_stamp = truth.stamp_seconds;
+      break;
+    }
+  }
+  ASSERT_GT(revisit_stamp, 0.0);
+  const SubmapGraph& graph = estimator.graph();
+  for (int s = 0; s < graph.num_submaps(0); ++s) {
+    if (!graph.SubmapFinished({0, s}) || graph.FinishedSubmapMap({0, s}) != nullptr) continue;
+    EXPECT_GE(graph.NodeStamp({0, graph.SubmapFirstNode({0, s})}), revisit_stamp - 5.0) << "retired submap " << s;
+  }
+  ASSERT_EQ(simulation.truth.size(), retiring.trajectory.size());
+  const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(retiring.trajectory, simulation.truth);
+  EXPECT_LT(ate.translation_rmse_meters, 0.08);
+  EXPECT_LT(ate.rotation_rmse_degrees, 1.0);
 }
 
 TEST(OnlineEstimatorTest, SameInputSameTrajectory) {

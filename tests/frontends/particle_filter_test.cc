@@ -113,6 +113,31 @@ TEST(ParticleFilterOptionsTest, RejectsBadValues) {
   options = ParticleFilterOptions();
   options.collapse_weight = 1.5;
   EXPECT_FALSE(options.IsValid(&error));
+  options = ParticleFilterOptions();
+  options.collapse_map_margin = std::nan("");
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("collapse_map_margin"));
+}
+
+// The earlier map has the last word: a weight that reaches collapse_weight settles the
+// ambiguity only when the particles' scores against the finished submaps do not prefer
+// another particle by more than collapse_map_margin (0.02).
+TEST(WeightSettlesTest, WaitsWhileTheEarlierMapPrefersAnotherParticle) {
+  const ParticleFilterOptions options;
+  ASSERT_DOUBLE_EQ(0.95, options.collapse_weight);
+  ASSERT_DOUBLE_EQ(0.02, options.collapse_map_margin);
+  const std::vector<double> weights = {0.04, 0.96};
+  EXPECT_TRUE(WeightSettles(options, weights, 1, {}));                // no finished submap near
+  EXPECT_TRUE(WeightSettles(options, weights, 1, {0.60, 0.62}));      // the map agrees
+  EXPECT_TRUE(WeightSettles(options, weights, 1, {0.63, 0.62}));      // within the margin
+  EXPECT_FALSE(WeightSettles(options, weights, 1, {0.42, 0.34}));     // Intel x 5's fifth pass
+  EXPECT_FALSE(WeightSettles(options, {0.06, 0.94}, 1, {0.60, 0.62}));  // below collapse_weight
+  ParticleFilterOptions off = options;
+  off.collapse_map_margin = -1.0;
+  EXPECT_TRUE(WeightSettles(off, weights, 1, {0.42, 0.34}));
+  // Three particles: any one the map prefers holds the collapse.
+  EXPECT_FALSE(WeightSettles(options, {0.01, 0.97, 0.02}, 1, {0.5, 0.5, 0.6}));
+  EXPECT_TRUE(WeightSettles(options, {0.01, 0.97, 0.02}, 1, {0.5, 0.6, 0.6}));
 }
 
 TEST(SideslipTest, DrivingAndTurningIsNoSideslip) {

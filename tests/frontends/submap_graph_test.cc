@@ -190,5 +190,57 @@ TEST(SubmapGraphTest, RenderedMapLeavesOutTheNoiseTailBehindAWall) {
   EXPECT_EQ(CellState::kFree, cleaned->StateAt({1.0, 0.2}));
 }
 
+// Issue #15, revisits: the share of a finished submap's occupied cells that other finished
+// submaps hold too (within the likelihood field's sigma, 0.1 m), at the graph's poses.
+std::shared_ptr<const LaserMap> FrozenWalls(const std::vector<std::pair<Eigen::Vector2f, Eigen::Vector2f>>& walls) {
+  auto map = std::make_shared<LaserMap>(OccupancyGridOptions(), LikelihoodFieldOptions());
+  std::vector<Eigen::Vector2f> points;
+  for (const auto& [a, b] : walls) {
+    const int steps = static_cast<int>(std::ceil((b - a).norm() / 0.02f));
+    for (int k = 0; k <= steps; ++k) points.push_back(a + (b - a) * (static_cast<float>(k) / steps));
+  }
+  for (int repeat = 0; repeat < 3; ++repeat) map->InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), points);
+  map->Freeze();
+  return map;
+}
+
+TEST(SubmapGraphTest, CoveredShareCountsTheStructureOtherSubmapsHold) {
+  using Wall = std::pair<Eigen::Vector2f, Eigen::Vector2f>;
+  const Wall east{{2.0f, -1.0f}, {2.0f, 1.0f}};
+  const Wall north{{-1.0f, 2.0f}, {1.0f, 2.0f}};
+  const Wall east_shifted{{2.3f, -1.0f}, {2.3f, 1.0f}};  // 0.3 m off: beyond the sigma
+  const std::vector<std::shared_ptr<const LaserMap>> maps = {FrozenWalls({east}), FrozenWalls({east}),
+                                                             FrozenWalls({east, north}), FrozenWalls({east_shifted})};
+  SubmapGraph graph{SubmapGraphOptions()};
+  for (int i = 0; i < static_cast<int>(maps.size()); ++i) {
+    // Each a submap of one node at the origin, finished at once.
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.new_submaps.push_back({i, Pose2::Identity()});
+    result.insertions.push_back({i, Pose2::Identity()});
+    result.finished = LocalResult::FinishedSubmap{i, maps[i]};
+    graph.AddNode(0, std::move(result));
+  }
+  EXPECT_EQ(2, graph.SubmapFirstNode({0, 2}));
+  EXPECT_EQ(2, graph.SubmapLastNode({0, 2}));
+  const SubmapId first{0, 0};
+  EXPECT_DOUBLE_EQ(1.0, graph.CoveredShare({0, 1}, {first}, 1));
+  // The east wall and the north wall are the same length: about half is covered.
+  const double half = graph.CoveredShare({0, 2}, {first}, 1);
+  EXPECT_GT(half, 0.4);
+  EXPECT_LT(half, 0.6);
+  EXPECT_NEAR(half, graph.CoveredShare({0, 2}, {first}, 4), 0.05);
+  EXPECT_DOUBLE_EQ(0.0, graph.CoveredShare({0, 3}, {first}, 1));
+  // Itself does not count; an evicted submap holds nothing, and has no share.
+  EXPECT_DOUBLE_EQ(0.0, graph.CoveredShare({0, 3}, {{0, 3}}, 1));
+  ASSERT_TRUE(graph.EvictSubmapMap(first, SubmapGraph::EvictionReason::kRevisited));
+  EXPECT_DOUBLE_EQ(0.0, graph.CoveredShare({0, 1}, {first}, 1));
+  EXPECT_DOUBLE_EQ(-1.0, graph.CoveredShare(first, {{0, 1}}, 1));
+  EXPECT_EQ(1, graph.stats().submaps_retired);
+  EXPECT_EQ(0, graph.stats().submaps_evicted);
+  EXPECT_GT(graph.stats().retired_bytes, 0u);
+}
+
 }  // namespace
 }  // namespace hetslam
