@@ -118,6 +118,9 @@ DEFINE_double(retire_revisited_share, 0.9, "Revisits attach to the map they revi
               "submap kept).");
 DEFINE_int32(solve_min_new_nodes, 20, "Scans added since the last solve before the graph is re-optimised again "
              "(bounds the solves of dense logs, where closures arrive at almost every scan).");
+DEFINE_double(solve_min_new_node_share, 0.02, "... and at least this share of the graph's nodes (in [0, 1]): a solve "
+              "costs in proportion to the graph, so the spacing grows with it and a long run's solves cost its length, not "
+              "its square. 0.02 changes nothing below 1000 nodes; 0 = a fixed spacing.");
 DEFINE_int32(loop_min_node_separation, 40, "Do not search for loop closures in submaps whose last scan is fewer than "
              "this many scans old (the front end built them moments ago).");
 DEFINE_double(narrow_linear_window, 0.4, "Front end: first search ± this many metres and ± --narrow_angular_window_deg "
@@ -323,6 +326,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"motion_filter_time_seconds", "--motion_filter_time"},
       {"wall_weight", "--wall_weight"},
       {"retire_revisited_share", "--retire_revisited_share"},
+      {"solve_min_new_node_share", "--solve_min_new_node_share"},
   };
   std::string flags;
   for (const auto& [field, flag] : kFlagOf) {
@@ -445,6 +449,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
   estimator->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
   estimator->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
+  estimator->solve_min_new_node_share = FLAGS_solve_min_new_node_share;
   if (!(FLAGS_max_map_store_mib >= 0 && FLAGS_max_map_store_mib <= 1048576)) {
     return (*error = "--max_map_store_mib must be in [0, 1048576] (got " + std::to_string(FLAGS_max_map_store_mib) + ")"),
            false;

@@ -148,11 +148,31 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
   // The candidates, best first: the most overlap (the node's points near the submap's
   // structure at the estimate), then the node's estimate nearest the submap's trajectory box,
   // then the older submap.
+  struct Gate {
+    double meters, radians;                 // accepted correction
+    double linear_window, angular_window;  // searched
+  };
+  // The submap's gate: narrower than the drift since the solve when a closure since then
+  // measured the estimate's offset from it (standard search only; degenerate closures do not
+  // measure it).
+  auto gate_for = [&](int s) {
+    Gate gate{gate_meters, gate_radians, linear_window, angular_window};
+    const auto it = measured_.find(s);
+    if (wide_best != nullptr || it == measured_.end()) return gate;
+    const double travel = travel_since_solve_meters_ - it->second.travel_since_solve_meters;
+    gate.meters = std::min(gate_meters, options_.gate_base_meters + it->second.meters + options_.gate_meters_per_meter * travel);
+    gate.radians =
+        std::min(gate_radians, options_.gate_base_radians + it->second.radians + options_.gate_radians_per_meter * travel);
+    gate.linear_window = std::min(linear_window, gate.meters);
+    gate.angular_window = std::min(angular_window, gate.radians);
+    return gate;
+  };
   struct Candidate {
     double overlap;  // computed only when the budget must choose
     double distance;
     int index;
     Pose2 predicted;  // submap_T_node
+    Gate gate;
     bool operator<(const Candidate& o) const {
       if (overlap != o.overlap) return overlap > o.overlap;
       if (distance != o.distance) return distance < o.distance;
@@ -178,13 +198,14 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     // the submap's structure): no search; its result would be rejected (exact). Before the
     // budget, so that the budget goes to submaps that can give a closure.
     const Pose2 predicted = graph.SubmapPose(submap).inverse() * robot_T_node;
-    if (ReachableScoreBound(*graph.FinishedSubmapMap(submap), predicted, points, weights, gate_meters, gate_radians,
+    const Gate gate = gate_for(s);
+    if (ReachableScoreBound(*graph.FinishedSubmapMap(submap), predicted, points, weights, gate.meters, gate.radians,
                             min_score) < min_score) {
       ++stats_.searches_without_overlap;
       continue;
     }
     const Eigen::Vector2d outside = (box_min - p).cwiseMax(p - box_max).cwiseMax(0.0);
-    candidates.push_back({0.0, outside.norm(), s, predicted});
+    candidates.push_back({0.0, outside.norm(), s, predicted, gate});
   }
   const size_t budget = static_cast<size_t>(options_.max_submaps_per_search);
   if (budget > 0 && candidates.size() > budget) {
@@ -208,11 +229,12 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     const Pose2& predicted = candidate.predicted;
     const ScanMatcher& matcher = wide_best != nullptr ? wide_matcher_ : matcher_;
     ++(wide_best != nullptr ? stats_.wide_searches : stats_.searches);
-    const ScanMatchResult match =
-        matcher.MatchWithinWindow(*map, predicted, points, linear_window, angular_window, weights, min_score);
+    const Gate& gate = candidate.gate;
+    const ScanMatchResult match = matcher.MatchWithinWindow(*map, predicted, points, gate.linear_window,
+                                                            gate.angular_window, weights, min_score);
     if (!match.converged || match.score < min_score) continue;
     const Pose2 correction = Between(predicted, match.pose);
-    if (correction.translation().norm() > gate_meters || std::abs(correction.theta()) > gate_radians) {
+    if (correction.translation().norm() > gate.meters || std::abs(correction.theta()) > gate.radians) {
       ++stats_.rejected_by_gate;
       continue;
     }
@@ -239,6 +261,9 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
         *wide_best = WideCandidate{closure, matched * robot_T_node.inverse()};
       }
       continue;
+    }
+    if (!degenerate) {
+      measured_[s] = {correction.translation().norm(), std::abs(correction.theta()), travel_since_solve_meters_};
     }
     closures->push_back(closure);
   }

@@ -8,7 +8,10 @@
 // around the graph's estimate,
 // narrowed to the drift gate: a closure is accepted only if it moves the node by at most
 // base + rate * (distance travelled since the graph was last solved) — drift grows with travel,
-// aliases (corridors, repeated rooms) need not. Searches run again only after the robot moved
+// aliases (corridors, repeated rooms) need not. Once a closure to a submap measured how far the
+// estimate is off that submap (since the last solve), its gate is base + that offset + rate *
+// (distance travelled since), if narrower (issue #15: a robot re-driving mapped space searches
+// the submaps it keeps closing against in small windows). Searches run again only after the robot moved
 // `search_min_travel_meters` or turned `search_min_turn_radians`.
 //
 // Wide search (long corridors): once the drift bound exceeds the window and the standard search
@@ -23,6 +26,7 @@
 #define HETSLAM_FRONTENDS_LOOP_CLOSER_H_
 
 #include <cmath>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -105,7 +109,10 @@ class LoopCloser {
 
   // Distance the robot moved (grows the drift gate) and that a solve happened (resets it).
   void AddTravel(double meters);
-  void OnSolve() { travel_since_solve_meters_ = 0.0; }
+  void OnSolve() {
+    travel_since_solve_meters_ = 0.0;
+    measured_.clear();
+  }
 
   // Searches for closures of `node` (just added to `graph`) against its robot's finished submaps.
   LoopSearchResult Search(const SubmapGraph& graph, const NodeId& node);
@@ -132,6 +139,16 @@ class LoopCloser {
   ScanMatcher wide_matcher_;
   std::optional<Pose2> last_search_pose_;  // local frame
   double travel_since_solve_meters_ = 0.0;
+  // Per submap, the estimate's offset from it that a closure measured since the last solve
+  // (the correction it made) and the travel since the solve then: the estimate of later nodes
+  // is chained from the same unsolved poses, so its offset from that submap is as large plus
+  // the drift since, and that submap's gate (and search window) is no wider.
+  struct MeasuredOffset {
+    double meters = 0.0;
+    double radians = 0.0;
+    double travel_since_solve_meters = 0.0;
+  };
+  std::map<int, MeasuredOffset> measured_;
   double travel_since_wide_search_meters_ = 0.0;
   std::optional<WideCandidate> pending_wide_;
   LoopCloserStats stats_;

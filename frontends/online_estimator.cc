@@ -62,6 +62,8 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
     msg << "loop closure needs local.scans_per_submap >= 2 (got " << local.scans_per_submap << "); ";
   if (solve_every_n_loop_closures < 1) msg << "solve_every_n_loop_closures must be >= 1; ";
   if (solve_min_new_nodes < 0) msg << "solve_min_new_nodes must be >= 0; ";
+  if (!(solve_min_new_node_share >= 0 && solve_min_new_node_share <= 1))
+    msg << "solve_min_new_node_share must be in [0, 1], got " << solve_min_new_node_share << "; ";
   if (max_iterations_per_solve < 1 || max_iterations_final < 1) msg << "solver iteration limits must be >= 1; ";
   if (!(attitude_max_age_seconds >= 0 && altitude_max_age_seconds >= 0 && odometry_max_age_seconds >= 0))
     msg << "attitude, altitude and odometry ages must be >= 0; ";
@@ -390,7 +392,7 @@ void OnlineEstimator::AddNode(LocalResult result) {
   const int finished_index = finishes_a_submap ? result.finished->index : -1;
   const NodeId node = graph_->AddNode(options_.robot, std::move(result));
   if (finishes_a_submap && options_.loop_closure && options_.retire_revisited_share > 0.0) {
-    RetireIfRevisited(finished_index);
+    RetireIfRevisited(finished_index, /*recheck_after_solve=*/true);
   }
   if (finishes_a_submap && options_.max_map_store_bytes > 0) EnforceMapStoreBound();
   stats_.add_node_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - add_start).count();
@@ -402,8 +404,12 @@ void OnlineEstimator::AddNode(LocalResult result) {
   }
   if (found.solve_now) Solve(options_.max_iterations_final);
   ++nodes_since_solve_;
-  if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures &&
-      nodes_since_solve_ >= options_.solve_min_new_nodes) {
+  // The solves' spacing grows with the graph (solve_min_new_node_share), so that their total
+  // cost grows with the run's length, not with its square.
+  const int min_new_nodes = std::max(
+      options_.solve_min_new_nodes,
+      static_cast<int>(std::ceil(options_.solve_min_new_node_share * graph_->num_nodes(options_.robot))));
+  if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures && nodes_since_solve_ >= min_new_nodes) {
     Solve(options_.max_iterations_per_solve);
   }
 }
@@ -433,7 +439,7 @@ void OnlineEstimator::EnforceMapStoreBound() {
   }
 }
 
-void OnlineEstimator::RetireIfRevisited(int finished) {
+void OnlineEstimator::RetireIfRevisited(int finished, bool recheck_after_solve) {
   const SubmapId submap{options_.robot, finished};
   // What a loop search of its nodes could have found: submaps finished at least
   // min_node_separation nodes before its first node (LoopCloserOptions).
@@ -451,6 +457,8 @@ void OnlineEstimator::RetireIfRevisited(int finished) {
           << "): " << share << " of its occupied cells covered by " << earlier.size() << " earlier submaps";
   if (share >= options_.retire_revisited_share) {
     graph_->EvictSubmapMap(submap, SubmapGraph::EvictionReason::kRevisited);
+  } else if (recheck_after_solve && share >= 0.0) {
+    retire_recheck_.push_back(finished);
   }
 }
 
@@ -461,6 +469,10 @@ void OnlineEstimator::Solve(int max_iterations) {
   // accepted but not yet solved do not correct it, so the gate keeps growing until a solve.)
   loop_.OnSolve();
   if (!graph_->Solve(max_iterations).ok()) ++stats_.loop_solves_failed;
+  // Submaps that finished since the last solve at poses it had not corrected yet: once more.
+  std::vector<int> recheck;
+  recheck.swap(retire_recheck_);
+  for (const int submap : recheck) RetireIfRevisited(submap, /*recheck_after_solve=*/false);
 }
 
 void OnlineEstimator::Finish() {

@@ -78,6 +78,11 @@ struct OnlineEstimatorOptions {
   // every scan); bounded iterations, more at Finish().
   int solve_every_n_loop_closures = 10;
   int solve_min_new_nodes = 20;
+  // ... and at least this share of the robot's nodes (issue #15): a solve costs in proportion
+  // to the graph, so with a fixed spacing the solves of a long run cost its length squared
+  // (Intel x 5: 10.2 s of 36 s). 0.02: unchanged up to 1000 nodes (Intel, ACES, MIT CSAIL);
+  // FR079's last solves every 88 nodes.
+  double solve_min_new_node_share = 0.02;
   int max_iterations_per_solve = 10;
   int max_iterations_final = 50;
   // Lifelong memory (issue #15): a bound on the bytes the robot's finished submaps' maps hold
@@ -92,8 +97,9 @@ struct OnlineEstimatorOptions {
   // Revisits attach to the map they revisit (issue #15): a submap that finishes with at least
   // this share of its occupied cells covered by earlier submaps (SubmapGraph::CoveredShare:
   // structure within the likelihood field's sigma at the current poses; only submaps a loop
-  // search of its nodes could have found, LoopCloserOptions::min_node_separation) adds
-  // nothing to the map: its map is freed at once (SubmapGraph::EvictSubmapMap, counted as
+  // search of its nodes could have found, LoopCloserOptions::min_node_separation; tested when
+  // it finishes and, failing that, once more after the next solve) adds nothing to the map:
+  // its map is freed (SubmapGraph::EvictSubmapMap, counted as
   // retired). Its pose, nodes and constraints stay, and so does what its nodes saw in the
   // rendered maps; loop searches, the particle filter and a team's overlap search use the
   // earlier submaps instead. Only with loop closure. 0 = off.
@@ -255,8 +261,9 @@ class OnlineEstimator {
   void RecordParticleCount(double stamp_seconds, int particles);
   void Solve(int max_iterations);
   // Frees the map of the submap that just finished when earlier ones cover it (see
-  // retire_revisited_share).
-  void RetireIfRevisited(int finished);
+  // retire_revisited_share); else, with `recheck_after_solve`, tests it once more after the
+  // next solve (its poses corrected by the closures of its nodes).
+  void RetireIfRevisited(int finished, bool recheck_after_solve);
   // Evicts finished submaps until the store fits max_map_store_bytes (see the option).
   void EnforceMapStoreBound();
   void Prune(double newest_stamp_seconds);
@@ -279,6 +286,7 @@ class OnlineEstimator {
   std::optional<double> last_command_stamp_;  // newest command added (use_commands)
   std::optional<double> last_scan_stamp_;
   int loop_closures_since_solve_ = 0;
+  std::vector<int> retire_recheck_;  // finished submaps to test again after the next solve
   int nodes_since_solve_ = 0;
   bool finished_ = false;
   std::vector<double> match_scores_;

@@ -183,6 +183,32 @@ TEST(OnlineEstimatorTest, SubmapsOfARevisitAreRetired) {
   EXPECT_LT(ate.rotation_rmse_degrees, 1.0);
 }
 
+// Issue #15: the solves' spacing grows with the graph (solve_min_new_node_share): a solve
+// waits for that share of the nodes as new ones, so a long run solves less often as it grows.
+// The default's share changes nothing on a run this short; a large one solves less, still
+// on the truth.
+TEST(OnlineEstimatorTest, SolveSpacingGrowsWithTheGraph) {
+  const sim::SimulationResult simulation = Simulate(5);
+  OnlineEstimatorOptions fixed = TestOptions();
+  fixed.solve_min_new_node_share = 0.0;
+  const PipelineRun every = RunPipeline(simulation, fixed);
+  const PipelineRun by_default = RunPipeline(simulation, TestOptions());
+  ASSERT_LT(every.trajectory.size() * TestOptions().solve_min_new_node_share, TestOptions().solve_min_new_nodes);
+  EXPECT_EQ(every.graph.solves, by_default.graph.solves);
+  OnlineEstimatorOptions sparse = TestOptions();
+  sparse.solve_min_new_node_share = 0.2;
+  const PipelineRun fewer = RunPipeline(simulation, sparse);
+  EXPECT_LT(fewer.graph.solves, every.graph.solves);
+  const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(fewer.trajectory, simulation.truth);
+  EXPECT_LT(ate.translation_rmse_meters, 0.08);
+  EXPECT_LT(ate.rotation_rmse_degrees, 1.0);
+  OnlineEstimatorOptions bad = TestOptions();
+  bad.solve_min_new_node_share = 1.5;
+  std::string error;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("solve_min_new_node_share"));
+}
+
 TEST(OnlineEstimatorTest, SameInputSameTrajectory) {
   const sim::SimulationResult simulation = Simulate(6);
   const PipelineRun a = RunPipeline(simulation, TestOptions());

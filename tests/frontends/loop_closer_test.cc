@@ -1,0 +1,126 @@
+// The loop closer's drift gate (frontends/loop_closer.h): a closure accepted against a submap
+// measures how far the graph's estimate is off that submap; until the next solve, that
+// submap's gate is the base plus that offset plus the drift since, where the drift since the
+// last solve alone allows more.
+#include "frontends/loop_closer.h"
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "core/laser_map.h"
+#include "datasets/sim/world.h"
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+// An 8 m x 6 m room with a pillar off-centre (no symmetry the matcher could confuse).
+sim::World Room() {
+  sim::World world;
+  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(8.0, 6.0), 0.0);
+  world.AddBox(Eigen::Vector2d(1.5, 1.0), Eigen::Vector2d(0.6, 0.6), 0.0);
+  return world;
+}
+
+// What the robot at `pose` sees, in its own frame: one beam per degree.
+std::vector<Eigen::Vector2f> Scan(const sim::World& world, const Pose2& pose) {
+  std::vector<Eigen::Vector2f> points;
+  for (int i = 0; i < 360; ++i) {
+    const double angle = -M_PI + i * M_PI / 180.0;
+    double range = 0.0;
+    if (!world.CastRay(pose.translation(), pose.theta() + angle, 20.0, &range)) continue;
+    points.emplace_back(static_cast<float>(range * std::cos(angle)), static_cast<float>(range * std::sin(angle)));
+  }
+  return points;
+}
+
+LocalResult Node(double stamp, const Pose2& estimate, std::vector<Eigen::Vector2f> points) {
+  LocalResult result;
+  result.inserted = true;
+  result.stamp_seconds = stamp;
+  result.local_pose = estimate;
+  result.points.all = points;
+  result.points.matching = std::move(points);
+  result.points.labels.assign(result.points.all.size(), PointLabel::kStructure);
+  return result;
+}
+
+// Submap 0: the room mapped from the origin, finished with node 0. Then 45 nodes standing at
+// the origin in submap 1 (never finished), so that submap 0 is old enough to be searched.
+// Then node 46 at truth (0.5, -0.5), estimated 5 cm off, and node 47 at truth (-0.5, -0.5),
+// estimated `offset_47` metres off along x.
+std::unique_ptr<SubmapGraph> Graph(double offset_47) {
+  const sim::World world = Room();
+  auto map = std::make_shared<LaserMap>(OccupancyGridOptions(), LikelihoodFieldOptions());
+  for (int k = 0; k < 3; ++k) map->InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), Scan(world, Pose2::Identity()));
+  map->Freeze();
+  auto graph = std::make_unique<SubmapGraph>(SubmapGraphOptions());
+  LocalResult first = Node(0.0, Pose2::Identity(), Scan(world, Pose2::Identity()));
+  first.new_submaps.push_back({0, Pose2::Identity()});
+  first.insertions.push_back({0, Pose2::Identity()});
+  first.finished = LocalResult::FinishedSubmap{0, map};
+  graph->AddNode(0, std::move(first));
+  for (int i = 1; i <= 45; ++i) {
+    LocalResult standing = Node(i, Pose2::Identity(), Scan(world, Pose2::Identity()));
+    if (i == 1) standing.new_submaps.push_back({1, Pose2::Identity()});
+    standing.insertions.push_back({1, Pose2::Identity()});
+    graph->AddNode(0, std::move(standing));
+  }
+  const Pose2 truth_46(0.5, -0.5, 0.0), truth_47(-0.5, -0.5, 0.0);
+  for (const auto& [truth, offset] : {std::make_pair(truth_46, 0.05), std::make_pair(truth_47, offset_47)}) {
+    const Pose2 estimate(truth.translation().x() + offset, truth.translation().y(), truth.theta());
+    LocalResult moved = Node(graph->num_nodes(0), estimate, Scan(world, truth));
+    moved.insertions.push_back({1, estimate});
+    graph->AddNode(0, std::move(moved));
+  }
+  return graph;
+}
+
+bool ClosesWith(const LoopSearchResult& result, int submap, double correction_meters, const SubmapGraph& graph,
+                const NodeId& node) {
+  for (const ConstraintCandidate& closure : result.closures) {
+    if (closure.submap.index != submap) continue;
+    const Pose2 estimate = graph.SubmapPose(closure.submap).inverse() * graph.NodePose(node);
+    if (std::abs(Between(estimate, closure.submap_T_node).translation().norm() - correction_meters) < 0.03) return true;
+  }
+  return false;
+}
+
+TEST(LoopCloserTest, AClosureNarrowsItsSubmapsGateUntilTheNextSolve) {
+  const NodeId node_46{0, 46}, node_47{0, 47};
+  // Node 47's estimate is 0.5 m off: within the gate after 5.5 m of travel since the solve
+  // (0.3 + 0.1 * 5.5 = 0.85 m)...
+  const std::unique_ptr<SubmapGraph> graph = Graph(0.5);
+  LoopCloser fresh{LoopCloserOptions()};
+  fresh.AddTravel(5.5);
+  EXPECT_TRUE(ClosesWith(fresh.Search(*graph, node_47), 0, 0.5, *graph, node_47));
+
+  // ... but not after node 46's closure to submap 0 measured the estimate 5 cm off it, 0.5 m
+  // of travel before: 0.3 + 0.05 + 0.1 * 0.5 = 0.4 m. An estimate that far off that submap
+  // is an alias, not drift.
+  LoopCloser measured{LoopCloserOptions()};
+  measured.AddTravel(5.0);
+  EXPECT_TRUE(ClosesWith(measured.Search(*graph, node_46), 0, 0.05, *graph, node_46));
+  measured.AddTravel(0.5);
+  EXPECT_TRUE(measured.Search(*graph, node_47).closures.empty());
+
+  // A solve forgets what closures measured: the drift since it decides again.
+  LoopCloser solved{LoopCloserOptions()};
+  solved.AddTravel(5.0);
+  ASSERT_FALSE(solved.Search(*graph, node_46).closures.empty());
+  solved.OnSolve();
+  solved.AddTravel(5.5);
+  EXPECT_TRUE(ClosesWith(solved.Search(*graph, node_47), 0, 0.5, *graph, node_47));
+
+  // Within the narrowed gate it still closes: 0.3 m off is drift it allows.
+  const std::unique_ptr<SubmapGraph> near = Graph(0.3);
+  LoopCloser narrowed{LoopCloserOptions()};
+  narrowed.AddTravel(5.0);
+  ASSERT_FALSE(narrowed.Search(*near, node_46).closures.empty());
+  narrowed.AddTravel(0.5);
+  EXPECT_TRUE(ClosesWith(narrowed.Search(*near, node_47), 0, 0.3, *near, node_47));
+}
+
+}  // namespace
+}  // namespace hetslam
