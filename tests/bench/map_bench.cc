@@ -38,6 +38,8 @@
 //                                  the finished-submap store: freezing a submap of N scans,
 //                                  and loop-closure matching against it frozen or not (see
 //                                  their comments below).
+//   BM_SubmapCoveredShare/N        the revisit test (issue #15): how much of a finished
+//                                  submap another covers (see its comment below).
 // Counters: `beams`, `grid_cells`, `changed_cells`, `points`, `candidates` (scored),
 // `error_cm` / `error_deg` (matched pose minus truth; brute force and branch and bound without
 // Ceres must report the same pose, since the search is exact for its discretisation).
@@ -62,6 +64,7 @@
 #include "core/se2.h"
 #include "frontends/loop_closer.h"
 #include "frontends/scan_matcher.h"
+#include "frontends/submap_graph.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -507,6 +510,36 @@ void BM_SubmapReachableBound(benchmark::State& state) {
   state.counters["points"] = static_cast<double>(points.size());
 }
 BENCHMARK(BM_SubmapReachableBound)->Arg(40)->Arg(100)->Unit(benchmark::kMicrosecond);
+
+//   BM_SubmapCoveredShare/N
+//                        SubmapGraph::CoveredShare (every occupied cell) of the frozen N-scan
+//                        submap by the same map as an earlier submap placed 2 cm / 0.3° off:
+//                        what the revisit test costs each time a submap finishes
+//                        (OnlineEstimatorOptions::retire_revisited_share). Counter: the share.
+void BM_SubmapCoveredShare(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const SubmapPair& pair = SubmapWithScans(n);
+  const auto frozen = std::make_shared<const LaserMap>(*pair.frozen);
+  SubmapGraph graph{SubmapGraphOptions()};
+  for (int i = 0; i < 2; ++i) {
+    const Pose2 origin = i == 0 ? Pose2(0.02, 0.0, 0.3 * kDeg) : Pose2::Identity();
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.local_pose = origin;
+    result.new_submaps.push_back({i, origin});
+    result.insertions.push_back({i, Pose2::Identity()});
+    result.finished = LocalResult::FinishedSubmap{i, frozen};
+    graph.AddNode(0, std::move(result));
+  }
+  double share = 0.0;
+  for (auto _ : state) {
+    share = graph.CoveredShare({0, 1}, {{0, 0}}, 1);
+    benchmark::DoNotOptimize(share);
+  }
+  state.counters["share"] = share;
+}
+BENCHMARK(BM_SubmapCoveredShare)->Arg(40)->Arg(100)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace hetslam
