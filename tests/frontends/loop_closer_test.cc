@@ -9,19 +9,11 @@
 #include <vector>
 
 #include "core/laser_map.h"
-#include "datasets/sim/world.h"
 #include "gtest/gtest.h"
+#include "tests/frontends/sim_fixtures.h"
 
 namespace hetslam {
 namespace {
-
-// An 8 m x 6 m room with a pillar off-centre (no symmetry the matcher could confuse).
-sim::World Room() {
-  sim::World world;
-  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(8.0, 6.0), 0.0);
-  world.AddBox(Eigen::Vector2d(1.5, 1.0), Eigen::Vector2d(0.6, 0.6), 0.0);
-  return world;
-}
 
 // What the robot at `pose` sees, in its own frame: one beam per degree.
 std::vector<Eigen::Vector2f> Scan(const sim::World& world, const Pose2& pose) {
@@ -51,7 +43,7 @@ LocalResult Node(double stamp, const Pose2& estimate, std::vector<Eigen::Vector2
 // Then node 46 at truth (0.5, -0.5), estimated 5 cm off, and node 47 at truth (-0.5, -0.5),
 // estimated `offset_47` metres off along x.
 std::unique_ptr<SubmapGraph> Graph(double offset_47) {
-  const sim::World world = Room();
+  const sim::World world = testing_sim::RoomWithPillar();
   auto map = std::make_shared<LaserMap>(OccupancyGridOptions(), LikelihoodFieldOptions());
   for (int k = 0; k < 3; ++k) map->InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), Scan(world, Pose2::Identity()));
   map->Freeze();

@@ -5,18 +5,12 @@
 #include "core/laser_map.h"
 #include "datasets/sim/world.h"
 #include "gtest/gtest.h"
+#include "tests/frontends/sim_fixtures.h"
 
 namespace hetslam {
 namespace {
 
-// A 6 m x 4 m room ([-3, 3] x [-2, 2]) with a 0.6 m square pillar centred at (1.2, 0.7):
-// no symmetry within the search window. Scans are ray-cast by the simulator's world.
-sim::World RoomWithPillar() {
-  sim::World world;
-  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 4.0), 0.0);
-  world.AddBox(Eigen::Vector2d(1.2, 0.7), Eigen::Vector2d(0.6, 0.6), 0.0);
-  return world;
-}
+using testing_sim::RoomWithPillar;  // no symmetry within the search window
 
 // A 360-beam scan (1° steps) from `world_T_robot`, robot frame, with Gaussian range noise.
 std::vector<Eigen::Vector2f> SimulateScan(const sim::World& world, const Pose2& world_T_robot, double noise_std,

@@ -15,10 +15,20 @@
 #include "datasets/sim/scenario.h"
 #include "datasets/sim/simulator.h"
 #include "datasets/sim/team_simulator.h"
+#include "datasets/sim/world.h"
 #include "glog/logging.h"
 
 namespace hetslam {
 namespace testing_sim {
+
+// A 6 m x 4 m room ([-3, 3] x [-2, 2]) with a 0.6 m square pillar centred at (1.2, 0.7):
+// no symmetry a matcher could confuse. Scans are ray-cast by the simulator's world.
+inline sim::World RoomWithPillar() {
+  sim::World world;
+  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 4.0), 0.0);
+  world.AddBox(Eigen::Vector2d(1.2, 0.7), Eigen::Vector2d(0.6, 0.6), 0.0);
+  return world;
+}
 
 // A 14 m × 10 m ring of rooms with a central block and a few boxes, driven around once and a
 // half (a loop to close), 181-beam 12 m laser.
