@@ -11,8 +11,8 @@
 // aliases (corridors, repeated rooms) need not. Once a closure to a submap measured how far the
 // estimate is off that submap (since the last solve), its gate is base + that offset + rate *
 // (distance travelled since), if narrower (issue #15: a robot re-driving mapped space searches
-// the submaps it keeps closing against in small windows). Searches run again only after the robot moved
-// `search_min_travel_meters` or turned `search_min_turn_radians`.
+// the submaps it keeps closing against in small windows). Searches run again only after the
+// robot moved `search_min_travel_meters` or turned `search_min_turn_radians`.
 //
 // Wide search (long corridors): once the drift bound exceeds the window and the standard search
 // found nothing, the node is also searched over ±min(drift bound, wide_window_meters) and

@@ -7,8 +7,6 @@
 #include <sstream>
 
 #include "Eigen/Geometry"
-#include "core/likelihood_field.h"
-#include "core/sparse_tiles.h"
 #include "glog/logging.h"
 
 namespace hetslam {

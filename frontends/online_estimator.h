@@ -99,10 +99,10 @@ struct OnlineEstimatorOptions {
   // structure within the likelihood field's sigma at the current poses; only submaps a loop
   // search of its nodes could have found, LoopCloserOptions::min_node_separation; tested when
   // it finishes and, failing that, once more after the next solve) adds nothing to the map:
-  // its map is freed (SubmapGraph::EvictSubmapMap, counted as
-  // retired). Its pose, nodes and constraints stay, and so does what its nodes saw in the
-  // rendered maps; loop searches, the particle filter and a team's overlap search use the
-  // earlier submaps instead. Only with loop closure. 0 = off.
+  // its map is freed (SubmapGraph::EvictSubmapMap, counted as retired). Its pose, nodes and
+  // constraints stay, and so does what its nodes saw in the rendered maps; loop searches, the
+  // particle filter and a team's overlap search use the earlier submaps instead. Only with
+  // loop closure. 0 = off.
   double retire_revisited_share = 0.9;
 
   AttitudeSource attitude_source = AttitudeSource::kMargFilter;
