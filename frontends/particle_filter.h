@@ -43,8 +43,9 @@
 // effective sample size drops below resample_ess_fraction of the count, the particles are
 // resampled (low variance, seeded).
 //
-// Collapse: when the best particle's normalised weight reaches collapse_weight, or all
-// particles agree with it within the collapse spread, or after max_ambiguous_scans scans, one
+// Collapse: when the best particle's normalised weight reaches collapse_weight (and the graph's
+// finished submaps do not prefer another, collapse_map_margin), or all particles agree with
+// it within the collapse spread, or after max_ambiguous_scans scans, one
 // particle goes on (the best, when the evidence for it is decisive, see decisive_weight_ratio)
 // and its deferred results are inserted into its submaps (unless already) and committed, in
 // scan order, to the graph.
@@ -153,8 +154,9 @@ struct ParticleFilterOptions {
   double likelihood_floor = 0.05;
   // Resample when the effective sample size drops below this fraction of the particle count.
   double resample_ess_fraction = 0.5;
-  // Collapse to the best particle when its normalised weight reaches collapse_weight, when every
-  // particle's last pose is within the spread of the best one's, or after max_ambiguous_scans.
+  // Collapse to the best particle when its normalised weight reaches collapse_weight (see
+  // collapse_map_margin), when every particle's last pose is within the spread of the best
+  // one's, or after max_ambiguous_scans.
   double collapse_weight = 0.95;
   double collapse_spread_meters = 0.03;
   double collapse_spread_radians = 0.01;
