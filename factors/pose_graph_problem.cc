@@ -105,8 +105,25 @@ int PoseGraphProblem::AddEdge(EdgeKind kind, int a, int b, const Pose2& a_T_b, c
   edge.sqrt_information = sqrt_information;
   edge.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(a_T_b, sqrt_information),
                                              loss_function, poses_[a].block, poses_[b].block);
-  edges_.push_back(edge);
-  return num_edges() - 1;
+  return StoreEdge(edge);
+}
+
+int PoseGraphProblem::StoreEdge(const Edge& edge) {
+  CountLiveEdges(edge, 1);
+  if (released_edges_.empty()) {
+    edges_.push_back(edge);
+    return num_edges() - 1;
+  }
+  const int index = released_edges_.back();
+  released_edges_.pop_back();
+  edges_[index] = edge;
+  return index;
+}
+
+void PoseGraphProblem::CountLiveEdges(const Edge& edge, int delta) {
+  for (const int pose : {edge.anchor_a, edge.a, edge.anchor_b, edge.b}) {
+    if (pose >= 0) poses_[pose].live_edges += delta;
+  }
 }
 
 int PoseGraphProblem::AddAnchoredEdge(int anchor_a, int a, int anchor_b, int b, const Pose2& a_T_b,
@@ -127,16 +144,36 @@ int PoseGraphProblem::AddAnchoredEdge(int anchor_a, int a, int anchor_b, int b, 
                                              loss_scale > 0 ? new ceres::HuberLoss(loss_scale) : nullptr,
                                              poses_[anchor_a].block, poses_[a].block, poses_[anchor_b].block,
                                              poses_[b].block);
-  edges_.push_back(edge);
-  return num_edges() - 1;
+  return StoreEdge(edge);
 }
 
 void PoseGraphProblem::RemoveEdge(int index) {
   Edge& edge = edges_[index];
   if (edge.removed) return;
   problem_->RemoveResidualBlock(edge.residual);
+  CountLiveEdges(edge, -1);
   edge.residual = nullptr;
   edge.removed = true;
+}
+
+void PoseGraphProblem::ReleaseEdge(int index) {
+  CHECK(index >= 0 && index < num_edges()) << "unknown edge " << index;
+  RemoveEdge(index);
+  edges_[index] = Edge();
+  edges_[index].removed = true;
+  released_edges_.push_back(index);
+}
+
+void PoseGraphProblem::RemovePose(int index) {
+  CHECK(index >= 0 && index < num_poses()) << "unknown pose " << index;
+  Pose& pose = poses_[index];
+  if (pose.removed) return;
+  CHECK_EQ(pose.live_edges, 0) << "pose " << index << " still has edges";
+  CHECK(!pose.constant) << "pose " << index << " is held constant";
+  // No residual touches it any more: Ceres only scans its residual blocks to confirm.
+  if (pose.in_problem) problem_->RemoveParameterBlock(pose.block);
+  pose.in_problem = false;
+  pose.removed = true;
 }
 
 Pose2 PoseGraphProblem::EdgeEstimate(int index) const {

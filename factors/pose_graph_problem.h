@@ -85,6 +85,16 @@ class PoseGraphProblem {
                       const Eigen::Matrix3d& sqrt_information, double loss_scale);
   // Takes an edge out of the problem (it stays listed, with removed() true).
   void RemoveEdge(int edge);
+  // Takes an edge out of the problem (if it is still in) and forgets it: its index is invalid
+  // from now on and a later AddEdge / AddAnchoredEdge may hand it out again (its memory is
+  // reused). For edges the caller no longer refers to, e.g. those of a pose it removes.
+  void ReleaseEdge(int edge);
+  // Takes a pose out of the problem for good (its block keeps its last value). CHECK-fails while
+  // an edge that is neither removed nor released still touches it, or for a constant pose.
+  void RemovePose(int pose);
+  bool pose_removed(int pose) const { return poses_[pose].removed; }
+  // Edges in the problem (neither removed nor released) that touch the pose.
+  int pose_edges(int pose) const { return poses_[pose].live_edges; }
 
   int num_poses() const { return static_cast<int>(poses_.size()); }
   int num_edges() const { return static_cast<int>(edges_.size()); }
@@ -108,8 +118,10 @@ class PoseGraphProblem {
   struct Pose {
     double* block = nullptr;
     int group = 0;
+    int live_edges = 0;  // edges in the problem that touch it
     bool in_problem = false;
     bool constant = false;
+    bool removed = false;
   };
   struct Edge {
     EdgeKind kind = EdgeKind::kSequential;
@@ -120,6 +132,10 @@ class PoseGraphProblem {
     ceres::internal::ResidualBlock* residual = nullptr;
   };
   void EnsureInProblem(int pose);
+  // Stores `edge` in a released slot, or at the end; returns its index.
+  int StoreEdge(const Edge& edge);
+  // Adds `delta` to the live-edge count of every pose `edge` touches.
+  void CountLiveEdges(const Edge& edge, int delta);
 
   std::vector<std::unique_ptr<double[]>> chunks_;
   size_t used_in_chunk_ = 0;
@@ -127,6 +143,7 @@ class PoseGraphProblem {
   // A deque: no reallocation (a vector of ~140-byte edges grows by copying itself, the old and
   // new arrays alive together: FR079's 10 600 edges, up to 4.5 MB at that moment).
   std::deque<Edge> edges_;
+  std::vector<int> released_edges_;  // slots ReleaseEdge freed, reused by the next edges
   std::unique_ptr<ceres::Manifold> manifold_;
   std::unique_ptr<ceres::Problem> problem_;
 };

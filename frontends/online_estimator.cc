@@ -471,6 +471,7 @@ void OnlineEstimator::Solve(int max_iterations) {
   std::vector<int> recheck;
   recheck.swap(retire_recheck_);
   for (const int submap : recheck) RetireIfRevisited(submap, /*recheck_after_solve=*/false);
+  if (options_.attach_revisits && options_.retire_revisited_share > 0.0) graph_->AttachRevisits(options_.robot);
 }
 
 void OnlineEstimator::Finish() {

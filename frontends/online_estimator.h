@@ -104,6 +104,11 @@ struct OnlineEstimatorOptions {
   // particle filter and a team's overlap search use the earlier submaps instead. Only with
   // loop closure. 0 = off.
   double retire_revisited_share = 0.9;
+  // ... and after every solve, the nodes of retired submaps leave the graph: each rides on the
+  // submap it revisits at its solved pose there, its constraints and points released
+  // (SubmapGraph::AttachRevisits), so that re-driving mapped space adds a node's pose, not its
+  // scan and closures. Only with retire_revisited_share > 0.
+  bool attach_revisits = true;
 
   AttitudeSource attitude_source = AttitudeSource::kMargFilter;
   MargFilterOptions marg;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <sstream>
 
 #include "Eigen/Geometry"
@@ -71,6 +72,9 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
   if (!(map_min_hit_share >= 0 && map_min_hit_share <= 1)) msg << "map_min_hit_share must be in [0, 1]; ";
   if (!(wall_min_length_meters >= 0 && wall_min_length_meters <= 100))
     msg << "wall_min_length_meters must be in [0, 100]; ";
+  if (revisit_closures_per_submap < 1) {
+    msg << "revisit_closures_per_submap must be >= 1 (got " << revisit_closures_per_submap << "); ";
+  }
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -98,9 +102,11 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   node.stamp_seconds = result.stamp_seconds;
   node.local_pose = result.local_pose;
   node.pose = problem_.AddPose(robot.robot_T_local * result.local_pose, kNodeGroup);
-  node.points = std::move(result.points);
+  node.scan = std::make_unique<NodeScan>();
+  NodeScan& scan = *node.scan;
+  scan.points = std::move(result.points);
   // Kept compactly (see Node), and the vectors lose the slack of their growth.
-  ScanPoints& points = node.points;
+  ScanPoints& points = scan.points;
   if (!points.projected) std::vector<float>().swap(points.heights_meters);
   if (points.all.size() <= std::numeric_limits<uint16_t>::max()) {
     // The matching points are points of `all` in its order: find each after the previous.
@@ -113,14 +119,14 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
       index.push_back(static_cast<uint16_t>(k++));
     }
     if (index.size() == points.matching.size()) {
-      node.matching_in_all = std::move(index);
+      scan.matching_in_all = std::move(index);
       std::vector<Eigen::Vector2f>().swap(points.matching);
     }
   }
   if (!points.labels.empty() &&
       std::all_of(points.labels.begin(), points.labels.end(), [&](PointLabel l) { return l == points.labels[0]; })) {
-    node.labels_uniform = true;
-    node.uniform_label = points.labels[0];
+    scan.labels_uniform = true;
+    scan.uniform_label = points.labels[0];
     std::vector<PointLabel>().swap(points.labels);
   }
   // The points to the millimetre (after the matching indices, which compare them exactly).
@@ -128,9 +134,9 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   if (!points.all.empty() && std::all_of(points.all.begin(), points.all.end(), [&](const Eigen::Vector2f& p) {
         return std::abs(p.x()) <= kMaxMeters && std::abs(p.y()) <= kMaxMeters;
       })) {
-    node.all_mm.reserve(points.all.size());
+    scan.all_mm.reserve(points.all.size());
     for (const Eigen::Vector2f& p : points.all) {
-      node.all_mm.push_back({static_cast<int16_t>(std::lround(p.x() * kPointsPerMeter)),
+      scan.all_mm.push_back({static_cast<int16_t>(std::lround(p.x() * kPointsPerMeter)),
                              static_cast<int16_t>(std::lround(p.y() * kPointsPerMeter))});
     }
     std::vector<Eigen::Vector2f>().swap(points.all);
@@ -158,7 +164,7 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
     c.kind = EdgeKind::kSequential;
     c.edge = problem_.AddEdge(EdgeKind::kSequential, submap.pose, robot.nodes.back().pose, c.submap_T_node,
                               sqrt_information);
-    constraints_.push_back(c);
+    StoreConstraint(c);
     if (submap.first_node < 0) submap.first_node = id.index;
     submap.last_node = id.index;
     submap.min_submap = submap.min_submap.cwiseMin(insertion.submap_T_node.translation());
@@ -192,6 +198,8 @@ bool SubmapGraph::AddConstraint(const ConstraintCandidate& candidate) {
   if (candidate.node.index < 0 || candidate.node.index >= static_cast<int>(node_robot->second.nodes.size())) {
     return false;
   }
+  // Attached nodes and submaps are no longer variables of the problem.
+  if (node_robot->second.nodes[candidate.node.index].host >= 0) return false;
   const Eigen::Matrix3d sqrt_information =
       LoopSqrtInformation(options_, candidate.submap_T_node, candidate.weak_direction,
                           candidate.weak_information_fraction);
@@ -218,13 +226,32 @@ bool SubmapGraph::AddConstraint(const ConstraintCandidate& candidate) {
                                       sqrt_information, loss);
     ++stats_.inter_robot_constraints;
   }
-  constraints_.push_back(c);
+  StoreConstraint(c);
   return true;
+}
+
+void SubmapGraph::StoreConstraint(const Constraint& c) {
+  if (released_constraints_.empty()) {
+    constraints_.push_back(c);
+    return;
+  }
+  constraints_[released_constraints_.back()] = c;
+  released_constraints_.pop_back();
+}
+
+void SubmapGraph::ReleaseConstraint(int index) {
+  Constraint& c = constraints_[index];
+  if (c.edge < 0) return;
+  problem_.ReleaseEdge(c.edge);
+  c = Constraint();
+  c.edge = -1;
+  released_constraints_.push_back(index);
 }
 
 bool SubmapGraph::RemoveInterRobotConstraint(const SubmapId& submap, const NodeId& node) {
   for (Constraint& c : constraints_) {
-    if (c.kind != EdgeKind::kInterRobot || !(c.submap == submap) || c.node != node || problem_.edge_removed(c.edge)) {
+    if (c.edge < 0 || c.kind != EdgeKind::kInterRobot || !(c.submap == submap) || c.node != node ||
+        problem_.edge_removed(c.edge)) {
       continue;
     }
     problem_.RemoveEdge(c.edge);
@@ -252,7 +279,9 @@ Status SubmapGraph::Solve(int max_iterations) {
     // Consistency check: remove closures the optimised graph disagrees with, then solve once more.
     int removed = 0;
     for (Constraint& c : constraints_) {
-      if (c.kind == EdgeKind::kSequential || problem_.edge_removed(c.edge) || c.exempt_from_next_check) continue;
+      if (c.edge < 0 || c.kind == EdgeKind::kSequential || problem_.edge_removed(c.edge) || c.exempt_from_next_check) {
+        continue;
+      }
       const LoopClosureReport report{c.submap, c.node, c.kind, c.score, c.submap_T_node,
                                      problem_.EdgeEstimate(c.edge), false, c.weak_direction,
                                      c.weak_information_fraction};
@@ -269,7 +298,7 @@ Status SubmapGraph::Solve(int max_iterations) {
   for (auto& [id, robot] : robots_) {
     if (robot.nodes.empty()) continue;
     const Node& last = robot.nodes.back();
-    robot.robot_T_local = problem_.pose(last.pose) * last.local_pose.inverse();
+    robot.robot_T_local = NodePoseOf(robot, last) * last.local_pose.inverse();
   }
   return status;
 }
@@ -285,11 +314,159 @@ int SubmapGraph::num_submaps(int robot) const {
 }
 
 Pose2 SubmapGraph::NodePose(const NodeId& node) const {
-  return problem_.pose(robots_.at(node.robot).nodes.at(node.index).pose);
+  const Robot& robot = robots_.at(node.robot);
+  return NodePoseOf(robot, robot.nodes.at(node.index));
 }
 
 Pose2 SubmapGraph::SubmapPose(const SubmapId& submap) const {
   return problem_.pose(robots_.at(submap.robot).submaps.at(submap.index).pose);
+}
+
+Pose2 SubmapGraph::NodePoseOf(const Robot& robot, const Node& node) const {
+  if (node.host < 0) return problem_.pose(node.pose);
+  return problem_.pose(robot.submaps.at(node.host).pose) * node.host_T_node;
+}
+
+bool SubmapGraph::NodeAttached(const NodeId& id) const {
+  const auto robot = robots_.find(id.robot);
+  if (robot == robots_.end() || id.index < 0 || id.index >= static_cast<int>(robot->second.nodes.size())) return false;
+  return robot->second.nodes[id.index].host >= 0;
+}
+
+int SubmapGraph::AttachRevisits(int robot_id) {
+  const auto robot_it = robots_.find(robot_id);
+  if (robot_it == robots_.end()) return 0;
+  Robot& robot = robot_it->second;
+  // The nodes that may qualify: those of retired submaps not decided yet.
+  int lo = std::numeric_limits<int>::max(), hi = -1;
+  for (const auto& [index, submap] : robot.submaps) {
+    if (!submap.retired || submap.revisit_done) continue;
+    lo = std::min(lo, submap.first_node);
+    hi = std::max(hi, submap.last_node);
+  }
+  if (hi < 0) return 0;
+  struct Candidate {
+    bool all_retired = true;  // every submap it entered was retired
+    bool blocked = false;     // an inter-robot constraint holds it
+    int owner = std::numeric_limits<int>::max();  // the oldest submap it entered
+    std::vector<int> constraints;
+  };
+  std::map<int, Candidate> candidates;
+  for (int k = 0; k < static_cast<int>(constraints_.size()); ++k) {
+    const Constraint& c = constraints_[k];
+    if (c.edge < 0 || c.node.robot != robot_id || c.node.index < lo || c.node.index > hi) continue;
+    const Node& node = robot.nodes[c.node.index];
+    if (node.host >= 0 || node.revisit_kept) continue;
+    Candidate& candidate = candidates[c.node.index];
+    candidate.constraints.push_back(k);
+    if (c.kind == EdgeKind::kSequential) {
+      candidate.owner = std::min(candidate.owner, c.submap.index);
+      if (!robot.submaps.at(c.submap.index).retired) candidate.all_retired = false;
+    } else if (c.kind == EdgeKind::kInterRobot) {
+      candidate.blocked = true;
+    }
+  }
+  // By owner: a retired submap's nodes (each entered it and the next submap) are decided
+  // together, once every one of them qualifies (the next submap was retired too).
+  std::map<int, std::vector<int>> groups;
+  std::set<int> incomplete;
+  for (const auto& [index, candidate] : candidates) {
+    if (candidate.owner == std::numeric_limits<int>::max()) continue;
+    if (candidate.all_retired) {
+      groups[candidate.owner].push_back(index);
+    } else {
+      incomplete.insert(candidate.owner);
+    }
+  }
+  const Eigen::Matrix3d intra_sqrt_information = SqrtInformationFromStddev(
+      options_.intra_translation_sigma_meters, options_.intra_translation_sigma_meters,
+      options_.intra_rotation_sigma_radians);
+  const size_t per_submap = static_cast<size_t>(options_.revisit_closures_per_submap);
+  int attached = 0;
+  for (const auto& [owner, members] : groups) {
+    if (incomplete.count(owner) > 0) continue;
+    Submap& submap = robot.submaps.at(owner);
+    // The best closures to each submap the group closed with stay, with their nodes.
+    std::map<int, std::vector<std::pair<double, int>>> closures;  // target -> (-score, constraint)
+    for (const int index : members) {
+      for (const int k : candidates.at(index).constraints) {
+        const Constraint& c = constraints_[k];
+        if (c.kind == EdgeKind::kLoopClosure && !problem_.edge_removed(c.edge)) {
+          closures[c.submap.index].push_back({-c.score, k});
+        }
+      }
+    }
+    std::set<int> kept_constraints, kept_nodes;
+    for (auto& [target, scored] : closures) {
+      std::sort(scored.begin(), scored.end());
+      for (size_t j = 0; j < std::min(per_submap, scored.size()); ++j) {
+        kept_constraints.insert(scored[j].second);
+        kept_nodes.insert(constraints_[scored[j].second].node.index);
+      }
+    }
+    // One node at least, so that the submap stays tied to its nodes' poses.
+    if (kept_nodes.empty()) kept_nodes.insert(members[members.size() / 2]);
+    // The chain the attached nodes formed between this submap and the next (each entered both,
+    // at measured poses that give the two submaps one relative pose, the front end's): one
+    // constraint in their place with their information, each node's two constraints in series
+    // (half) and the nodes' summed.
+    int next = -1, chained = 0;
+    Pose2 submap_T_next;
+    for (const int index : members) {
+      const Candidate& candidate = candidates.at(index);
+      if (candidate.blocked || kept_nodes.count(index) > 0) continue;
+      const Constraint* in_owner = nullptr;
+      const Constraint* in_next = nullptr;
+      for (const int k : candidate.constraints) {
+        const Constraint& c = constraints_[k];
+        if (c.kind == EdgeKind::kSequential) (c.submap.index == owner ? in_owner : in_next) = &c;
+      }
+      if (in_owner == nullptr || in_next == nullptr) continue;
+      if (next < 0) {
+        next = in_next->submap.index;
+        submap_T_next = in_owner->submap_T_node * in_next->submap_T_node.inverse();
+      }
+      if (in_next->submap.index == next) ++chained;
+    }
+    if (chained > 0) {
+      Constraint c;
+      c.submap = {robot_id, owner};
+      c.node = {robot_id, -1};
+      c.chained_submap = next;
+      c.submap_T_node = submap_T_next;
+      c.kind = EdgeKind::kSequential;
+      c.edge = problem_.AddEdge(EdgeKind::kSequential, submap.pose, robot.submaps.at(next).pose, submap_T_next,
+                                std::sqrt(0.5 * chained) * intra_sqrt_information);
+      StoreConstraint(c);
+    }
+    const Pose2 submap_pose = problem_.pose(submap.pose);
+    for (const int index : members) {
+      const Candidate& candidate = candidates.at(index);
+      if (candidate.blocked) continue;
+      Node& node = robot.nodes[index];
+      const bool keep = kept_nodes.count(index) > 0;
+      for (const int k : candidate.constraints) {
+        const Constraint& c = constraints_[k];
+        if (kept_constraints.count(k) > 0 || (keep && c.kind == EdgeKind::kSequential)) continue;
+        if (c.kind == EdgeKind::kLoopClosure && !problem_.edge_removed(c.edge)) ++stats_.closures_released;
+        ReleaseConstraint(k);
+      }
+      if (keep) {
+        node.revisit_kept = true;
+      } else {
+        node.host = owner;
+        node.host_T_node = submap_pose.inverse() * problem_.pose(node.pose);
+        problem_.RemovePose(node.pose);
+        ++attached;
+        ++stats_.nodes_attached;
+      }
+      // Its points served loop searches (done) and the rendered maps, where its covered
+      // submaps add nothing the earlier ones do not hold.
+      node.scan.reset();
+    }
+    submap.revisit_done = true;
+  }
+  return attached;
 }
 
 Pose2 SubmapGraph::LocalToRobot(int robot) const {
@@ -313,12 +490,14 @@ double SubmapGraph::NodeStamp(const NodeId& node) const { return robots_.at(node
 SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) const {
   const Node& node = robots_.at(id.robot).nodes.at(id.index);
   MatchingPoints matching;
-  matching.weights = node.points.matching_weights;
-  if (node.matching_in_all.empty()) {
-    matching.points = node.points.matching;
+  if (node.scan == nullptr) return matching;  // released (AttachRevisits)
+  const NodeScan& scan = *node.scan;
+  matching.weights = scan.points.matching_weights;
+  if (scan.matching_in_all.empty()) {
+    matching.points = scan.points.matching;
   } else {
-    matching.points.reserve(node.matching_in_all.size());
-    for (const uint16_t k : node.matching_in_all) matching.points.push_back(node.Point(k));
+    matching.points.reserve(scan.matching_in_all.size());
+    for (const uint16_t k : scan.matching_in_all) matching.points.push_back(scan.Point(k));
   }
   return matching;
 }
@@ -345,6 +524,7 @@ bool SubmapGraph::EvictSubmapMap(const SubmapId& id, EvictionReason reason) {
   if (submap == robot->second.submaps.end() || submap->second.map == nullptr) return false;
   const size_t bytes = submap->second.map->MemoryBytes();
   if (reason == EvictionReason::kRevisited) {
+    submap->second.retired = true;
     ++stats_.submaps_retired;
     stats_.retired_bytes += bytes;
   } else {
@@ -441,7 +621,7 @@ std::vector<StampedPose2> SubmapGraph::Trajectory(int robot_id) const {
   const auto it = robots_.find(robot_id);
   if (it == robots_.end()) return trajectory;
   trajectory.reserve(it->second.nodes.size());
-  for (const Node& node : it->second.nodes) trajectory.push_back({node.stamp_seconds, problem_.pose(node.pose)});
+  for (const Node& node : it->second.nodes) trajectory.push_back({node.stamp_seconds, NodePoseOf(it->second, node)});
   return trajectory;
 }
 
@@ -455,14 +635,16 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     const std::unique_ptr<OccupancyGrid> all = RenderMap(robot_id, grid_options, Layer::kStructure);
     std::vector<Eigen::Vector2d> walls;
     for (const Node& node : it->second.nodes) {
-      const Pose2 world_T_node = problem_.pose(node.pose);
+      if (node.scan == nullptr) continue;
+      const NodeScan& scan = *node.scan;
+      const Pose2 world_T_node = NodePoseOf(it->second, node);
       walls.clear();
-      for (size_t k = 0; k < node.num_points(); ++k) {
-        const Eigen::Vector2d world = world_T_node * node.Point(k).cast<double>();
+      for (size_t k = 0; k < scan.num_points(); ++k) {
+        const Eigen::Vector2d world = world_T_node * scan.Point(k).cast<double>();
         const int cell = all->geometry().LinearIndex(all->geometry().WorldToCell(world));
         if (all->IsOccupied(cell) && (all->LabelMask(cell) & (1u << OccupancyGrid::kWallLabelBit))) walls.push_back(world);
       }
-      if (!walls.empty()) grid->InsertScan(world_T_node * node.points.sensor_robot, walls, nullptr);
+      if (!walls.empty()) grid->InsertScan(world_T_node * scan.points.sensor_robot, walls, nullptr);
     }
     grid->DropSmallOccupiedPieces(options_.wall_min_length_meters, kWallPieceLinkCells);
     return grid;
@@ -476,13 +658,14 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector2d hi = -lo;
     for (const Node& node : it->second.nodes) {
-      if (node.num_points() == 0) continue;
-      const Pose2 world_T_node = problem_.pose(node.pose);
-      const Eigen::Vector2d sensor = world_T_node * node.points.sensor_robot;
+      if (node.scan == nullptr || node.scan->num_points() == 0) continue;
+      const NodeScan& scan = *node.scan;
+      const Pose2 world_T_node = NodePoseOf(it->second, node);
+      const Eigen::Vector2d sensor = world_T_node * scan.points.sensor_robot;
       lo = lo.cwiseMin(sensor);
       hi = hi.cwiseMax(sensor);
-      for (size_t k = 0; k < node.num_points(); ++k) {
-        const Eigen::Vector2d world = world_T_node * node.Point(k).cast<double>();
+      for (size_t k = 0; k < scan.num_points(); ++k) {
+        const Eigen::Vector2d world = world_T_node * scan.Point(k).cast<double>();
         lo = lo.cwiseMin(world);
         hi = hi.cwiseMax(world);
       }
@@ -491,16 +674,17 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     // refuses the offending scans one by one.
     if (lo.x() <= hi.x() && grid->CanContain(lo, hi)) grid->EnsureContains(lo, hi);
     for (const Node& node : it->second.nodes) {
-      if (node.num_points() == 0) continue;
-      const Pose2 world_T_node = problem_.pose(node.pose);
+      if (node.scan == nullptr || node.scan->num_points() == 0) continue;
+      const NodeScan& scan = *node.scan;
+      const Pose2 world_T_node = NodePoseOf(it->second, node);
       points_world.clear();
       labels.clear();
-      for (size_t k = 0; k < node.num_points(); ++k) {
-        points_world.push_back(world_T_node * node.Point(k).cast<double>());
-        labels.push_back(static_cast<uint8_t>(node.Label(k)));
+      for (size_t k = 0; k < scan.num_points(); ++k) {
+        points_world.push_back(world_T_node * scan.Point(k).cast<double>());
+        labels.push_back(static_cast<uint8_t>(scan.Label(k)));
       }
-      grid->InsertScan(world_T_node * node.points.sensor_robot, points_world, nullptr, &labels,
-                       node.points.projected ? &node.points.heights_meters : nullptr);
+      grid->InsertScan(world_T_node * scan.points.sensor_robot, points_world, nullptr, &labels,
+                       scan.points.projected ? &scan.points.heights_meters : nullptr);
     }
     grid->DropWeakOccupiedCells(options_.map_min_hit_share);
     return grid;
@@ -523,8 +707,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   std::vector<std::pair<Pose2, const std::vector<Eigen::Vector2f>*>> scans;
   std::vector<Eigen::Vector2d> sensors;
   for (const Node& node : it->second.nodes) {
-    scans.push_back({problem_.pose(node.pose), &node.points.floor_obstacles});
-    sensors.push_back(node.points.sensor_robot);
+    if (node.scan == nullptr) continue;
+    scans.push_back({NodePoseOf(it->second, node), &node.scan->points.floor_obstacles});
+    sensors.push_back(node.scan->points.sensor_robot);
   }
   for (const AnchoredPoints& points : extra) {
     if (points.node.robot != robot_id || points.node.index >= static_cast<int>(it->second.nodes.size())) continue;
@@ -557,13 +742,15 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
   }
   const int first_node_vertex = static_cast<int>(graph.vertices.size());
   for (int i = 0; i < static_cast<int>(robot.nodes.size()); ++i) {
-    graph.vertices.push_back({first_node_vertex + i, problem_.pose(robot.nodes[i].pose)});
+    graph.vertices.push_back({first_node_vertex + i, NodePoseOf(robot, robot.nodes[i])});
   }
   for (const Constraint& c : constraints_) {
-    if (problem_.edge_removed(c.edge) || c.kind == EdgeKind::kInterRobot || c.node.robot != robot_id) continue;
+    if (c.edge < 0 || problem_.edge_removed(c.edge) || c.kind == EdgeKind::kInterRobot || c.node.robot != robot_id) {
+      continue;
+    }
     PoseGraph2dEdge edge;
     edge.id_from = submap_vertex.at(c.submap.index);
-    edge.id_to = first_node_vertex + c.node.index;
+    edge.id_to = c.chained_submap >= 0 ? submap_vertex.at(c.chained_submap) : first_node_vertex + c.node.index;
     edge.from_T_to_measured = c.submap_T_node;
     edge.kind = c.kind;
     const bool loop = c.kind == EdgeKind::kLoopClosure;
@@ -581,7 +768,7 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
 std::vector<LoopClosureReport> SubmapGraph::LoopClosures() const {
   std::vector<LoopClosureReport> reports;
   for (const Constraint& c : constraints_) {
-    if (c.kind == EdgeKind::kSequential) continue;
+    if (c.edge < 0 || c.kind == EdgeKind::kSequential) continue;
     reports.push_back({c.submap, c.node, c.kind, c.score, c.submap_T_node, problem_.EdgeEstimate(c.edge),
                        problem_.edge_removed(c.edge), c.weak_direction,
                        c.weak_information_fraction});

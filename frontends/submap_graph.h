@@ -52,6 +52,11 @@ struct SubmapId {
 };
 
 struct SubmapGraphOptions {
+  // AttachRevisits: of the loop closures a retired submap's nodes made, the best this many to
+  // each submap they closed with stay in the problem (with their nodes). Measured (README,
+  // session 17): 1 -> FR079 0.0421 m on its relations, Intel repeated 5 / 2 times 1.21x the
+  // memory; 2 -> 0.0412 m, 1.28x; 3 -> 0.0410 m (as with every closure kept), 1.33x. >= 1.
+  int revisit_closures_per_submap = 2;
   // Constraint uncertainties (1 sigma) and the loop closure loss scale (in sigmas).
   double intra_translation_sigma_meters = 0.02;
   double intra_rotation_sigma_radians = 0.005;
@@ -133,6 +138,10 @@ struct SubmapGraphStats {
   size_t evicted_bytes = 0;                   // their maps' MemoryBytes
   int submaps_retired = 0;                    // by EvictSubmapMap: revisits of mapped space
   size_t retired_bytes = 0;                   // their maps' MemoryBytes
+  // By AttachRevisits: nodes taken out of the problem (attached to their submap), and the loop
+  // closures released.
+  int nodes_attached = 0;
+  int closures_released = 0;
   int solves = 0;            // Ceres solves (a Solve() call may run two)
   int solver_iterations = 0;
   int failed_solves = 0;     // solutions Ceres reported unusable (poses kept)
@@ -197,6 +206,19 @@ class SubmapGraph {
     kRevisited,      // OnlineEstimatorOptions::retire_revisited_share
   };
   bool EvictSubmapMap(const SubmapId& submap, EvictionReason reason = EvictionReason::kMapStoreBound);
+  // Revisits attach to the map they revisit (issue #15: no growth without new information).
+  // Once both submaps a node of `robot` entered were retired (EvictSubmapMap kRevisited: an
+  // earlier submap covers them), the nodes of the older one are decided together: of their loop
+  // closures, the best to each submap they closed with stays, with its node; one node stays in
+  // any case (it chains the submap to the next). Every other node leaves the problem and rides
+  // rigidly on that submap at its current pose there (NodePose, Trajectory); its constraints are
+  // released. Every one of them drops its scan points (searched already; RenderMap leaves them
+  // out: earlier submaps hold what they saw). Nodes with an inter-robot constraint stay as they
+  // are. Call it after a Solve (the relative poses are then the graph's best). Returns the
+  // number of nodes attached.
+  int AttachRevisits(int robot);
+  // Whether a node was attached by AttachRevisits (false if unknown).
+  bool NodeAttached(const NodeId& node) const;
   // The share of `submap`'s occupied cells (every `sample_every`-th, in row order within its
   // field's tiles) at which one of `others` has structure within the likelihood field's sigma
   // (value >= exp(-1)) at the graph's current poses: how much of what it holds the others hold
@@ -210,7 +232,7 @@ class SubmapGraph {
   int SubmapFirstNode(const SubmapId& submap) const;
   int SubmapLastNode(const SubmapId& submap) const;
 
-  // Optimised poses of a robot's nodes, robot frame.
+  // Optimised poses of a robot's nodes, robot frame (attached nodes: where their host puts them).
   std::vector<StampedPose2> Trajectory(int robot) const;
   // Scan points seen at a pose relative to a node (a scan that was not inserted, e.g. while
   // matching was suspended): rendered wherever the node's optimised pose puts them.
@@ -249,14 +271,13 @@ class SubmapGraph {
   //    integers (4 bytes a point instead of 8; every point within 32.7 m of the robot, as
   //    with the default 30 m range): the node's points serve matches and maps on 5 cm cells.
   //    See Point().
+  // AttachRevisits releases it all (NodeScan): a revisit's nodes keep only their poses.
   struct PointMm {
     int16_t x = 0, y = 0;
   };
   static constexpr float kPointsPerMeter = 1000.f;
-  struct Node {
-    double stamp_seconds = 0.0;
-    Pose2 local_pose;
-    int pose = -1;  // in problem_
+  // What a node saw: its scan points, until AttachRevisits releases them.
+  struct NodeScan {
     ScanPoints points;
     std::vector<PointMm> all_mm;
     std::vector<uint16_t> matching_in_all;
@@ -269,10 +290,22 @@ class SubmapGraph {
       return Eigen::Vector2f(all_mm[k].x / kPointsPerMeter, all_mm[k].y / kPointsPerMeter);
     }
   };
+  struct Node {
+    double stamp_seconds = 0.0;
+    Pose2 local_pose;
+    int pose = -1;  // in problem_ (removed from it once attached)
+    // Attached (AttachRevisits): the submap it rides on and its pose there; -1 while in the problem.
+    int host = -1;
+    Pose2 host_T_node;
+    bool revisit_kept = false;        // decided by AttachRevisits: stays in the problem
+    std::unique_ptr<NodeScan> scan;   // null once released
+  };
   struct Submap {
     int pose = -1;
     std::shared_ptr<const LaserMap> map;  // set when finished, reset when evicted
     bool finished = false;
+    bool retired = false;       // evicted as a revisit (EvictionReason::kRevisited)
+    bool revisit_done = false;  // its nodes decided by AttachRevisits
     int first_node = -1;
     int last_node = 0;
     Eigen::Vector2d min_submap = Eigen::Vector2d::Zero(), max_submap = Eigen::Vector2d::Zero();
@@ -293,14 +326,23 @@ class SubmapGraph {
     Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();  // submap frame; zero: none
     double weak_information_fraction = 1.0;
     int edge = -1;
+    // A chain between two submaps (AttachRevisits): `submap` to this one, submap_T_node holds
+    // their relative pose; `node` is unused.
+    int chained_submap = -1;
   };
   int EnsureAnchor(int robot);
+  // Stores `c` in a slot ReleaseConstraint freed, or at the end.
+  void StoreConstraint(const Constraint& c);
+  // Releases constraints_[index] and its edge; the slot is reused.
+  void ReleaseConstraint(int index);
+  Pose2 NodePoseOf(const Robot& robot, const Node& node) const;
 
   SubmapGraphOptions options_;
   PoseGraphProblem problem_;
   std::map<int, Robot> robots_;
   int first_robot_ = -1;
-  std::deque<Constraint> constraints_;
+  std::deque<Constraint> constraints_;  // released slots have edge -1
+  std::vector<int> released_constraints_;
   SubmapGraphStats stats_;
 };
 

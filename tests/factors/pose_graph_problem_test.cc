@@ -136,6 +136,43 @@ TEST(PoseGraphProblemTest, RemoveEdgeTakesItOutOfTheSolve) {
   for (int k = 0; k < 4; ++k) ExpectPoseNear(Square()[k], problem.pose(k), 1e-6, 1e-6, summary.full_report);
 }
 
+TEST(PoseGraphProblemTest, ReleasedEdgesLendTheirSlotsAndFreeTheirPoses) {
+  PoseGraphProblem problem;
+  AddSquare(0.0, &problem);  // edges 0-3 around the square, pose 0 constant
+  const int wrong = AddWrongClosure(1.0, 0.0, &problem);
+  EXPECT_EQ(3, problem.pose_edges(2));  // two sides and the closure
+  problem.ReleaseEdge(wrong);
+  EXPECT_TRUE(problem.edge_removed(wrong));
+  EXPECT_EQ(2, problem.pose_edges(2));
+  // The next edge takes the released slot: the list does not grow.
+  const int again = AddWrongClosure(1.0, 0.0, &problem);
+  EXPECT_EQ(wrong, again);
+  EXPECT_EQ(5, problem.num_edges());
+  EXPECT_FALSE(problem.edge_removed(again));
+  problem.ReleaseEdge(again);
+  // Pose 2 without its two sides: out of the problem; the rest still closes exactly.
+  const Pose2 before = problem.pose(2);
+  problem.ReleaseEdge(1);  // 1 -> 2
+  problem.ReleaseEdge(2);  // 2 -> 3
+  EXPECT_EQ(0, problem.pose_edges(2));
+  problem.RemovePose(2);
+  EXPECT_TRUE(problem.pose_removed(2));
+  EXPECT_FALSE(problem.pose_removed(1));
+  problem.set_pose(1, Square()[1] * Pose2(0.3, -0.2, 0.1));
+  PoseGraphSolveSummary summary;
+  const Status status = problem.Solve(TightOptions(), &summary);
+  ASSERT_TRUE(status.ok()) << status.message() << "\n" << summary.full_report;
+  for (int k : {0, 1, 3}) ExpectPoseNear(Square()[k], problem.pose(k), 1e-6, 1e-6, summary.full_report);
+  ExpectPoseNear(before, problem.pose(2), 0.0, 0.0, "a removed pose keeps its last value");
+}
+
+TEST(PoseGraphProblemTest, RemovingAPoseThatEdgesStillHoldIsAProgrammerError) {
+  PoseGraphProblem problem;
+  AddSquare(0.0, &problem);
+  EXPECT_DEATH(problem.RemovePose(2), "pose 2 still has edges");
+  EXPECT_DEATH(problem.RemovePose(0), "still has edges|held constant");
+}
+
 // Two robots, two poses each in its own frame (the first at its origin, held constant), robot
 // 0's anchor is the world (constant), robot 1's anchor starts at the identity. One inter-robot
 // edge, measured between the true world poses of the robots' second poses, makes the graph

@@ -181,6 +181,28 @@ TEST(OnlineEstimatorTest, SubmapsOfARevisitAreRetired) {
   EXPECT_LT(ate.rotation_rmse_degrees, 1.0);
 }
 
+// Issue #15: after a solve, the scans of retired submaps leave the graph (AttachRevisits) but
+// for those holding the best closures; they ride on their submap, so the trajectory keeps
+// every scan and stays on the truth, with fewer closures in the graph.
+TEST(OnlineEstimatorTest, ScansOfARevisitRideOnTheirSubmap) {
+  const sim::SimulationResult simulation = Simulate(5);
+  OnlineEstimatorOptions in_graph = TestOptions();
+  in_graph.attach_revisits = false;
+  const PipelineRun kept = RunPipeline(simulation, in_graph);
+  ASSERT_TRUE(TestOptions().attach_revisits) << "on by default";
+  const PipelineRun attached = RunPipeline(simulation, TestOptions());
+  EXPECT_EQ(0, kept.graph.nodes_attached);
+  EXPECT_GT(attached.graph.nodes_attached, 0);
+  EXPECT_GT(attached.graph.closures_released, 0);
+  EXPECT_EQ(kept.graph.submaps_retired, attached.graph.submaps_retired);
+  ASSERT_EQ(simulation.truth.size(), attached.trajectory.size());
+  const AbsoluteTrajectoryError with = ComputeAbsoluteTrajectoryError(attached.trajectory, simulation.truth);
+  const AbsoluteTrajectoryError without = ComputeAbsoluteTrajectoryError(kept.trajectory, simulation.truth);
+  EXPECT_LT(with.translation_rmse_meters, 0.08);
+  EXPECT_LT(with.rotation_rmse_degrees, 1.0);
+  EXPECT_NEAR(without.translation_rmse_meters, with.translation_rmse_meters, 0.01);
+}
+
 // Issue #15: the solves' spacing grows with the graph (solve_min_new_node_share): a solve
 // waits for that share of the nodes as new ones, so a long run solves less often as it grows.
 // The default's share changes nothing on a run this short; a large one solves less, still

@@ -242,5 +242,102 @@ TEST(SubmapGraphTest, CoveredShareCountsTheStructureOtherSubmapsHold) {
   EXPECT_GT(graph.stats().retired_bytes, 0u);
 }
 
+// A straight run of 60 scans, 0.5 m apart, each with three points; a submap starts every 10
+// scans and takes 20 (finished then, with a small frozen map), as the front end does.
+std::unique_ptr<SubmapGraph> FinishedRun() {
+  auto graph = std::make_unique<SubmapGraph>(SubmapGraphOptions());
+  const std::shared_ptr<const LaserMap> map = FrozenWalls({{{2.0f, -1.0f}, {2.0f, 1.0f}}});
+  std::vector<Pose2> submap_origins;
+  for (int i = 0; i < 60; ++i) {
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.local_pose = Pose2(0.5 * i, 0.0, 0.0);
+    result.points.all = {{1.0f, 0.0f}, {1.0f, 0.5f}, {1.0f, -0.5f}};
+    result.points.matching = result.points.all;
+    if (i % 10 == 0) {
+      submap_origins.push_back(result.local_pose);
+      result.new_submaps.push_back({i / 10, result.local_pose});
+    }
+    for (int submap = std::max(0, i / 10 - 1); submap <= i / 10; ++submap) {
+      result.insertions.push_back({submap, submap_origins[submap].inverse() * result.local_pose});
+    }
+    if (i >= 19 && i % 10 == 9) result.finished = LocalResult::FinishedSubmap{i / 10 - 1, map};
+    graph->AddNode(0, std::move(result));
+  }
+  return graph;
+}
+
+TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapKeepingTheBestClosures) {
+  std::unique_ptr<SubmapGraph> graph = FinishedRun();
+  ASSERT_TRUE(graph->SubmapFinished({0, 4}));
+  ASSERT_FALSE(graph->SubmapFinished({0, 5}));
+  // Nodes 30-49 revisit submap 0 (and 40-44 submap 1 too): closures at the graph's estimate,
+  // the later node scoring higher.
+  int closures = 0;
+  for (int i = 30; i < 50; ++i) {
+    for (int target : {0, 1}) {
+      if (target == 1 && (i < 40 || i > 44)) continue;
+      ConstraintCandidate closure;
+      closure.submap = {0, target};
+      closure.node = {0, i};
+      closure.submap_T_node = graph->SubmapPose(closure.submap).inverse() * graph->NodePose(closure.node);
+      closure.score = 0.6 + 0.01 * i;
+      ASSERT_TRUE(graph->AddConstraint(closure));
+      ++closures;
+    }
+  }
+  ASSERT_TRUE(graph->Solve(20).ok());
+  const std::vector<StampedPose2> before = graph->Trajectory(0);
+  // Nothing retired, nothing attached.
+  EXPECT_EQ(0, graph->AttachRevisits(0));
+  // Submaps 3 and 4 retired: nodes 40-49 entered both; 30-39 entered 2 (kept), 50-59 entered 5
+  // (active): those stay.
+  ASSERT_TRUE(graph->EvictSubmapMap({0, 3}, SubmapGraph::EvictionReason::kRevisited));
+  ASSERT_TRUE(graph->EvictSubmapMap({0, 4}, SubmapGraph::EvictionReason::kRevisited));
+  ASSERT_EQ(2, SubmapGraphOptions().revisit_closures_per_submap);
+  // The two best closures to submap 0 (nodes 49, 48) and to submap 1 (44, 43) stay, with their
+  // nodes; the other six nodes ride on submap 3.
+  EXPECT_EQ(6, graph->AttachRevisits(0));
+  EXPECT_EQ(6, graph->stats().nodes_attached);
+  EXPECT_EQ(15 - 4, graph->stats().closures_released);
+  for (int i = 0; i < 60; ++i) {
+    const bool attached = i >= 40 && i < 50 && i != 43 && i != 44 && i != 48 && i != 49;
+    EXPECT_EQ(attached, graph->NodeAttached({0, i})) << "node " << i;
+    // Decided nodes drop their points; the others keep them.
+    EXPECT_EQ(i >= 40 && i < 50, graph->NodeMatchingPoints({0, i}).points.empty()) << "node " << i;
+  }
+  const std::vector<LoopClosureReport> reports = graph->LoopClosures();
+  EXPECT_EQ(static_cast<size_t>(closures - graph->stats().closures_released), reports.size());
+  // An attached node is no variable: no constraint reaches it.
+  ConstraintCandidate late;
+  late.submap = {0, 0};
+  late.node = {0, 41};
+  EXPECT_FALSE(graph->AddConstraint(late));
+  // Where they were, and after another solve still (every constraint agrees).
+  std::vector<StampedPose2> after = graph->Trajectory(0);
+  ASSERT_EQ(before.size(), after.size());
+  for (size_t k = 0; k < before.size(); ++k) {
+    EXPECT_NEAR(0.0, (before[k].pose.translation() - after[k].pose.translation()).norm(), 1e-9) << k;
+  }
+  ASSERT_TRUE(graph->Solve(20).ok());
+  after = graph->Trajectory(0);
+  for (size_t k = 0; k < before.size(); ++k) {
+    EXPECT_NEAR(0.0, (before[k].pose.translation() - after[k].pose.translation()).norm(), 1e-6) << k;
+    EXPECT_NEAR(0.0, WrapAngle(before[k].pose.theta() - after[k].pose.theta()), 1e-6) << k;
+  }
+  // The chain the attached nodes formed now joins submaps 3 and 4 directly (the exported graph
+  // numbers the six submaps first, then the nodes).
+  const PoseGraph2d exported = graph->ExportGraph(0);
+  const auto chain = std::find_if(exported.edges.begin(), exported.edges.end(),
+                                  [](const PoseGraph2dEdge& e) { return e.id_from == 3 && e.id_to == 4; });
+  ASSERT_NE(exported.edges.end(), chain);
+  EXPECT_EQ(EdgeKind::kSequential, chain->kind);
+  EXPECT_NEAR(5.0, chain->from_T_to_measured.x(), 1e-6);
+  // Decided once: a second call changes nothing.
+  EXPECT_EQ(0, graph->AttachRevisits(0));
+  EXPECT_EQ(6, graph->stats().nodes_attached);
+}
+
 }  // namespace
 }  // namespace hetslam
