@@ -117,13 +117,10 @@ DEFINE_double(retire_revisited_share, 0.9, "Revisits attach to the map they revi
               "the trajectory and the rendered maps keep it) and counted in the summary. In [0, 1]; 0 = off (every "
               "submap kept).");
 DEFINE_bool(attach_revisits, true, "With --retire_revisited_share: after every solve the scans of retired submaps "
-            "leave the pose graph but the few that hold the best loop closure to each submap they closed with; the "
-            "others ride on their own submap at their solved pose there (in the trajectory as before). Their other "
-            "closures and every one's points are released (left out of the rendered maps: earlier submaps hold what "
-            "they saw), so re-driving mapped space costs little more than a pose per scan.");
-DEFINE_int32(attach_revisits_closures, 2, "With --attach_revisits: of a retired submap's loop closures, the best this "
-             "many to each submap its scans closed with stay in the graph (>= 1; more: closer to keeping every one, "
-             "more memory).");
+            "leave the pose graph and ride on their submap at their solved pose there (in the trajectory as before); "
+            "in place of their constraints and loop closures come a few between submaps that sum up what those said. "
+            "Their points are released too (left out of the rendered maps: earlier submaps hold what they saw), so "
+            "re-driving mapped space costs little more than a pose per scan.");
 DEFINE_int32(solve_min_new_nodes, 20, "Scans added since the last solve before the graph is re-optimised again "
              "(bounds the solves of dense logs, where closures arrive at almost every scan).");
 DEFINE_double(solve_min_new_node_share, 0.02, "... and at least this share of the graph's nodes (in [0, 1]): a solve "
@@ -334,7 +331,6 @@ std::string FlagsNamedIn(const std::string& message) {
       {"motion_filter_time_seconds", "--motion_filter_time"},
       {"wall_weight", "--wall_weight"},
       {"retire_revisited_share", "--retire_revisited_share"},
-      {"revisit_closures_per_submap", "--attach_revisits_closures"},
       {"solve_min_new_node_share", "--solve_min_new_node_share"},
   };
   std::string flags;
@@ -466,7 +462,6 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->max_map_store_bytes = static_cast<size_t>(FLAGS_max_map_store_mib * 1048576.0);
   estimator->retire_revisited_share = FLAGS_retire_revisited_share;
   estimator->attach_revisits = FLAGS_attach_revisits;
-  estimator->graph.revisit_closures_per_submap = FLAGS_attach_revisits_closures;
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
@@ -585,9 +580,9 @@ std::string Summary(const OnlineEstimator& estimator) {
     out += line;
     if (estimator.options().attach_revisits) {
       std::snprintf(line, sizeof(line),
-                    "revisits: %d scans attached to their retired submaps, %d of their loop closures released "
-                    "(--attach_revisits)\n",
-                    store.nodes_attached, store.closures_released);
+                    "revisits: %d scans attached to their retired submaps, %d of their loop closures released, %d "
+                    "constraints between submaps in their place (--attach_revisits)\n",
+                    store.nodes_attached, store.closures_released, store.revisit_summaries);
       out += line;
     }
   }

@@ -96,8 +96,8 @@ DEFINE_double(retire_revisited_share, 0.9, "Each robot's revisits (see hetslam_r
               "occupied cells its robot's earlier submaps cover to at least this share is retired (its map freed, no "
               "longer searched by loop closure or the overlap search, still rendered). In [0, 1]; 0 = off.");
 DEFINE_bool(attach_revisits, true, "Each robot's retired submaps (see hetslam_run --help): after every solve their "
-            "scans leave the graph but those holding the best loop closures, riding on their submap; scans with an "
-            "inter-robot constraint stay.");
+            "scans leave the graph, riding on their submap, with constraints between submaps in place of theirs; "
+            "scans with an inter-robot constraint stay.");
 DEFINE_double(map_min_hit_share, 0.2, "Every robot's rendered maps (its map.pgm, the merged map, and the maps the "
               "map-overlap checks compare) leave out the noise tail behind walls: an occupied cell hit fewer times than "
               "this share of a neighbour's hits, with never-observed space beyond it (see hetslam_run --help). In "
@@ -378,9 +378,10 @@ int Run() {
               team.graph().stats().submaps_retired, team.graph().stats().retired_bytes / 1048576.0,
               FLAGS_retire_revisited_share);
   if (FLAGS_attach_revisits && FLAGS_retire_revisited_share > 0) {
-    std::printf("revisits: %d scans attached to their retired submaps, %d of their loop closures released "
-                "(--attach_revisits)\n",
-                team.graph().stats().nodes_attached, team.graph().stats().closures_released);
+    std::printf("revisits: %d scans attached to their retired submaps, %d of their loop closures released, %d "
+                "constraints between submaps in their place (--attach_revisits)\n",
+                team.graph().stats().nodes_attached, team.graph().stats().closures_released,
+                team.graph().stats().revisit_summaries);
   }
   if (FLAGS_max_map_store_mib > 0) {
     std::printf("map store: %d submaps evicted (%.1f MiB) to stay within --max_map_store_mib=%g per robot\n",

@@ -30,6 +30,24 @@ constexpr int kWallPieceLinkCells = 2;
 // frame, factors/relative_pose_cost.h): the loop sigmas, and along a weak direction w (submap
 // frame, zero: none) sigma_w = sigma / sqrt(fraction), capped:
 // S = (I - w w^T) / sigma + w w^T / sigma_w for the translation.
+// The covariance of a_T_b = a_T_n * (b_T_n)^-1 from a_T_n and b_T_n with covariances
+// `covariance_a` and `covariance_b` (translation in the frame of a, resp. b, then yaw), to first
+// order: J_a C_a J_a^T + J_b C_b J_b^T, the yaw errors moving the translation through the
+// lever arm of n in b.
+Eigen::Matrix3d ChainCovariance(const Pose2& a_T_n, const Eigen::Matrix3d& covariance_a, const Pose2& b_T_n,
+                                const Eigen::Matrix3d& covariance_b) {
+  const double yaw = a_T_n.theta() - b_T_n.theta();
+  const Eigen::Matrix2d rotation = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+  const Eigen::Vector2d lever = rotation * Eigen::Vector2d(-b_T_n.y(), b_T_n.x());  // R S t_b
+  Eigen::Matrix3d j_a = Eigen::Matrix3d::Identity();
+  j_a.block<2, 1>(0, 2) = -lever;
+  Eigen::Matrix3d j_b = Eigen::Matrix3d::Zero();
+  j_b.block<2, 2>(0, 0) = -rotation;
+  j_b.block<2, 1>(0, 2) = lever;
+  j_b(2, 2) = -1.0;
+  return j_a * covariance_a * j_a.transpose() + j_b * covariance_b * j_b.transpose();
+}
+
 Eigen::Matrix3d LoopSqrtInformation(const SubmapGraphOptions& options, const Pose2& submap_T_node,
                                     const Eigen::Vector2d& weak_direction_submap, double weak_information_fraction) {
   const double sigma = options.loop_translation_sigma_meters;
@@ -72,9 +90,6 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
   if (!(map_min_hit_share >= 0 && map_min_hit_share <= 1)) msg << "map_min_hit_share must be in [0, 1]; ";
   if (!(wall_min_length_meters >= 0 && wall_min_length_meters <= 100))
     msg << "wall_min_length_meters must be in [0, 100]; ";
-  if (revisit_closures_per_submap < 1) {
-    msg << "revisit_closures_per_submap must be >= 1 (got " << revisit_closures_per_submap << "); ";
-  }
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -279,7 +294,8 @@ Status SubmapGraph::Solve(int max_iterations) {
     // Consistency check: remove closures the optimised graph disagrees with, then solve once more.
     int removed = 0;
     for (Constraint& c : constraints_) {
-      if (c.edge < 0 || c.kind == EdgeKind::kSequential || problem_.edge_removed(c.edge) || c.exempt_from_next_check) {
+      if (c.edge < 0 || c.to_submap >= 0 || c.kind == EdgeKind::kSequential || problem_.edge_removed(c.edge) ||
+          c.exempt_from_next_check) {
         continue;
       }
       const LoopClosureReport report{c.submap, c.node, c.kind, c.score, c.submap_T_node,
@@ -347,8 +363,10 @@ int SubmapGraph::AttachRevisits(int robot_id) {
   if (hi < 0) return 0;
   struct Candidate {
     bool all_retired = true;  // every submap it entered was retired
-    bool blocked = false;     // an inter-robot constraint holds it
+    bool blocked = false;     // an inter-robot constraint holds it: it stays as it is
     int owner = std::numeric_limits<int>::max();  // the oldest submap it entered
+    const Constraint* in_owner = nullptr;         // its intra-submap constraints
+    const Constraint* in_next = nullptr;          // (to the owner, to the submap after it)
     std::vector<int> constraints;
   };
   std::map<int, Candidate> candidates;
@@ -370,99 +388,128 @@ int SubmapGraph::AttachRevisits(int robot_id) {
   // together, once every one of them qualifies (the next submap was retired too).
   std::map<int, std::vector<int>> groups;
   std::set<int> incomplete;
-  for (const auto& [index, candidate] : candidates) {
+  for (auto& [index, candidate] : candidates) {
     if (candidate.owner == std::numeric_limits<int>::max()) continue;
-    if (candidate.all_retired) {
-      groups[candidate.owner].push_back(index);
-    } else {
+    if (!candidate.all_retired) {
       incomplete.insert(candidate.owner);
+      continue;
     }
+    for (const int k : candidate.constraints) {
+      const Constraint& c = constraints_[k];
+      if (c.kind != EdgeKind::kSequential) continue;
+      (c.submap.index == candidate.owner ? candidate.in_owner : candidate.in_next) = &c;
+    }
+    if (!candidate.blocked) groups[candidate.owner].push_back(index);
   }
-  const Eigen::Matrix3d intra_sqrt_information = SqrtInformationFromStddev(
-      options_.intra_translation_sigma_meters, options_.intra_translation_sigma_meters,
-      options_.intra_rotation_sigma_radians);
-  const size_t per_submap = static_cast<size_t>(options_.revisit_closures_per_submap);
+  const double st = options_.intra_translation_sigma_meters, sr = options_.intra_rotation_sigma_radians;
+  const Eigen::Matrix3d intra_covariance = Eigen::Vector3d(st * st, st * st, sr * sr).asDiagonal();
+  // A constraint from submap `from` to submap `to` in place of released ones.
+  auto add_between = [&](int from, int to, EdgeKind kind, const Pose2& from_T_to, const Eigen::Matrix3d& information,
+                         double loss_scale) {
+    Constraint c;
+    c.submap = {robot_id, from};
+    c.node = {robot_id, -1};
+    c.to_submap = to;
+    c.submap_T_node = from_T_to;
+    c.kind = kind;
+    c.edge = problem_.AddEdge(kind, robot.submaps.at(from).pose, robot.submaps.at(to).pose, from_T_to,
+                              SqrtInformationFromInformation(information), loss_scale);
+    StoreConstraint(c);
+    ++stats_.revisit_summaries;
+  };
   int attached = 0;
   for (const auto& [owner, members] : groups) {
     if (incomplete.count(owner) > 0) continue;
     Submap& submap = robot.submaps.at(owner);
-    // The best closures to each submap the group closed with stay, with their nodes.
-    std::map<int, std::vector<std::pair<double, int>>> closures;  // target -> (-score, constraint)
+    // The closures to each submap the group closed with become one constraint from that submap
+    // to this one: a closure, carried through its node's measured pose in this submap, measures
+    // their relative pose with the two constraints' covariances in series (the node's lever arm
+    // included); the summary is the information-weighted mean (each closure weighted as Huber
+    // weighted it in the last solve) with the summed information, and a Huber loss at sqrt(n)
+    // times the closures' scale (n closures' residuals in one).
+    std::map<int, std::vector<const Constraint*>> closures;  // by target submap
     for (const int index : members) {
       for (const int k : candidates.at(index).constraints) {
         const Constraint& c = constraints_[k];
-        if (c.kind == EdgeKind::kLoopClosure && !problem_.edge_removed(c.edge)) {
-          closures[c.submap.index].push_back({-c.score, k});
-        }
+        if (c.kind == EdgeKind::kLoopClosure && !problem_.edge_removed(c.edge)) closures[c.submap.index].push_back(&c);
       }
     }
-    std::set<int> kept_constraints, kept_nodes;
-    for (auto& [target, scored] : closures) {
-      std::sort(scored.begin(), scored.end());
-      for (size_t j = 0; j < std::min(per_submap, scored.size()); ++j) {
-        kept_constraints.insert(scored[j].second);
-        kept_nodes.insert(constraints_[scored[j].second].node.index);
+    int summaries = 0;
+    for (const auto& [target, group_closures] : closures) {
+      Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d weighted = Eigen::Vector3d::Zero();
+      double reference_yaw = 0.0;
+      int summarised = 0;
+      for (const Constraint* c : group_closures) {
+        const Constraint* intra = candidates.at(c->node.index).in_owner;
+        if (intra == nullptr) continue;
+        const Pose2 target_T_owner = c->submap_T_node * intra->submap_T_node.inverse();
+        const Eigen::Matrix3d loop_sqrt =
+            LoopSqrtInformation(options_, c->submap_T_node, c->weak_direction, c->weak_information_fraction);
+        Eigen::Matrix3d closure_information =
+            ChainCovariance(c->submap_T_node, (loop_sqrt.transpose() * loop_sqrt).inverse(), intra->submap_T_node,
+                            intra_covariance)
+                .inverse();
+        const Pose2 estimate = problem_.EdgeEstimate(c->edge);
+        const Eigen::Vector3d error(estimate.x() - c->submap_T_node.x(), estimate.y() - c->submap_T_node.y(),
+                                    WrapAngle(estimate.theta() - c->submap_T_node.theta()));
+        const double whitened = (loop_sqrt * error).norm();
+        if (whitened > options_.loop_loss_scale) closure_information *= options_.loop_loss_scale / whitened;
+        if (summarised == 0) reference_yaw = target_T_owner.theta();
+        const Eigen::Vector3d z(target_T_owner.x(), target_T_owner.y(),
+                                reference_yaw + WrapAngle(target_T_owner.theta() - reference_yaw));
+        information += closure_information;
+        weighted += closure_information * z;
+        ++summarised;
       }
+      if (summarised == 0) continue;
+      const Eigen::Vector3d mean = information.ldlt().solve(weighted);
+      add_between(target, owner, EdgeKind::kLoopClosure, Pose2(mean.x(), mean.y(), mean.z()), information,
+                  options_.loop_loss_scale * std::sqrt(static_cast<double>(summarised)));
+      ++summaries;
     }
-    // One node at least, so that the submap stays tied to its nodes' poses.
-    if (kept_nodes.empty()) kept_nodes.insert(members[members.size() / 2]);
-    // The chain the attached nodes formed between this submap and the next (each entered both,
-    // at measured poses that give the two submaps one relative pose, the front end's): one
-    // constraint in their place with their information, each node's two constraints in series
-    // (half) and the nodes' summed.
+    // The chain its nodes formed to the next submap (each entered both, at measured poses that
+    // give the two submaps one relative pose, the front end's): one constraint with their
+    // summed information (each node's two constraints in series, its lever arm included).
     int next = -1, chained = 0;
     Pose2 submap_T_next;
+    Eigen::Matrix3d chain_information = Eigen::Matrix3d::Zero();
     for (const int index : members) {
       const Candidate& candidate = candidates.at(index);
-      if (candidate.blocked || kept_nodes.count(index) > 0) continue;
-      const Constraint* in_owner = nullptr;
-      const Constraint* in_next = nullptr;
-      for (const int k : candidate.constraints) {
-        const Constraint& c = constraints_[k];
-        if (c.kind == EdgeKind::kSequential) (c.submap.index == owner ? in_owner : in_next) = &c;
-      }
-      if (in_owner == nullptr || in_next == nullptr) continue;
+      if (candidate.in_owner == nullptr || candidate.in_next == nullptr) continue;
       if (next < 0) {
-        next = in_next->submap.index;
-        submap_T_next = in_owner->submap_T_node * in_next->submap_T_node.inverse();
+        next = candidate.in_next->submap.index;
+        submap_T_next = candidate.in_owner->submap_T_node * candidate.in_next->submap_T_node.inverse();
       }
-      if (in_next->submap.index == next) ++chained;
+      if (candidate.in_next->submap.index != next) continue;
+      chain_information += ChainCovariance(candidate.in_owner->submap_T_node, intra_covariance,
+                                           candidate.in_next->submap_T_node, intra_covariance)
+                               .inverse();
+      ++chained;
     }
-    if (chained > 0) {
-      Constraint c;
-      c.submap = {robot_id, owner};
-      c.node = {robot_id, -1};
-      c.chained_submap = next;
-      c.submap_T_node = submap_T_next;
-      c.kind = EdgeKind::kSequential;
-      c.edge = problem_.AddEdge(EdgeKind::kSequential, submap.pose, robot.submaps.at(next).pose, submap_T_next,
-                                std::sqrt(0.5 * chained) * intra_sqrt_information);
-      StoreConstraint(c);
-    }
+    if (chained > 0) add_between(owner, next, EdgeKind::kSequential, submap_T_next, chain_information, 0.0);
+    // Nothing else would tie the submap to the graph: one node stays as it is.
+    const int kept = summaries == 0 && chained == 0 ? members[members.size() / 2] : -1;
     const Pose2 submap_pose = problem_.pose(submap.pose);
     for (const int index : members) {
-      const Candidate& candidate = candidates.at(index);
-      if (candidate.blocked) continue;
       Node& node = robot.nodes[index];
-      const bool keep = kept_nodes.count(index) > 0;
-      for (const int k : candidate.constraints) {
+      if (index == kept) {
+        node.revisit_kept = true;
+        continue;
+      }
+      for (const int k : candidates.at(index).constraints) {
         const Constraint& c = constraints_[k];
-        if (kept_constraints.count(k) > 0 || (keep && c.kind == EdgeKind::kSequential)) continue;
         if (c.kind == EdgeKind::kLoopClosure && !problem_.edge_removed(c.edge)) ++stats_.closures_released;
         ReleaseConstraint(k);
       }
-      if (keep) {
-        node.revisit_kept = true;
-      } else {
-        node.host = owner;
-        node.host_T_node = submap_pose.inverse() * problem_.pose(node.pose);
-        problem_.RemovePose(node.pose);
-        ++attached;
-        ++stats_.nodes_attached;
-      }
+      node.host = owner;
+      node.host_T_node = submap_pose.inverse() * problem_.pose(node.pose);
+      problem_.RemovePose(node.pose);
       // Its points served loop searches (done) and the rendered maps, where its covered
       // submaps add nothing the earlier ones do not hold.
       node.scan.reset();
+      ++attached;
+      ++stats_.nodes_attached;
     }
     submap.revisit_done = true;
   }
@@ -750,7 +797,7 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
     }
     PoseGraph2dEdge edge;
     edge.id_from = submap_vertex.at(c.submap.index);
-    edge.id_to = c.chained_submap >= 0 ? submap_vertex.at(c.chained_submap) : first_node_vertex + c.node.index;
+    edge.id_to = c.to_submap >= 0 ? submap_vertex.at(c.to_submap) : first_node_vertex + c.node.index;
     edge.from_T_to_measured = c.submap_T_node;
     edge.kind = c.kind;
     const bool loop = c.kind == EdgeKind::kLoopClosure;
@@ -768,7 +815,7 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
 std::vector<LoopClosureReport> SubmapGraph::LoopClosures() const {
   std::vector<LoopClosureReport> reports;
   for (const Constraint& c : constraints_) {
-    if (c.edge < 0 || c.kind == EdgeKind::kSequential) continue;
+    if (c.edge < 0 || c.to_submap >= 0 || c.kind == EdgeKind::kSequential) continue;
     reports.push_back({c.submap, c.node, c.kind, c.score, c.submap_T_node, problem_.EdgeEstimate(c.edge),
                        problem_.edge_removed(c.edge), c.weak_direction,
                        c.weak_information_fraction});

@@ -52,11 +52,6 @@ struct SubmapId {
 };
 
 struct SubmapGraphOptions {
-  // AttachRevisits: of the loop closures a retired submap's nodes made, the best this many to
-  // each submap they closed with stay in the problem (with their nodes). Measured (README,
-  // session 17): 1 -> FR079 0.0421 m on its relations, Intel repeated 5 / 2 times 1.21x the
-  // memory; 2 -> 0.0412 m, 1.28x; 3 -> 0.0410 m (as with every closure kept), 1.33x. >= 1.
-  int revisit_closures_per_submap = 2;
   // Constraint uncertainties (1 sigma) and the loop closure loss scale (in sigmas).
   double intra_translation_sigma_meters = 0.02;
   double intra_rotation_sigma_radians = 0.005;
@@ -138,10 +133,11 @@ struct SubmapGraphStats {
   size_t evicted_bytes = 0;                   // their maps' MemoryBytes
   int submaps_retired = 0;                    // by EvictSubmapMap: revisits of mapped space
   size_t retired_bytes = 0;                   // their maps' MemoryBytes
-  // By AttachRevisits: nodes taken out of the problem (attached to their submap), and the loop
-  // closures released.
+  // By AttachRevisits: nodes taken out of the problem (attached to their submap), the loop
+  // closures released with them, and the constraints between submaps added in their place.
   int nodes_attached = 0;
   int closures_released = 0;
+  int revisit_summaries = 0;
   int solves = 0;            // Ceres solves (a Solve() call may run two)
   int solver_iterations = 0;
   int failed_solves = 0;     // solutions Ceres reported unusable (poses kept)
@@ -207,15 +203,18 @@ class SubmapGraph {
   };
   bool EvictSubmapMap(const SubmapId& submap, EvictionReason reason = EvictionReason::kMapStoreBound);
   // Revisits attach to the map they revisit (issue #15: no growth without new information).
-  // Once both submaps a node of `robot` entered were retired (EvictSubmapMap kRevisited: an
-  // earlier submap covers them), the nodes of the older one are decided together: of their loop
-  // closures, the best to each submap they closed with stays, with its node; one node stays in
-  // any case (it chains the submap to the next). Every other node leaves the problem and rides
-  // rigidly on that submap at its current pose there (NodePose, Trajectory); its constraints are
-  // released. Every one of them drops its scan points (searched already; RenderMap leaves them
-  // out: earlier submaps hold what they saw). Nodes with an inter-robot constraint stay as they
-  // are. Call it after a Solve (the relative poses are then the graph's best). Returns the
-  // number of nodes attached.
+  // Once both submaps a node of `robot` entered were retired (EvictSubmapMap kRevisited: earlier
+  // submaps cover them), the nodes of the older one are decided together and leave the
+  // problem: each rides rigidly on that submap at its current pose there (NodePose,
+  // Trajectory), its constraints and scan points released (RenderMap leaves them out: earlier
+  // submaps hold what they saw). In their place come constraints between submaps, marginal
+  // summaries of what the nodes' constraints said: per submap the nodes closed with, one closure
+  // (the closures' information-weighted mean through the nodes' measured poses, their summed
+  // information, Huber at sqrt(n) times the loop loss scale; not in LoopClosures(), never
+  // checked for consistency), and one chain to the next submap (the front end's relative pose,
+  // the nodes' summed information). Nodes with an inter-robot constraint stay as they are; so
+  // does one node of a submap nothing else would tie. Call it after a Solve (the nodes' poses
+  // are then the graph's best). Returns the number of nodes attached.
   int AttachRevisits(int robot);
   // Whether a node was attached by AttachRevisits (false if unknown).
   bool NodeAttached(const NodeId& node) const;
@@ -326,9 +325,10 @@ class SubmapGraph {
     Eigen::Vector2d weak_direction = Eigen::Vector2d::Zero();  // submap frame; zero: none
     double weak_information_fraction = 1.0;
     int edge = -1;
-    // A chain between two submaps (AttachRevisits): `submap` to this one, submap_T_node holds
-    // their relative pose; `node` is unused.
-    int chained_submap = -1;
+    // Between two submaps (AttachRevisits: a chain, kSequential, or a closure summary,
+    // kLoopClosure): `submap` to this one, submap_T_node holds their relative pose; `node` is
+    // unused.
+    int to_submap = -1;
   };
   int EnsureAnchor(int robot);
   // Stores `c` in a slot ReleaseConstraint freed, or at the end.

@@ -268,12 +268,11 @@ std::unique_ptr<SubmapGraph> FinishedRun() {
   return graph;
 }
 
-TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapKeepingTheBestClosures) {
+TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapWithSummariesInPlaceOfTheirConstraints) {
   std::unique_ptr<SubmapGraph> graph = FinishedRun();
   ASSERT_TRUE(graph->SubmapFinished({0, 4}));
   ASSERT_FALSE(graph->SubmapFinished({0, 5}));
-  // Nodes 30-49 revisit submap 0 (and 40-44 submap 1 too): closures at the graph's estimate,
-  // the later node scoring higher.
+  // Nodes 30-49 revisit submap 0 (and 40-44 submap 1 too): closures at the graph's estimate.
   int closures = 0;
   for (int i = 30; i < 50; ++i) {
     for (int target : {0, 1}) {
@@ -282,7 +281,7 @@ TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapKeepingTheBestClosures) {
       closure.submap = {0, target};
       closure.node = {0, i};
       closure.submap_T_node = graph->SubmapPose(closure.submap).inverse() * graph->NodePose(closure.node);
-      closure.score = 0.6 + 0.01 * i;
+      closure.score = 0.8;
       ASSERT_TRUE(graph->AddConstraint(closure));
       ++closures;
     }
@@ -291,30 +290,27 @@ TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapKeepingTheBestClosures) {
   const std::vector<StampedPose2> before = graph->Trajectory(0);
   // Nothing retired, nothing attached.
   EXPECT_EQ(0, graph->AttachRevisits(0));
-  // Submaps 3 and 4 retired: nodes 40-49 entered both; 30-39 entered 2 (kept), 50-59 entered 5
-  // (active): those stay.
+  // Submaps 3 and 4 retired: nodes 40-49 entered both and leave the problem; 30-39 entered 2
+  // (kept) and 50-59 entered 5 (active): they stay.
   ASSERT_TRUE(graph->EvictSubmapMap({0, 3}, SubmapGraph::EvictionReason::kRevisited));
   ASSERT_TRUE(graph->EvictSubmapMap({0, 4}, SubmapGraph::EvictionReason::kRevisited));
-  ASSERT_EQ(2, SubmapGraphOptions().revisit_closures_per_submap);
-  // The two best closures to submap 0 (nodes 49, 48) and to submap 1 (44, 43) stay, with their
-  // nodes; the other six nodes ride on submap 3.
-  EXPECT_EQ(6, graph->AttachRevisits(0));
-  EXPECT_EQ(6, graph->stats().nodes_attached);
-  EXPECT_EQ(15 - 4, graph->stats().closures_released);
+  EXPECT_EQ(10, graph->AttachRevisits(0));
+  EXPECT_EQ(10, graph->stats().nodes_attached);
+  EXPECT_EQ(15, graph->stats().closures_released);
+  EXPECT_EQ(3, graph->stats().revisit_summaries);  // to submaps 0 and 1, and the chain 3 -> 4
   for (int i = 0; i < 60; ++i) {
-    const bool attached = i >= 40 && i < 50 && i != 43 && i != 44 && i != 48 && i != 49;
+    const bool attached = i >= 40 && i < 50;
     EXPECT_EQ(attached, graph->NodeAttached({0, i})) << "node " << i;
-    // Decided nodes drop their points; the others keep them.
-    EXPECT_EQ(i >= 40 && i < 50, graph->NodeMatchingPoints({0, i}).points.empty()) << "node " << i;
+    EXPECT_EQ(attached, graph->NodeMatchingPoints({0, i}).points.empty()) << "node " << i;
   }
-  const std::vector<LoopClosureReport> reports = graph->LoopClosures();
-  EXPECT_EQ(static_cast<size_t>(closures - graph->stats().closures_released), reports.size());
+  // The summaries are no closures of a scan: the report lists the 20 closures of nodes 30-39.
+  EXPECT_EQ(static_cast<size_t>(closures - 15), graph->LoopClosures().size());
   // An attached node is no variable: no constraint reaches it.
   ConstraintCandidate late;
   late.submap = {0, 0};
   late.node = {0, 41};
   EXPECT_FALSE(graph->AddConstraint(late));
-  // Where they were, and after another solve still (every constraint agrees).
+  // Where they were, and after another solve still (the summaries agree with the graph).
   std::vector<StampedPose2> after = graph->Trajectory(0);
   ASSERT_EQ(before.size(), after.size());
   for (size_t k = 0; k < before.size(); ++k) {
@@ -326,17 +322,24 @@ TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapKeepingTheBestClosures) {
     EXPECT_NEAR(0.0, (before[k].pose.translation() - after[k].pose.translation()).norm(), 1e-6) << k;
     EXPECT_NEAR(0.0, WrapAngle(before[k].pose.theta() - after[k].pose.theta()), 1e-6) << k;
   }
-  // The chain the attached nodes formed now joins submaps 3 and 4 directly (the exported graph
-  // numbers the six submaps first, then the nodes).
+  // In the exported graph (the six submaps first, then the nodes): submap 3 hangs on submaps 0
+  // and 1 through the summaries and on submap 4 through the chain, 5 m ahead.
   const PoseGraph2d exported = graph->ExportGraph(0);
-  const auto chain = std::find_if(exported.edges.begin(), exported.edges.end(),
-                                  [](const PoseGraph2dEdge& e) { return e.id_from == 3 && e.id_to == 4; });
-  ASSERT_NE(exported.edges.end(), chain);
-  EXPECT_EQ(EdgeKind::kSequential, chain->kind);
-  EXPECT_NEAR(5.0, chain->from_T_to_measured.x(), 1e-6);
+  auto edge = [&](int from, int to) {
+    return std::find_if(exported.edges.begin(), exported.edges.end(),
+                        [&](const PoseGraph2dEdge& e) { return e.id_from == from && e.id_to == to; });
+  };
+  ASSERT_NE(exported.edges.end(), edge(3, 4));
+  EXPECT_EQ(EdgeKind::kSequential, edge(3, 4)->kind);
+  EXPECT_NEAR(5.0, edge(3, 4)->from_T_to_measured.x(), 1e-6);
+  for (const int target : {0, 1}) {
+    ASSERT_NE(exported.edges.end(), edge(target, 3)) << target;
+    EXPECT_EQ(EdgeKind::kLoopClosure, edge(target, 3)->kind);
+    EXPECT_NEAR(15.0 - 5.0 * target, edge(target, 3)->from_T_to_measured.x(), 1e-6);
+  }
   // Decided once: a second call changes nothing.
   EXPECT_EQ(0, graph->AttachRevisits(0));
-  EXPECT_EQ(6, graph->stats().nodes_attached);
+  EXPECT_EQ(10, graph->stats().nodes_attached);
 }
 
 }  // namespace
