@@ -119,8 +119,8 @@ DEFINE_double(retire_revisited_share, 0.9, "Revisits attach to the map they revi
 DEFINE_bool(attach_revisits, true, "With --retire_revisited_share: after every solve the scans of retired submaps "
             "leave the pose graph and ride on their submap at their solved pose there (in the trajectory as before); "
             "in place of their constraints and loop closures come a few between submaps that sum up what those said. "
-            "Their points are released too (left out of the rendered maps: earlier submaps hold what they saw), so "
-            "re-driving mapped space costs little more than a pose per scan.");
+            "The rendered maps keep what they saw. Re-driving mapped space then costs a scan's pose and points, not "
+            "its constraints.");
 DEFINE_int32(solve_min_new_nodes, 20, "Scans added since the last solve before the graph is re-optimised again "
              "(bounds the solves of dense logs, where closures arrive at almost every scan).");
 DEFINE_double(solve_min_new_node_share, 0.02, "... and at least this share of the graph's nodes (in [0, 1]): a solve "

@@ -99,15 +99,16 @@ struct OnlineEstimatorOptions {
   // structure within the likelihood field's sigma at the current poses; only submaps a loop
   // search of its nodes could have found, LoopCloserOptions::min_node_separation; tested when
   // it finishes and, failing that, once more after the next solve) adds nothing to the map:
-  // its map is freed (SubmapGraph::EvictSubmapMap, counted as retired). Its pose, nodes and
-  // constraints stay, and so does what its nodes saw in the rendered maps; loop searches, the
-  // particle filter and a team's overlap search use the earlier submaps instead. Only with
-  // loop closure. 0 = off.
+  // its map is freed (SubmapGraph::EvictSubmapMap, counted as retired). Its pose stays; loop
+  // searches, the particle filter and a team's overlap search use the earlier submaps instead.
+  // Only with loop closure. 0 = off.
   double retire_revisited_share = 0.9;
-  // ... and after every solve, the nodes of retired submaps leave the graph: each rides on the
-  // submap it revisits at its solved pose there, its constraints and points released
-  // (SubmapGraph::AttachRevisits), so that re-driving mapped space adds a node's pose, not its
-  // scan and closures. Only with retire_revisited_share > 0.
+  // ... and after every solve, the nodes of retired submaps (both submaps they entered retired)
+  // leave the graph: each rides on its submap at its solved pose there, its constraints, loop
+  // closures and matching points released, and a few constraints between submaps sum up what
+  // those said (SubmapGraph::AttachRevisits). Re-driving mapped space then adds a node's pose
+  // and what it saw (for the rendered maps), not its closures. Only with
+  // retire_revisited_share > 0. Off: the nodes and their constraints stay.
   bool attach_revisits = true;
 
   AttitudeSource attitude_source = AttitudeSource::kMargFilter;

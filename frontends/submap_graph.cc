@@ -117,8 +117,7 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   node.stamp_seconds = result.stamp_seconds;
   node.local_pose = result.local_pose;
   node.pose = problem_.AddPose(robot.robot_T_local * result.local_pose, kNodeGroup);
-  node.scan = std::make_unique<NodeScan>();
-  NodeScan& scan = *node.scan;
+  NodeScan& scan = node.scan;
   scan.points = std::move(result.points);
   // Kept compactly (see Node), and the vectors lose the slack of their growth.
   ScanPoints& points = scan.points;
@@ -213,7 +212,7 @@ bool SubmapGraph::AddConstraint(const ConstraintCandidate& candidate) {
   if (candidate.node.index < 0 || candidate.node.index >= static_cast<int>(node_robot->second.nodes.size())) {
     return false;
   }
-  // Attached nodes and submaps are no longer variables of the problem.
+  // An attached node is no longer a variable of the problem.
   if (node_robot->second.nodes[candidate.node.index].host >= 0) return false;
   const Eigen::Matrix3d sqrt_information =
       LoopSqrtInformation(options_, candidate.submap_T_node, candidate.weak_direction,
@@ -505,9 +504,11 @@ int SubmapGraph::AttachRevisits(int robot_id) {
       node.host = owner;
       node.host_T_node = submap_pose.inverse() * problem_.pose(node.pose);
       problem_.RemovePose(node.pose);
-      // Its points served loop searches (done) and the rendered maps, where its covered
-      // submaps add nothing the earlier ones do not hold.
-      node.scan.reset();
+      // Its matching points served loop searches (done); what it saw stays for the rendered
+      // maps (a revisit's scans clear the noise the first pass left in free space).
+      std::vector<uint16_t>().swap(node.scan.matching_in_all);
+      std::vector<Eigen::Vector2f>().swap(node.scan.points.matching);
+      std::vector<float>().swap(node.scan.points.matching_weights);
       ++attached;
       ++stats_.nodes_attached;
     }
@@ -537,8 +538,8 @@ double SubmapGraph::NodeStamp(const NodeId& node) const { return robots_.at(node
 SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) const {
   const Node& node = robots_.at(id.robot).nodes.at(id.index);
   MatchingPoints matching;
-  if (node.scan == nullptr) return matching;  // released (AttachRevisits)
-  const NodeScan& scan = *node.scan;
+  if (node.host >= 0) return matching;  // released (AttachRevisits)
+  const NodeScan& scan = node.scan;
   matching.weights = scan.points.matching_weights;
   if (scan.matching_in_all.empty()) {
     matching.points = scan.points.matching;
@@ -682,8 +683,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     const std::unique_ptr<OccupancyGrid> all = RenderMap(robot_id, grid_options, Layer::kStructure);
     std::vector<Eigen::Vector2d> walls;
     for (const Node& node : it->second.nodes) {
-      if (node.scan == nullptr) continue;
-      const NodeScan& scan = *node.scan;
+      const NodeScan& scan = node.scan;
       const Pose2 world_T_node = NodePoseOf(it->second, node);
       walls.clear();
       for (size_t k = 0; k < scan.num_points(); ++k) {
@@ -705,8 +705,8 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector2d hi = -lo;
     for (const Node& node : it->second.nodes) {
-      if (node.scan == nullptr || node.scan->num_points() == 0) continue;
-      const NodeScan& scan = *node.scan;
+      const NodeScan& scan = node.scan;
+      if (scan.num_points() == 0) continue;
       const Pose2 world_T_node = NodePoseOf(it->second, node);
       const Eigen::Vector2d sensor = world_T_node * scan.points.sensor_robot;
       lo = lo.cwiseMin(sensor);
@@ -721,8 +721,8 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     // refuses the offending scans one by one.
     if (lo.x() <= hi.x() && grid->CanContain(lo, hi)) grid->EnsureContains(lo, hi);
     for (const Node& node : it->second.nodes) {
-      if (node.scan == nullptr || node.scan->num_points() == 0) continue;
-      const NodeScan& scan = *node.scan;
+      const NodeScan& scan = node.scan;
+      if (scan.num_points() == 0) continue;
       const Pose2 world_T_node = NodePoseOf(it->second, node);
       points_world.clear();
       labels.clear();
@@ -754,9 +754,8 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   std::vector<std::pair<Pose2, const std::vector<Eigen::Vector2f>*>> scans;
   std::vector<Eigen::Vector2d> sensors;
   for (const Node& node : it->second.nodes) {
-    if (node.scan == nullptr) continue;
-    scans.push_back({NodePoseOf(it->second, node), &node.scan->points.floor_obstacles});
-    sensors.push_back(node.scan->points.sensor_robot);
+    scans.push_back({NodePoseOf(it->second, node), &node.scan.points.floor_obstacles});
+    sensors.push_back(node.scan.points.sensor_robot);
   }
   for (const AnchoredPoints& points : extra) {
     if (points.node.robot != robot_id || points.node.index >= static_cast<int>(it->second.nodes.size())) continue;

@@ -14,6 +14,8 @@
 // Gauge: each robot's first submap is held constant in its own frame; the first robot's
 // anchor is held constant at identity (its frame is the team's world).
 //
+// Revisits (AttachRevisits): the nodes of retired submaps leave the problem and ride on their
+// submap; constraints between submaps (a chain, closure summaries) stand in for theirs.
 // Solve(): a warm-started, bounded, single-threaded, deterministic Ceres solve (nodes
 // eliminated first, SPARSE_SCHUR over submaps and anchors), then a consistency check that
 // removes loop closures the graph disagrees with (and solves once more). New nodes enter
@@ -206,15 +208,15 @@ class SubmapGraph {
   // Once both submaps a node of `robot` entered were retired (EvictSubmapMap kRevisited: earlier
   // submaps cover them), the nodes of the older one are decided together and leave the
   // problem: each rides rigidly on that submap at its current pose there (NodePose,
-  // Trajectory), its constraints and scan points released (RenderMap leaves them out: earlier
-  // submaps hold what they saw). In their place come constraints between submaps, marginal
-  // summaries of what the nodes' constraints said: per submap the nodes closed with, one closure
-  // (the closures' information-weighted mean through the nodes' measured poses, their summed
-  // information, Huber at sqrt(n) times the loop loss scale; not in LoopClosures(), never
-  // checked for consistency), and one chain to the next submap (the front end's relative pose,
-  // the nodes' summed information). Nodes with an inter-robot constraint stay as they are; so
-  // does one node of a submap nothing else would tie. Call it after a Solve (the nodes' poses
-  // are then the graph's best). Returns the number of nodes attached.
+  // Trajectory; RenderMap still draws what it saw), its constraints and matching points
+  // released. In their place come constraints between submaps, marginal summaries of what the
+  // nodes' constraints said: per submap the nodes closed with, one closure (the closures'
+  // information-weighted mean through the nodes' measured poses, their summed information,
+  // Huber at sqrt(n) times the loop loss scale; not in LoopClosures(), never checked for
+  // consistency), and one chain to the next submap (the front end's relative pose, the nodes'
+  // summed information). Nodes with an inter-robot constraint stay as they are; so does one
+  // node of a submap nothing else would tie. Call it after a Solve (the nodes' poses are then
+  // the graph's best). Returns the number of nodes attached.
   int AttachRevisits(int robot);
   // Whether a node was attached by AttachRevisits (false if unknown).
   bool NodeAttached(const NodeId& node) const;
@@ -231,7 +233,7 @@ class SubmapGraph {
   int SubmapFirstNode(const SubmapId& submap) const;
   int SubmapLastNode(const SubmapId& submap) const;
 
-  // Optimised poses of a robot's nodes, robot frame (attached nodes: where their host puts them).
+  // Optimised poses of a robot's nodes, robot frame (attached nodes: where their submap puts them).
   std::vector<StampedPose2> Trajectory(int robot) const;
   // Scan points seen at a pose relative to a node (a scan that was not inserted, e.g. while
   // matching was suspended): rendered wherever the node's optimised pose puts them.
@@ -259,7 +261,7 @@ class SubmapGraph {
   const SubmapGraphOptions& options() const { return options_; }
 
  private:
-  // Every node's points live as long as the graph (FR079: 4395 nodes, the largest share of its
+  // A node's points live as long as it is in the graph (FR079: 4395 nodes, the largest share of its
   // memory after the maps), kept compactly: `points` as the LocalResult gave them, except
   //  - heights_meters: empty unless `projected` (otherwise all 0 and never read);
   //  - matching: empty when `matching_in_all` holds it, the index in `all` of each matching
@@ -270,12 +272,12 @@ class SubmapGraph {
   //    integers (4 bytes a point instead of 8; every point within 32.7 m of the robot, as
   //    with the default 30 m range): the node's points serve matches and maps on 5 cm cells.
   //    See Point().
-  // AttachRevisits releases it all (NodeScan): a revisit's nodes keep only their poses.
+  // AttachRevisits releases `matching` and `matching_in_all` (loop searches are done).
   struct PointMm {
     int16_t x = 0, y = 0;
   };
   static constexpr float kPointsPerMeter = 1000.f;
-  // What a node saw: its scan points, until AttachRevisits releases them.
+  // What a node saw (AttachRevisits releases the matching points; the rest is rendered).
   struct NodeScan {
     ScanPoints points;
     std::vector<PointMm> all_mm;
@@ -297,7 +299,7 @@ class SubmapGraph {
     int host = -1;
     Pose2 host_T_node;
     bool revisit_kept = false;        // decided by AttachRevisits: stays in the problem
-    std::unique_ptr<NodeScan> scan;   // null once released
+    NodeScan scan;
   };
   struct Submap {
     int pose = -1;
