@@ -799,11 +799,8 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
     edge.id_to = c.to_submap >= 0 ? submap_vertex.at(c.to_submap) : first_node_vertex + c.node.index;
     edge.from_T_to_measured = c.submap_T_node;
     edge.kind = c.kind;
-    const bool loop = c.kind == EdgeKind::kLoopClosure;
-    const double st = options_.intra_translation_sigma_meters, sr = options_.intra_rotation_sigma_radians;
-    const Eigen::Matrix3d sqrt_information =
-        loop ? LoopSqrtInformation(options_, c.submap_T_node, c.weak_direction, c.weak_information_fraction)
-             : Eigen::Matrix3d(Eigen::Vector3d(1 / st, 1 / st, 1 / sr).asDiagonal());
+    // The information the solve uses (AttachRevisits' summaries carry several constraints' worth).
+    const Eigen::Matrix3d& sqrt_information = problem_.edge_sqrt_information(c.edge);
     edge.information = sqrt_information.transpose() * sqrt_information;
     graph.edges.push_back(edge);
   }

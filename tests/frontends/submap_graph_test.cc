@@ -332,6 +332,9 @@ TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapWithSummariesInPlaceOfTheirConstr
   ASSERT_NE(exported.edges.end(), edge(3, 4));
   EXPECT_EQ(EdgeKind::kSequential, edge(3, 4)->kind);
   EXPECT_NEAR(5.0, edge(3, 4)->from_T_to_measured.x(), 1e-6);
+  // With the information the solve uses: the chain of 10 nodes is far stiffer than one of them.
+  const double intra_sigma = SubmapGraphOptions().intra_translation_sigma_meters;
+  EXPECT_GT(edge(3, 4)->information(0, 0), 2.0 / (intra_sigma * intra_sigma));
   for (const int target : {0, 1}) {
     ASSERT_NE(exported.edges.end(), edge(target, 3)) << target;
     EXPECT_EQ(EdgeKind::kLoopClosure, edge(target, 3)->kind);
