@@ -122,18 +122,19 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   // Kept compactly (see Node), and the vectors lose the slack of their growth.
   ScanPoints& points = scan.points;
   if (!points.projected) std::vector<float>().swap(points.heights_meters);
-  if (points.all.size() <= std::numeric_limits<uint16_t>::max()) {
+  {
     // The matching points are points of `all` in its order: find each after the previous.
-    std::vector<uint16_t> index;
-    index.reserve(points.matching.size());
-    size_t k = 0;
+    std::vector<uint64_t> mask((points.all.size() + 63) / 64, 0);
+    size_t k = 0, found = 0;
     for (const Eigen::Vector2f& p : points.matching) {
       while (k < points.all.size() && points.all[k] != p) ++k;
       if (k == points.all.size()) break;
-      index.push_back(static_cast<uint16_t>(k++));
+      mask[k / 64] |= uint64_t{1} << (k % 64);
+      ++k;
+      ++found;
     }
-    if (index.size() == points.matching.size()) {
-      scan.matching_in_all = std::move(index);
+    if (found == points.matching.size()) {
+      scan.matching_mask = std::move(mask);
       std::vector<Eigen::Vector2f>().swap(points.matching);
     }
   }
@@ -506,7 +507,7 @@ int SubmapGraph::AttachRevisits(int robot_id) {
       problem_.RemovePose(node.pose);
       // Its matching points served loop searches (done); what it saw stays for the rendered
       // maps (a revisit's scans clear the noise the first pass left in free space).
-      std::vector<uint16_t>().swap(node.scan.matching_in_all);
+      std::vector<uint64_t>().swap(node.scan.matching_mask);
       std::vector<Eigen::Vector2f>().swap(node.scan.points.matching);
       std::vector<float>().swap(node.scan.points.matching_weights);
       ++attached;
@@ -541,11 +542,15 @@ SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) co
   if (node.host >= 0) return matching;  // released (AttachRevisits)
   const NodeScan& scan = node.scan;
   matching.weights = scan.points.matching_weights;
-  if (scan.matching_in_all.empty()) {
+  if (scan.matching_mask.empty()) {
     matching.points = scan.points.matching;
   } else {
-    matching.points.reserve(scan.matching_in_all.size());
-    for (const uint16_t k : scan.matching_in_all) matching.points.push_back(scan.Point(k));
+    size_t count = 0;
+    for (const uint64_t word : scan.matching_mask) count += static_cast<size_t>(__builtin_popcountll(word));
+    matching.points.reserve(count);
+    for (size_t k = 0; k < scan.num_points(); ++k) {
+      if ((scan.matching_mask[k / 64] >> (k % 64)) & 1u) matching.points.push_back(scan.Point(k));
+    }
   }
   return matching;
 }

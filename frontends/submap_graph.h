@@ -264,15 +264,16 @@ class SubmapGraph {
   // A node's points live as long as it is in the graph (FR079: 4395 nodes, the largest share of its
   // memory after the maps), kept compactly: `points` as the LocalResult gave them, except
   //  - heights_meters: empty unless `projected` (otherwise all 0 and never read);
-  //  - matching: empty when `matching_in_all` holds it, the index in `all` of each matching
-  //    point (they are points of `all` in its order: the voxel filter keeps a voxel's first
-  //    point; 2 bytes a point instead of 8), see NodeMatchingPoints;
+  //  - matching: empty when `matching_mask` holds it, one bit for each point of `all` that is
+  //    a matching point (they are points of `all` in its order: the voxel filter keeps a
+  //    voxel's first point; FR079: 48 bytes a scan instead of ~1.5 KB as points, ~380 as
+  //    16-bit indices), see NodeMatchingPoints;
   //  - labels: empty when every point has `uniform_label` (a CARMEN scan's are all structure);
   //  - all: empty when `all_mm` holds it, each point rounded to the millimetre in 16-bit
   //    integers (4 bytes a point instead of 8; every point within 32.7 m of the robot, as
   //    with the default 30 m range): the node's points serve matches and maps on 5 cm cells.
   //    See Point().
-  // AttachRevisits releases `matching` and `matching_in_all` (loop searches are done).
+  // AttachRevisits releases `matching` and `matching_mask` (loop searches are done).
   struct PointMm {
     int16_t x = 0, y = 0;
   };
@@ -281,7 +282,7 @@ class SubmapGraph {
   struct NodeScan {
     ScanPoints points;
     std::vector<PointMm> all_mm;
-    std::vector<uint16_t> matching_in_all;
+    std::vector<uint64_t> matching_mask;  // bit k % 64 of word k / 64: point k of `all` matches
     bool labels_uniform = false;
     PointLabel uniform_label = PointLabel::kStructure;
     PointLabel Label(size_t k) const { return labels_uniform ? uniform_label : points.labels[k]; }
