@@ -99,6 +99,28 @@ SubmapGraph::SubmapGraph(const SubmapGraphOptions& options) : options_(options) 
   CHECK(options_.IsValid(&error)) << "invalid SubmapGraphOptions: " << error;
 }
 
+void SubmapGraph::NodeScan::DecodePoints(std::vector<Eigen::Vector2f>* out) const {
+  out->clear();
+  if (num_packed == 0) {
+    *out = points.all;
+    return;
+  }
+  out->reserve(num_packed);
+  int x = 0, y = 0;
+  for (size_t at = 0; out->size() < num_packed;) {
+    if (packed[at] == kPackedEscape) {
+      x = static_cast<int16_t>(static_cast<uint16_t>(packed[at + 1] | (packed[at + 2] << 8)));
+      y = static_cast<int16_t>(static_cast<uint16_t>(packed[at + 3] | (packed[at + 4] << 8)));
+      at += 5;
+    } else {
+      x += static_cast<int8_t>(packed[at]);
+      y += static_cast<int8_t>(packed[at + 1]);
+      at += 2;
+    }
+    out->emplace_back(x / kPointsPerMeter, y / kPointsPerMeter);
+  }
+}
+
 NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   CHECK(result.inserted) << "SubmapGraph::AddNode with a scan that was not inserted";
   if (first_robot_ < 0) first_robot_ = robot_id;
@@ -149,11 +171,29 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   if (!points.all.empty() && std::all_of(points.all.begin(), points.all.end(), [&](const Eigen::Vector2f& p) {
         return std::abs(p.x()) <= kMaxMeters && std::abs(p.y()) <= kMaxMeters;
       })) {
-    scan.all_mm.reserve(points.all.size());
+    std::vector<uint8_t>& packed = scan.packed;
+    packed.reserve(3 * points.all.size());
+    int previous_x = 0, previous_y = 0;
     for (const Eigen::Vector2f& p : points.all) {
-      scan.all_mm.push_back({static_cast<int16_t>(std::lround(p.x() * kPointsPerMeter)),
-                             static_cast<int16_t>(std::lround(p.y() * kPointsPerMeter))});
+      const int x = static_cast<int16_t>(std::lround(p.x() * kPointsPerMeter));
+      const int y = static_cast<int16_t>(std::lround(p.y() * kPointsPerMeter));
+      const int dx = x - previous_x, dy = y - previous_y;
+      if (std::abs(dx) <= 127 && std::abs(dy) <= 127) {
+        packed.push_back(static_cast<uint8_t>(static_cast<int8_t>(dx)));
+        packed.push_back(static_cast<uint8_t>(static_cast<int8_t>(dy)));
+      } else {
+        packed.push_back(kPackedEscape);
+        for (const int v : {x, y}) {
+          const uint16_t bits = static_cast<uint16_t>(static_cast<int16_t>(v));
+          packed.push_back(static_cast<uint8_t>(bits & 0xFFu));
+          packed.push_back(static_cast<uint8_t>(bits >> 8));
+        }
+      }
+      previous_x = x;
+      previous_y = y;
     }
+    packed.shrink_to_fit();
+    scan.num_packed = static_cast<uint32_t>(points.all.size());
     std::vector<Eigen::Vector2f>().swap(points.all);
   }
   points.all.shrink_to_fit();
@@ -548,8 +588,10 @@ SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) co
     size_t count = 0;
     for (const uint64_t word : scan.matching_mask) count += static_cast<size_t>(__builtin_popcountll(word));
     matching.points.reserve(count);
-    for (size_t k = 0; k < scan.num_points(); ++k) {
-      if ((scan.matching_mask[k / 64] >> (k % 64)) & 1u) matching.points.push_back(scan.Point(k));
+    std::vector<Eigen::Vector2f> all;
+    scan.DecodePoints(&all);
+    for (size_t k = 0; k < all.size(); ++k) {
+      if ((scan.matching_mask[k / 64] >> (k % 64)) & 1u) matching.points.push_back(all[k]);
     }
   }
   return matching;
@@ -683,6 +725,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   auto grid = std::make_unique<OccupancyGrid>(grid_options);
   const auto it = robots_.find(robot_id);
   if (it == robots_.end()) return grid;
+  std::vector<Eigen::Vector2f> points_robot;  // a node's points, decoded
   if (layer == Layer::kWalls) {
     // The structure with its label layer first; then only the points on its wall cells.
     const std::unique_ptr<OccupancyGrid> all = RenderMap(robot_id, grid_options, Layer::kStructure);
@@ -691,8 +734,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       const NodeScan& scan = node.scan;
       const Pose2 world_T_node = NodePoseOf(it->second, node);
       walls.clear();
-      for (size_t k = 0; k < scan.num_points(); ++k) {
-        const Eigen::Vector2d world = world_T_node * scan.Point(k).cast<double>();
+      scan.DecodePoints(&points_robot);
+      for (const Eigen::Vector2f& p : points_robot) {
+        const Eigen::Vector2d world = world_T_node * p.cast<double>();
         const int cell = all->geometry().LinearIndex(all->geometry().WorldToCell(world));
         if (all->IsOccupied(cell) && (all->LabelMask(cell) & (1u << OccupancyGrid::kWallLabelBit))) walls.push_back(world);
       }
@@ -716,8 +760,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       const Eigen::Vector2d sensor = world_T_node * scan.points.sensor_robot;
       lo = lo.cwiseMin(sensor);
       hi = hi.cwiseMax(sensor);
-      for (size_t k = 0; k < scan.num_points(); ++k) {
-        const Eigen::Vector2d world = world_T_node * scan.Point(k).cast<double>();
+      scan.DecodePoints(&points_robot);
+      for (const Eigen::Vector2f& p : points_robot) {
+        const Eigen::Vector2d world = world_T_node * p.cast<double>();
         lo = lo.cwiseMin(world);
         hi = hi.cwiseMax(world);
       }
@@ -731,8 +776,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       const Pose2 world_T_node = NodePoseOf(it->second, node);
       points_world.clear();
       labels.clear();
-      for (size_t k = 0; k < scan.num_points(); ++k) {
-        points_world.push_back(world_T_node * scan.Point(k).cast<double>());
+      scan.DecodePoints(&points_robot);
+      for (size_t k = 0; k < points_robot.size(); ++k) {
+        points_world.push_back(world_T_node * points_robot[k].cast<double>());
         labels.push_back(static_cast<uint8_t>(scan.Label(k)));
       }
       grid->InsertScan(world_T_node * scan.points.sensor_robot, points_world, nullptr, &labels,

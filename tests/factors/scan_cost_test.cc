@@ -364,6 +364,32 @@ TEST(ScanCostTest, InterpolatedDistancesPutTheMinimumOnTheWallNotOnTheCellCentre
   }
 }
 
+// Distance costs remember the squared distances they read (per thread, per cost: see
+// SquaredDistanceGrid in factors/scan_cost.cc). A cost over another map reading the same cell
+// indices in between (here a wall 2 cm further, at the same grid origin) changes nothing: each
+// cost gives exactly its first residuals again, and a new cost over the first map the same.
+TEST(ScanCostTest, DistanceCostsOfDifferentMapsNeverShareRememberedDistances) {
+  const LaserMap near_wall = MapFromHits(WallHits());
+  std::vector<Eigen::Vector2f> further = WallHits();
+  for (Eigen::Vector2f& hit : further) hit.x() += 0.02f;
+  const LaserMap far_wall = MapFromHits(further);
+  ASSERT_EQ(near_wall.field().geometry().origin(), far_wall.field().geometry().origin());
+  const std::vector<Eigen::Vector2f> points_robot = {{0.25f, -0.05f}, {0.25f, 0.0f}, {0.25f, 0.05f}};
+  const Pose2 pose(0.22, 0.01, 0.02);
+  auto distance_cost = [&](const LaserMap& map) {
+    return std::unique_ptr<ceres::CostFunction>(
+        CreateScanToLikelihoodFieldCost(map.field(), points_robot, {}, ScanCostInterpolation::kDistances));
+  };
+  const std::unique_ptr<ceres::CostFunction> near_cost = distance_cost(near_wall);
+  const std::vector<double> near_residuals = Residuals(*near_cost, pose);
+  const std::unique_ptr<ceres::CostFunction> far_cost = distance_cost(far_wall);
+  const std::vector<double> far_residuals = Residuals(*far_cost, pose);
+  EXPECT_GT(std::abs(near_residuals[1] - far_residuals[1]), 1e-3) << "the two maps differ where the points are";
+  EXPECT_EQ(near_residuals, Residuals(*near_cost, pose));
+  EXPECT_EQ(far_residuals, Residuals(*far_cost, pose));
+  EXPECT_EQ(near_residuals, Residuals(*distance_cost(near_wall), pose));
+}
+
 // Shifting the hits and the pose by the same whole number of cells (7, -4) gives the same
 // residuals and Jacobians: the shifted hits sit at the same sub-cell offsets on the
 // world-aligned lattice, so the field is the same table under another grid origin, and the

@@ -156,6 +156,32 @@ TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsToTheMillimetre) {
   }
 }
 
+// The packed node points (each the difference from the previous one in two bytes, or in full
+// after an escape byte) decode to the millimetre values, also across the limits of the short
+// form (±127 mm, ±128 mm), for jumps of metres either way and at the 16-bit limits.
+TEST(SubmapGraphTest, PackedNodePointsDecodeToTheirMillimetres) {
+  SubmapGraph graph{SubmapGraphOptions()};
+  const std::vector<Eigen::Vector2i> mm = {{0, 0},        {127, -127},    {0, 0},        {128, 0},      {0, -128},
+                                           {-127, 127},   {-254, 0},      {20000, -5},   {-20000, 15},  {32766, -32766},
+                                           {-32766, 32766}, {-32766, 32766}, {5, 6},      {-1, -1}};
+  LocalResult result;
+  result.inserted = true;
+  result.new_submaps.push_back({0, Pose2()});
+  result.insertions.push_back({0, Pose2()});
+  for (const Eigen::Vector2i& p : mm) {
+    // A float a little off the millimetre: it is rounded to it.
+    result.points.all.emplace_back(p.x() / 1000.f + 0.0002f, p.y() / 1000.f - 0.0002f);
+    result.points.labels.push_back(PointLabel::kStructure);
+  }
+  result.points.matching = result.points.all;
+  graph.AddNode(0, std::move(result));
+  const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints({0, 0});
+  ASSERT_EQ(mm.size(), matching.points.size());
+  for (size_t k = 0; k < mm.size(); ++k) {
+    EXPECT_EQ(Eigen::Vector2f(mm[k].x() / 1000.f, mm[k].y() / 1000.f), matching.points[k]) << "point " << k;
+  }
+}
+
 // The rendered map leaves out the noise tail behind a wall (SubmapGraphOptions::
 // map_min_hit_share; OccupancyGrid::DropWeakOccupiedCells): ten nodes see a wall 2 m ahead,
 // one of them with a stray point 6 cm behind it, in the next cell. By default the stray cell
