@@ -150,11 +150,16 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
                   const LikelihoodField* wall_field, float wall_weight, Pyramid* pyramid) {
   const int w = s.region_width, h = s.region_height;
   const size_t size = static_cast<size_t>(w) * h;
-  pyramid->finest.resize(size);
+  // Every level is written over [0, size) below: a buffer only grows (shrunk and grown again,
+  // std::vector would zero the regrown part first: 2% of an Intel run).
+  auto ensure = [size](auto& level) {
+    if (level.size() < size) level.resize(size);
+  };
+  ensure(pyramid->finest);
   pyramid->coarse.resize(std::min(depth, Pyramid::kLevels16));
-  for (std::vector<uint16_t>& level : pyramid->coarse) level.resize(size);
+  for (std::vector<uint16_t>& level : pyramid->coarse) ensure(level);
   pyramid->coarse8.resize(std::max(0, depth - Pyramid::kLevels16));
-  for (std::vector<uint8_t>& level : pyramid->coarse8) level.resize(size);
+  for (std::vector<uint8_t>& level : pyramid->coarse8) ensure(level);
   const LikelihoodField& field = map.field();
   const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
