@@ -77,8 +77,8 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
   keep_min = {keep_min.x - reach, keep_min.y - reach};
   keep_max = {keep_max.x + reach, keep_max.y + reach};
   CellIndex lo{INT32_MAX, INT32_MAX}, hi{INT32_MIN, INT32_MIN};
-  // One pass over yaws and points: the cells go into `offsets` as x and y (two entries a point)
-  // until the region is known, then become linear indices in place.
+  // One pass over yaws and points collects the kept cells (and the region's box); then they
+  // become linear indices into the region.
   const size_t num_yaws = static_cast<size_t>(2 * num_steps + 1);
   search.yaws.reserve(num_yaws);
   search.yaw_offsets.reserve(num_yaws);
@@ -474,8 +474,6 @@ void BranchAndBound(const SearchContext& context, Candidate* begin, Candidate* e
   }
 }
 
-// The weighted mean over the points of L (bilinear) at `pose`; with a wall field, of
-// L + (wall_weight - 1) L_wall, both read at the same position (paper §III-E).
 // A scan's points rotated by one yaw, as the four products pose * p is made of: world x =
 // (x + c px) - s py, world y = (y + s px) + c py, the same arithmetic as Pose2's operator*
 // with the cosine and sine taken once. The score profile scores one rotation at many
@@ -493,9 +491,9 @@ struct RotatedPoints {
   std::vector<std::array<double, 4>> products;  // c px, s py, s px, c py
 };
 
-// Mean of the field's bilinearly interpolated values at the points placed at (x, y) with the
-// rotation of `rotated` (weighted mean with weights; plus (wall_weight - 1) times the wall
-// field's, when given).
+// The weighted mean over the points, placed at (x, y) with the rotation of `rotated`, of L
+// (bilinear); with a wall field, of L + (wall_weight - 1) L_wall, both read at the same
+// position (paper §III-E).
 double BilinearScoreAt(const LikelihoodField& field, double x, double y, const RotatedPoints& rotated,
                        const std::vector<float>& weights, const LikelihoodField* wall_field, double wall_weight) {
   const GridGeometry& g = field.geometry();
@@ -520,6 +518,7 @@ double BilinearScoreAt(const LikelihoodField& field, double x, double y, const R
   return sum * InverseWeightSum(weights, rotated.products.size());
 }
 
+// The same at `pose`.
 double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std::vector<Eigen::Vector2f>& points,
                      const std::vector<float>& weights, const LikelihoodField* wall_field = nullptr,
                      double wall_weight = 1.0) {
