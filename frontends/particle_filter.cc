@@ -162,6 +162,8 @@ void ParticleLocalSlam::Spawn(const Eigen::Matrix3d& covariance, const Predictio
   Particle parent = particles_[0];
   parent.undisturbed = false;
   spawn_submaps_ = parent.state.active;  // shared: the particles copy what they change
+  // The weights score against every one of them, fields up to date (LaserMap::UpdateField).
+  for (ActiveSubmap& submap : spawn_submaps_) submap.map->UpdateField();
   for (int k = 1; k < options_.max_particles; ++k) {
     Eigen::Vector3d n;
     for (int j = 0; j < 3; ++j) n(j) = NormalDraw(&rng_);
@@ -224,6 +226,7 @@ bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints
   other.state = std::move(before);
   particles_.push_back(std::move(other));
   spawn_submaps_ = particles_[0].state.active;
+  for (ActiveSubmap& submap : spawn_submaps_) submap.map->UpdateField();
   results->push_back(std::move(second));
   ambiguous_scans_ = 0;
   ++stats_.spawns;

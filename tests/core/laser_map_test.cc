@@ -106,5 +106,45 @@ TEST(LaserMapTest, DottedWallScoresAsAContinuousWall) {
   }
 }
 
+// A map whose field is left behind (InsertScan without update_field, as a front end's newer
+// submap) and brought up to date at once holds the field of a map updated scan by scan. With
+// the republish tolerance at 0 both publish every changed cell's current surface, so their
+// values are equal; the scans move the robot 6 m, so the grid grows while changes wait.
+// Reading the field while changes wait is a programmer error.
+TEST(LaserMapTest, AFieldBroughtUpToDateAtOnceEqualsOneUpdatedEveryScan) {
+  LikelihoodFieldOptions field;
+  field.republish_distance_meters = 0.0;
+  field.republish_angle_radians = 0.0;
+  LaserMap every_scan(OccupancyGridOptions(), field), at_once(OccupancyGridOptions(), field);
+  for (int k = 0; k < 7; ++k) {
+    // A corridor's two walls, seen from x = k, with a little noise from k.
+    std::vector<Eigen::Vector2f> points;
+    for (int i = -20; i <= 20; ++i) {
+      const float noise = 0.004f * static_cast<float>(std::sin(3.0 * k + i));
+      points.emplace_back(0.1f * i, 1.0f + noise);
+      points.emplace_back(0.1f * i, -1.2f - noise);
+    }
+    const Pose2 pose(1.0 * k, 0.02 * k, 0.01 * k);
+    ASSERT_TRUE(every_scan.InsertScan(pose, Eigen::Vector2d::Zero(), points));
+    ASSERT_TRUE(at_once.InsertScan(pose, Eigen::Vector2d::Zero(), points, nullptr, nullptr, /*update_field=*/false));
+    EXPECT_FALSE(at_once.field_up_to_date());
+  }
+  EXPECT_DEATH(at_once.field(), "changes not applied");
+  at_once.UpdateField();
+  ASSERT_TRUE(at_once.field_up_to_date());
+  const GridGeometry& g = every_scan.grid().geometry();
+  ASSERT_EQ(g.num_cells(), at_once.grid().geometry().num_cells());
+  ASSERT_EQ(g.origin(), at_once.grid().geometry().origin());
+  int non_zero = 0;
+  for (int y = 0; y < g.height(); ++y) {
+    for (int x = 0; x < g.width(); ++x) {
+      const float value = every_scan.field().Value({x, y});
+      non_zero += value > 0.f;
+      ASSERT_EQ(value, at_once.field().Value({x, y})) << "cell " << x << ", " << y;
+    }
+  }
+  EXPECT_GT(non_zero, 1000);
+}
+
 }  // namespace
 }  // namespace hetslam
