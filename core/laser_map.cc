@@ -161,8 +161,8 @@ void LaserMap::Freeze() {
 }
 
 size_t LaserMap::MemoryBytes() const {
-  return grid_.MemoryBytes() + pending_.capacity() * sizeof(CellIndex) + field_.MemoryBytes() + (wall_field_.has_value() ? wall_field_->MemoryBytes() : 0) +
-         changed_cells_.capacity() * sizeof(int) +
+  return grid_.MemoryBytes() + field_.MemoryBytes() + (wall_field_.has_value() ? wall_field_->MemoryBytes() : 0) +
+         pending_.capacity() * sizeof(CellIndex) + changed_cells_.capacity() * sizeof(int) +
          points_world_.capacity() * sizeof(Eigen::Vector2d) + labels_.capacity() + lines_.capacity() * sizeof(ScanLine);
 }
 
