@@ -56,9 +56,9 @@ class BuiltFieldGrid {
 //
 // The squared distances served are remembered per thread: a refinement evaluates its cost about
 // twenty times around one pose and reads the same cells each time, each read a tile lookup and
-// a logarithm (FR079: ~4% of a run). A direct-mapped table, each entry keyed by the grid's id
-// (unique to each SquaredDistanceGrid made, so a later cost never reads an earlier one's
-// entries) and the cell; a cell's value is fixed while the cost is used (the header's lifetime
+// a logarithm (the logarithms alone were ~3% of a FR079 run). A direct-mapped table, each
+// entry keyed by the grid's id (unique to each SquaredDistanceGrid made, so a later cost never
+// reads an earlier one's entries) and the cell; a cell's value is fixed while the cost is used (the header's lifetime
 // note), so every value served is the one computed without the table.
 struct CachedSquaredDistance {
   uint64_t grid_id = 0;  // 0: empty

@@ -282,7 +282,7 @@ class SubmapGraph {
     // `all` to the millimetre when packed (num_packed > 0): each point as its difference from
     // the previous one (the first from 0) in 16-bit millimetres, two signed bytes when both
     // parts are within ±127 mm (neighbouring beams on a surface), else the byte 0x80 and the
-    // two parts in 16 bits (5 bytes). FR079: ~2.5 bytes a point instead of 8 as floats.
+    // point itself, x and y in 16 bits (5 bytes). FR079: ~2.5 bytes a point instead of 8.
     std::vector<uint8_t> packed;
     uint32_t num_packed = 0;
     std::vector<uint64_t> matching_mask;  // bit k % 64 of word k / 64: point k of `all` matches
