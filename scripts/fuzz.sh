@@ -24,7 +24,7 @@ if [ ${#targets[@]} -eq 0 ]; then
   if [ -x "$build/tests/fuzz/ros_bag_fuzzer" ]; then targets+=(ros_bag); fi
 fi
 cmake --build "$build" --target fuzzers -j"${FUZZ_BUILD_JOBS:-1}" > /dev/null
-mkdir -p "$build/fuzz/artifacts" "$build/fuzz/logs"
+mkdir -p "$build/fuzz/artifacts" "$build/fuzz/logs" "$build/fuzz/tmp"
 status=0
 printf '%-14s %10s %8s %8s %8s  %s\n' target executions exec/s cov ft result
 for target in "${targets[@]}"; do
@@ -38,7 +38,8 @@ for target in "${targets[@]}"; do
   esac
   log="$build/fuzz/logs/$target.log"
   result=ok
-  if ! "$binary" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=16384 \
+  # The readers' targets write each input to a file under $TMPDIR: keep those in the build folder.
+  if ! TMPDIR="$build/fuzz/tmp" "$binary" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=16384 \
       -dict="$root/tests/fuzz/dict/$target.dict" -print_final_stats=1 \
       -artifact_prefix="$build/fuzz/artifacts/$target-" "$work" "${seeds[@]}" > "$log" 2>&1; then
     result="FAILED (see $log)"

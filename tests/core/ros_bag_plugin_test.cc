@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -81,6 +82,7 @@ TEST(RosBagPluginTest, AFileThatIsNotALibraryIsRefused) {
   EXPECT_EQ(nullptr, plugin.api);
   EXPECT_THAT(plugin.tried, HasSubstr(path + " ("));
   EXPECT_THAT(plugin.tried, HasSubstr("ELF"));  // dlerror(): "invalid ELF header"
+  std::remove(path.c_str());
 }
 
 TEST(RosBagPluginTest, ALibraryWithoutTheEntryPointIsRefused) {
