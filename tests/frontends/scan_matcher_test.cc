@@ -125,6 +125,51 @@ TEST_F(ScanMatcherTest, BranchAndBoundMatchesBruteForceOnRandomPoses) {
   }
 }
 
+// The search tables are filled only along the scan's outline (a band, NeededSpans), over
+// tables left from a search of another map: in a 16 m hall, whose middle no search of a scan
+// along its walls reads, branch and bound still finds brute force's best score, also with
+// deeper blocks and wider windows.
+TEST(ScanMatcherBandTest, TablesFilledAlongTheScanAloneScoreLikeBruteForce) {
+  sim::World hall;
+  hall.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(16.0, 16.0), 0.0);
+  hall.AddBox(Eigen::Vector2d(-5.0, 4.0), Eigen::Vector2d(0.8, 0.5), 0.3);
+  hall.AddBox(Eigen::Vector2d(4.5, -6.0), Eigen::Vector2d(0.6, 1.2), 0.0);
+  std::mt19937 rng(31);
+  LaserMap hall_map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-4, -4, 1.0), Pose2(4, 4, -2.0)}) {
+    hall_map.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(hall, pose, 0.01, &rng));
+  }
+  const sim::World room = RoomWithPillar();
+  LaserMap room_map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  room_map.InsertScan(Pose2(0, 0, 0), Eigen::Vector2d::Zero(), SimulateScan(room, Pose2(0, 0, 0), 0.01, &rng));
+  std::uniform_real_distribution<double> xy(-3.0, 3.0), th(-M_PI, M_PI), off(-0.3, 0.3), off_th(-0.1, 0.1);
+  for (const auto& [depth, window] : {std::pair<int, double>{4, 0.4}, {5, 1.0}, {3, 0.2}}) {
+    ScanMatcherOptions options;
+    options.refine_with_ceres = false;
+    options.branch_and_bound_depth = depth;
+    options.linear_search_window_meters = window;
+    options.angular_search_window_radians = 0.1;
+    options.min_correlative_score = 0.0;
+    options.fallback_linear_search_window_meters = 0.0;
+    options.fallback_angular_search_window_radians = 0.0;
+    const ScanMatcher matcher(options);
+    for (int trial = 0; trial < 4; ++trial) {
+      // The other map's search first: its tables are what the hall's search finds outside its band.
+      const Pose2 room_pose(0.5, -0.5, th(rng));
+      ASSERT_TRUE(matcher.Match(room_map, room_pose, SimulateScan(room, room_pose, 0.01, &rng)).converged);
+      const Pose2 truth(xy(rng), xy(rng), th(rng));
+      const std::vector<Eigen::Vector2f> scan = SimulateScan(hall, truth, 0.01, &rng);
+      const Pose2 predicted = truth * Pose2(off(rng), off(rng), off_th(rng));
+      const ScanMatchResult fast = matcher.Match(hall_map, predicted, scan);
+      const ScanMatchResult brute = matcher.BruteForceSearch(hall_map, predicted, scan);
+      ASSERT_TRUE(fast.converged) << "depth " << depth << ", trial " << trial;
+      EXPECT_FLOAT_EQ(brute.correlative_score, fast.correlative_score) << "depth " << depth << ", trial " << trial;
+      EXPECT_NEAR(brute.pose.x(), fast.pose.x(), 1e-9) << "depth " << depth << ", trial " << trial;
+      EXPECT_NEAR(brute.pose.y(), fast.pose.y(), 1e-9) << "depth " << depth << ", trial " << trial;
+    }
+  }
+}
+
 // A finished (frozen: cropped, distances in 8-bit codes) submap matches like the map it was:
 // scores and, after refinement, poses within what half a distance step allows (~1 mm), on
 // seeded random poses; brute force over the frozen map agrees with branch and bound over it.
