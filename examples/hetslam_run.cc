@@ -197,6 +197,10 @@ DEFINE_double(degenerate_ratio, 0.3, "When a match is predicted from a source th
 DEFINE_double(degenerate_drop_ratio, 0.25, "Like --degenerate_ratio, but from the score: when, shifted 0.1-0.3 m along "
               "its flattest direction, the scan's score drops by less than this fraction of its steepest drop (a "
               "featureless corridor), the prediction is kept along that direction; 0 = off.");
+DEFINE_double(command_response, -1.0, "Seconds of the platform's velocity response to a command: the EKF's command model "
+              "lets the velocity follow the commanded one with this first-order lag (a multirotor's velocity controller); "
+              "0 = the velocity is the command (paper eq. 3). Negative (default): the log's PARAM "
+              "command_response_seconds when it has one (the simulator's UAVs: 0.25), else 0.");
 DEFINE_double(degenerate_sigma, 0.1, "Standard deviation (metres) of a degenerate match along its weak direction in the "
               "EKF update: there the EKF's prediction (commands, odometry) carries the pose and its covariance grows.");
 DEFINE_int32(max_particles, 6, "Rao-Blackwellized particle filter (paper §III-A): particles spawned under ambiguity (the "
@@ -633,6 +637,12 @@ int Run() {
   double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   if (!read.ok()) return Fail(read.message()), 1;
   const MeasurementLog& log = stream->info();
+  const Status params = ApplyLogParams(log.params, &options);
+  if (!params.ok()) return Fail(FLAGS_log + ": " + params.message()), 1;
+  if (FLAGS_command_response >= 0) {
+    options.ekf.command_response_seconds = FLAGS_command_response;
+    if (!options.IsValid(&error)) return Fail("bad flag value: " + error + " (--command_response; see --help)"), 2;
+  }
   for (const std::string& warning : log.warnings) std::cerr << "warning: " << warning << "\n";
   if (log.malformed_lines_skipped > 0)
     std::cerr << "warning: skipped " << log.malformed_lines_skipped << " malformed lines (--lenient)\n";

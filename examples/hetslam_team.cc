@@ -51,6 +51,10 @@ DEFINE_double(skip_static_images_within, 0.02, "While no tag is in view, also sk
 DEFINE_double(skip_static_images_within_deg, 1.0, "See --skip_static_images_within.");
 DEFINE_string(attitude_source, "marg", "Each robot's attitude for the 2.5D scan projection: marg (our MARG filter on "
               "the raw samples), logged (the log's ATTITUDE lines) or level.");
+DEFINE_double(command_response, -1.0, "Seconds of each robot's velocity response to a command: the EKF's command model "
+              "lets the velocity follow the commanded one with this first-order lag (a multirotor's velocity controller); "
+              "0 = the velocity is the command (paper eq. 3). Negative (default): each log's PARAM "
+              "command_response_seconds when it has one (the simulator's UAVs: 0.25), else 0.");
 DEFINE_bool(use_odometry, false, "Robots whose log has ODOM lines (wheeled) predict each scan's pose from their odometry. "
             "Off by default: the pipeline is odometry-free (the EKF predicts from commands and MARG rates).");
 DEFINE_double(link_min_score, 0.55, "A scan match refining a tag link counts when its mean likelihood is at least this.");
@@ -269,6 +273,9 @@ int Run() {
     TeamRobotOptions options;
     options.name = robot.name;
     options.estimator = robot_options;
+    status = ApplyLogParams(robot.log.params, &options.estimator);
+    if (!status.ok()) return Fail(robot.name + ": " + status.message()), 1;
+    if (FLAGS_command_response >= 0) options.estimator.ekf.command_response_seconds = FLAGS_command_response;
     const bool has_odometry = std::any_of(robot.log.measurements.begin(), robot.log.measurements.end(),
                                           [](const Measurement& m) { return std::holds_alternative<OdometryReading>(m); });
     if (FLAGS_use_odometry && has_odometry) {

@@ -154,6 +154,11 @@ bool EkfStateUpdaterOptions::IsValid(std::string* error) const {
       break;
     }
   }
+  if (message.empty() && !(command_response_seconds >= 0.0 && command_response_seconds <= 60.0)) {
+    std::ostringstream why;
+    why << "command_response_seconds must be in [0, 60], got " << command_response_seconds;
+    message = why.str();
+  }
   if (message.empty() && max_logged_rejections < 0) {
     message = "max_logged_rejections must be >= 0, got " + std::to_string(max_logged_rejections);
   }
@@ -330,23 +335,51 @@ void EkfStateUpdater::PredictWithCommand(double dt, const VelocityCommand& comma
   const double v_x = command.forward_mps, v_y = command.left_mps;
   const double phi = X[kYaw];
   const double c = std::cos(phi), s = std::sin(phi);
-  // Paper eq. 3 for x, y (ẋ, ẏ are random walks), φ driven by the commanded yaw rate; z, ψ, θ
-  // keep the constant-velocity model.
-  X[kX] += dt * (c * v_x - s * v_y);
-  X[kY] += dt * (s * v_x + c * v_y);
-  X[kYaw] += dt * command.yaw_rate_radps;
   const int cv_pairs[3][2] = {{kZ, kVz}, {kRoll, kRollRate}, {kPitch, kPitchRate}};
-  for (const auto& pair : cv_pairs) X[pair[0]] += dt * X[pair[1]];
+  const double tau = options_.command_response_seconds;
+  if (tau > 0.0) {
+    // The velocity follows the command with a first-order lag (see the option): with the
+    // commanded world velocity v = R(φ) (v_x, v_y), a = e^(-δt/τ) and b = τ (1 - a),
+    //   x += δt v + b (ẋ - v),  ẋ = v + a (ẋ - v).
+    const double a = std::exp(-dt / tau), b = tau * (1.0 - a);
+    const Eigen::Vector2d v(c * v_x - s * v_y, s * v_x + c * v_y);
+    const Eigen::Vector2d dv_dphi(-s * v_x - c * v_y, c * v_x - s * v_y);
+    const Eigen::Vector2d lag(X[kVx] - v.x(), X[kVy] - v.y());
+    X[kX] += dt * v.x() + b * lag.x();
+    X[kY] += dt * v.y() + b * lag.y();
+    X[kVx] = v.x() + a * lag.x();
+    X[kVy] = v.y() + a * lag.y();
+    X[kYaw] += dt * command.yaw_rate_radps;
+    for (const auto& pair : cv_pairs) X[pair[0]] += dt * X[pair[1]];
+    EkfMatrix F = EkfMatrix::Identity();
+    F(kX, kVx) = b;
+    F(kY, kVy) = b;
+    F(kVx, kVx) = a;
+    F(kVy, kVy) = a;
+    F(kX, kYaw) = (dt - b) * dv_dphi.x();
+    F(kY, kYaw) = (dt - b) * dv_dphi.y();
+    F(kVx, kYaw) = (1.0 - a) * dv_dphi.x();
+    F(kVy, kYaw) = (1.0 - a) * dv_dphi.y();
+    for (const auto& pair : cv_pairs) F(pair[0], pair[1]) = dt;
+    P = F * P * F.transpose();
+  } else {
+    // Paper eq. 3 for x, y (ẋ, ẏ are random walks), φ driven by the commanded yaw rate; z, ψ,
+    // θ keep the constant-velocity model.
+    X[kX] += dt * (c * v_x - s * v_y);
+    X[kY] += dt * (s * v_x + c * v_y);
+    X[kYaw] += dt * command.yaw_rate_radps;
+    for (const auto& pair : cv_pairs) X[pair[0]] += dt * X[pair[1]];
 
-  // F: identity plus ∂x/∂φ, ∂y/∂φ and the constant-velocity couplings.
-  const double dx_dphi = dt * (-s * v_x - c * v_y);
-  const double dy_dphi = dt * (c * v_x - s * v_y);
-  P.row(kX) += dx_dphi * P.row(kYaw);
-  P.row(kY) += dy_dphi * P.row(kYaw);
-  for (const auto& pair : cv_pairs) P.row(pair[0]) += dt * P.row(pair[1]);
-  P.col(kX) += dx_dphi * P.col(kYaw);
-  P.col(kY) += dy_dphi * P.col(kYaw);
-  for (const auto& pair : cv_pairs) P.col(pair[0]) += dt * P.col(pair[1]);
+    // F: identity plus ∂x/∂φ, ∂y/∂φ and the constant-velocity couplings.
+    const double dx_dphi = dt * (-s * v_x - c * v_y);
+    const double dy_dphi = dt * (c * v_x - s * v_y);
+    P.row(kX) += dx_dphi * P.row(kYaw);
+    P.row(kY) += dy_dphi * P.row(kYaw);
+    for (const auto& pair : cv_pairs) P.row(pair[0]) += dt * P.row(pair[1]);
+    P.col(kX) += dx_dphi * P.col(kYaw);
+    P.col(kY) += dy_dphi * P.col(kYaw);
+    for (const auto& pair : cv_pairs) P.col(pair[0]) += dt * P.col(pair[1]);
+  }
 
   EkfMatrix& Q = P;  // the noise is added in place
   const double q_pos = std::pow(options_.command_position_noise_meters_per_sqrt_second, 2);
@@ -419,8 +452,14 @@ void EkfStateUpdater::Apply(const Measurement& measurement, double stamp_seconds
   } else if (const auto* scan = std::get_if<ScanMatchPose>(&measurement)) {
     const int rows[3] = {kX, kY, kYaw};
     UpdateSelected<3>(scan->world_T_robot.ToVector(), rows, scan->covariance, estimate);
+    // Not while a command drives a lagged velocity (command_response_seconds): the line fit
+    // averages the velocity over its window, half a window behind it, and the lag model
+    // carries that error into the position. There the scan matches observe the velocity
+    // through the position they measure.
+    const bool lagged_command = options_.command_response_seconds > 0 && filter->has_command &&
+                                stamp_seconds <= filter->command.stamp_seconds + options_.command_timeout_seconds;
     VelocityObservation velocity;
-    if (options_.use_scan_velocity && scan_velocity_.VelocityAt(stamp_seconds, &velocity)) {
+    if (options_.use_scan_velocity && !lagged_command && scan_velocity_.VelocityAt(stamp_seconds, &velocity)) {
       const int velocity_rows[2] = {kVx, kVy};
       UpdateSelected<2>(velocity.velocity_mps, velocity_rows, velocity.covariance, estimate);
     }

@@ -139,6 +139,15 @@ struct EkfStateUpdaterOptions {
   double command_yaw_rate_noise_radps_per_sqrt_second = 0.2;    // w_φ̇
   // A command drives the prediction for this long after its stamp; then constant velocity.
   double command_timeout_seconds = 0.5;
+  // Time constant of the platform's velocity response to a command (a multirotor's velocity
+  // controller), 0 = the velocity is the command (paper eq. 3). With τ > 0 the world velocity
+  // (ẋ, ẏ) follows the commanded one, R(φ) (v_x, v_y), with a first-order lag:
+  //   ẋ += (1 - e^(-δt/τ)) (v - ẋ),  x += δt v + τ (1 - e^(-δt/τ)) (ẋ - v)   (exact for a
+  // constant command and heading over δt), so a turn or a stop is not predicted before the
+  // platform makes it. A property of the platform: robot logs may state it (PARAM
+  // command_response_seconds; the simulator's UAV: 0.25 s). While such a command is live the
+  // scan velocity (below) is not applied: its line fit lags the velocity by half a window.
+  double command_response_seconds = 0.0;
 
   bool use_scan_velocity = true;
   ScanVelocityOptions scan_velocity;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -33,6 +34,22 @@ const T* LatestAtOrBefore(const std::deque<T>& history, double stamp_seconds) {
 }
 
 }  // namespace
+
+Status ApplyLogParams(const std::map<std::string, std::string>& params, OnlineEstimatorOptions* options) {
+  const auto it = params.find("command_response_seconds");
+  if (it == params.end()) return Status::Ok();
+  char* end = nullptr;
+  const double seconds = std::strtod(it->second.c_str(), &end);
+  EkfStateUpdaterOptions ekf = options->ekf;
+  ekf.command_response_seconds = seconds;
+  std::string why;
+  if (it->second.empty() || end == nullptr || *end != '\0' || !ekf.IsValid(&why)) {
+    return Status::Error("PARAM command_response_seconds '" + it->second +
+                         "': " + (why.empty() ? std::string("not a number") : why));
+  }
+  options->ekf = ekf;
+  return Status::Ok();
+}
 
 bool ParseAttitudeSource(const std::string& name, AttitudeSource* source) {
   if (name == "level") {

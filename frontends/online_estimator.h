@@ -37,6 +37,7 @@
 #define HETSLAM_FRONTENDS_ONLINE_ESTIMATOR_H_
 
 #include <deque>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -148,6 +149,12 @@ struct OnlineEstimatorOptions {
 
   bool IsValid(std::string* error) const;
 };
+
+// What a log says of its platform (its PARAM lines, MeasurementLog::params), into `options`:
+// `command_response_seconds` (EkfStateUpdaterOptions::command_response_seconds). An error names
+// the PARAM when its value is not a number in the option's range; `options` is then unchanged.
+// Params it does not know are left alone.
+Status ApplyLogParams(const std::map<std::string, std::string>& params, OnlineEstimatorOptions* options);
 
 struct OnlineEstimatorStats {
   int scans = 0;                    // laser scans added

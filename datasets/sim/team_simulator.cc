@@ -526,6 +526,9 @@ void SimulateSensors(const Scenario& scenario, const World& world, const RobotSp
   // PARAMs.
   log.params["robot_name"] = spec.name;
   log.params["robot_kind"] = RobotKindName(spec.kind);
+  // The platform's velocity response to a command, for the EKF's command model
+  // (EkfStateUpdaterOptions::command_response_seconds); the others follow their commands.
+  if (spec.kind == RobotKind::kUav) log.params["command_response_seconds"] = Fixed(kUavVelocityLagSeconds, 3);
   if (spec.camera.enabled) {
     log.params["camera_fx"] = Fixed(spec.camera.fx, 6);
     log.params["camera_fy"] = Fixed(spec.camera.fy, 6);

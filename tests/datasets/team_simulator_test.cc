@@ -451,6 +451,8 @@ TEST(TeamSimulatorTest, EveryShippedScenarioParsesGeneratesAndReadsBack) {
       EXPECT_EQ(log.commands.size(), written.commands.size());
       EXPECT_GE(log.truth.size(), log.lasers.size());
       EXPECT_EQ(log.params.at("robot_kind"), manifest.robots[r].kind);
+      // The UAVs' velocity lag, for the EKF's command model; the others follow their commands.
+      EXPECT_EQ(log.params.count("command_response_seconds"), manifest.robots[r].kind == "uav" ? 1u : 0u);
       ASSERT_FALSE(log.lasers.empty());
       EXPECT_EQ(log.lasers[0].scan.ranges_meters.size(), 667u);
       if (!log.images.empty()) {

@@ -509,5 +509,55 @@ TEST(EkfStateUpdaterTest, CoastsOnCommandsWhenScanMatchingIsSuspended) {
   EXPECT_NEAR(after.covariance(kX, kX), expected_var_x, 1e-4);
 }
 
+// A platform whose velocity follows its commands with a lag (command_response_seconds = τ):
+// from rest, a step to 1 m/s forward moves it by T - τ (1 - e^(-T/τ)) in T, at 1 - e^(-T/τ) m/s;
+// the covariance propagates through the same model (its heading column against a difference
+// of two predictions); τ = 0 keeps paper eq. 3.
+TEST(EkfStateUpdaterTest, WithACommandResponseTheVelocityFollowsTheCommandWithItsLag) {
+  constexpr double kTau = 0.25, kT = 0.5;
+  EkfStateUpdaterOptions options;
+  options.command_timeout_seconds = 5.0;
+  options.command_response_seconds = kTau;
+  auto predict = [&](const EkfStateUpdaterOptions& o, double yaw, StateEstimate* after) {
+    StateEstimate initial = InitialEstimate();
+    initial.state[kYaw] = yaw;
+    initial.covariance.setZero();
+    initial.covariance(kYaw, kYaw) = 0.01 * 0.01;
+    EkfStateUpdater ekf(o);
+    ekf.Initialize(initial);
+    VelocityCommand command;
+    command.stamp_seconds = initial.stamp_seconds;
+    command.forward_mps = 1.0;
+    ASSERT_TRUE(ekf.AddCommand(command).ok());
+    ASSERT_TRUE(ekf.EstimateAt(initial.stamp_seconds + kT, after).ok());
+  };
+  StateEstimate after;
+  predict(options, M_PI / 2.0, &after);
+  const double moved = kT - kTau * (1.0 - std::exp(-kT / kTau));  // 0.2838 m
+  EXPECT_NEAR(after.state[kX], 0.0, 1e-12);
+  EXPECT_NEAR(after.state[kY], moved, 1e-12);
+  EXPECT_NEAR(after.state[kVx], 0.0, 1e-12);
+  EXPECT_NEAR(after.state[kVy], 1.0 - std::exp(-kT / kTau), 1e-12);
+  // ∂x/∂φ from two predictions 1e-6 rad apart; x's variance is that squared times φ's plus the
+  // position random walk.
+  StateEstimate plus, minus;
+  predict(options, M_PI / 2.0 + 1e-6, &plus);
+  predict(options, M_PI / 2.0 - 1e-6, &minus);
+  const double dx_dphi = (plus.state[kX] - minus.state[kX]) / 2e-6;
+  EXPECT_NEAR(dx_dphi, -moved, 1e-6);
+  EXPECT_NEAR(after.covariance(kX, kX),
+              dx_dphi * dx_dphi * 1e-4 + std::pow(options.command_position_noise_meters_per_sqrt_second, 2) * kT, 1e-9);
+  EXPECT_NEAR(after.covariance(kX, kVx), (plus.state[kVx] - minus.state[kVx]) / 2e-6 * dx_dphi * 1e-4, 1e-9);
+
+  options.command_response_seconds = 0.0;
+  predict(options, M_PI / 2.0, &after);
+  EXPECT_NEAR(after.state[kY], kT, 1e-12);
+
+  options.command_response_seconds = -0.1;
+  std::string error;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_THAT(error, HasSubstr("command_response_seconds"));
+}
+
 }  // namespace
 }  // namespace hetslam

@@ -74,6 +74,22 @@ PipelineRun RunPipeline(const sim::SimulationResult& simulation, const OnlineEst
   return run;
 }
 
+// A log's PARAM command_response_seconds sets the EKF's command lag; a bad value is an error
+// naming the PARAM and leaves the options as they were; other params are left alone.
+TEST(OnlineEstimatorTest, LogParamsSetTheCommandResponse) {
+  OnlineEstimatorOptions options;
+  ASSERT_TRUE(ApplyLogParams({{"robot_kind", "uav"}}, &options).ok());
+  EXPECT_EQ(0.0, options.ekf.command_response_seconds);
+  ASSERT_TRUE(ApplyLogParams({{"command_response_seconds", "0.250"}}, &options).ok());
+  EXPECT_EQ(0.25, options.ekf.command_response_seconds);
+  for (const char* bad : {"", "fast", "0.25s", "-1", "nan", "1e9"}) {
+    const Status status = ApplyLogParams({{"command_response_seconds", bad}}, &options);
+    EXPECT_FALSE(status.ok()) << bad;
+    EXPECT_NE(std::string::npos, status.message().find("PARAM command_response_seconds")) << status.message();
+    EXPECT_EQ(0.25, options.ekf.command_response_seconds) << bad;
+  }
+}
+
 TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
   const PipelineRun run = RunPipeline(Simulate(5), TestOptions());
   ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
