@@ -71,7 +71,7 @@ DEFINE_bool(overlap_search, true, "Also join robots that share no tag by their m
             "are reported ambiguous and not merged.");
 DEFINE_int32(overlap_min_matches, 3, "Scans of different places (1.5 m apart) whose wide matches must agree on a "
              "map-overlap link. At least 2.");
-DEFINE_double(overlap_max_conflict, 0.05, "Largest share of compared occupied cells that may land on the other "
+DEFINE_double(overlap_max_conflict, 0.10, "Largest share of compared occupied cells that may land on the other "
               "robot's free space for a map-overlap link. In [0, 1].");
 DEFINE_double(overlap_confirm_seconds, 5.0, "A map-overlap pose that passes every check is held, not linked, until it "
               "passes again, as the only passing pose, at least this many seconds later (with the tags and maps as "
