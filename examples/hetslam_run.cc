@@ -466,6 +466,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->max_map_store_bytes = static_cast<size_t>(FLAGS_max_map_store_mib * 1048576.0);
   estimator->retire_revisited_share = FLAGS_retire_revisited_share;
   estimator->attach_revisits = FLAGS_attach_revisits;
+  if (!(FLAGS_command_response <= 60)) return (*error = "--command_response must be at most 60 seconds"), false;
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;

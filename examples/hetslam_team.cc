@@ -121,6 +121,7 @@ bool Fail(const std::string& message) {
 bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot, std::string* error) {
   if (FLAGS_manifest.empty()) return (*error = "--manifest is required (a team.txt)"), false;
   if (FLAGS_out.empty()) return (*error = "--out is required (an output folder)"), false;
+  if (!(FLAGS_command_response <= 60)) return (*error = "--command_response must be at most 60 seconds"), false;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &robot->attitude_source)) {
     return (*error = "--attitude_source must be marg, logged or level (got '" + FLAGS_attitude_source + "')"), false;
   }
