@@ -209,10 +209,10 @@ struct TeamEstimatorOptions {
   double overlap_retry_seconds = 5.0;
   int overlap_max_matches_per_attempt = 60;  // (node, submap) matches per pair and attempt
   int overlap_min_agreeing_cells = 300;
-  // Measured on the team scenarios, seeds 1-5 (session 19): the true poses' shares 0-9.1% (a
-  // flying robot sees over furniture a ground robot maps), wrong ones 19.9% and up, or congruent
-  // rooms under 5% that only the tags and the hold tell apart. 0.05 until session 19 refused
-  // true poses at 5.1-9.1% once the UAVs' maps followed their velocity lag.
+  // Measured on the team scenarios, seeds 1-5 (session 19): poses near the true one 0-9.1% (one
+  // 0.8 deg off: 12.5%; a flying robot sees over furniture a ground robot maps), wrong ones
+  // 19.9% and up, or congruent rooms under 5% that only the tags and the hold tell apart. 0.05
+  // until session 19 refused true poses at 5.1-9.1% once the UAVs' maps followed their lag.
   double overlap_max_conflict = 0.10;
   // Re-confirmation: a pose that passes every check is held, not linked, until it passes again
   // as the only passing pose at an attempt at least overlap_confirm_seconds later, supported
