@@ -485,6 +485,19 @@ TEST(EkfStateUpdaterTest, ConstantRateOutputDoesNotAlterTheFilter) {
       << "the initial stamp has left the 1 s history";
 }
 
+// From `initial`, a command of 1 m/s forward at its stamp and nothing else: the estimate
+// `seconds` later.
+void CoastOnOneCommand(const EkfStateUpdaterOptions& options, const StateEstimate& initial, double seconds,
+                       StateEstimate* after) {
+  EkfStateUpdater ekf(options);
+  ekf.Initialize(initial);
+  VelocityCommand command;
+  command.stamp_seconds = initial.stamp_seconds;
+  command.forward_mps = 1.0;
+  ASSERT_TRUE(ekf.AddCommand(command).ok());
+  ASSERT_TRUE(ekf.EstimateAt(initial.stamp_seconds + seconds, after).ok());
+}
+
 // Without scan matches (the laser sees the floor) the estimate coasts on the commands and
 // its uncertainty grows; the RBPF spreads particles with this covariance.
 TEST(EkfStateUpdaterTest, CoastsOnCommandsWhenScanMatchingIsSuspended) {
@@ -492,14 +505,9 @@ TEST(EkfStateUpdaterTest, CoastsOnCommandsWhenScanMatchingIsSuspended) {
   options.command_timeout_seconds = 5.0;
   StateEstimate initial = InitialEstimate();
   initial.state[kYaw] = M_PI / 2.0;
-  EkfStateUpdater ekf(options);
-  ekf.Initialize(initial);
-  VelocityCommand command;
-  command.stamp_seconds = initial.stamp_seconds;
-  command.forward_mps = 1.0;
-  ASSERT_TRUE(ekf.AddCommand(command).ok());
   StateEstimate after;
-  ASSERT_TRUE(ekf.EstimateAt(initial.stamp_seconds + 2.0, &after).ok());
+  CoastOnOneCommand(options, initial, 2.0, &after);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   // Facing +y at 1 m/s for 2 s.
   EXPECT_NEAR(after.state[kX], 0.0, 1e-12);
   EXPECT_NEAR(after.state[kY], 2.0, 1e-12);
@@ -523,16 +531,11 @@ TEST(EkfStateUpdaterTest, WithACommandResponseTheVelocityFollowsTheCommandWithIt
     initial.state[kYaw] = yaw;
     initial.covariance.setZero();
     initial.covariance(kYaw, kYaw) = 0.01 * 0.01;
-    EkfStateUpdater ekf(o);
-    ekf.Initialize(initial);
-    VelocityCommand command;
-    command.stamp_seconds = initial.stamp_seconds;
-    command.forward_mps = 1.0;
-    ASSERT_TRUE(ekf.AddCommand(command).ok());
-    ASSERT_TRUE(ekf.EstimateAt(initial.stamp_seconds + kT, after).ok());
+    CoastOnOneCommand(o, initial, kT, after);
   };
   StateEstimate after;
   predict(options, M_PI / 2.0, &after);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   const double moved = kT - kTau * (1.0 - std::exp(-kT / kTau));  // 0.2838 m
   EXPECT_NEAR(after.state[kX], 0.0, 1e-12);
   EXPECT_NEAR(after.state[kY], moved, 1e-12);
