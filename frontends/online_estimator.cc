@@ -483,6 +483,10 @@ void OnlineEstimator::Solve(int max_iterations) {
   // The estimate of new nodes is corrected from here on: drift is counted afresh. (Closures
   // accepted but not yet solved do not correct it, so the gate keeps growing until a solve.)
   loop_.OnSolve();
+  // The search tables (the largest buffers besides the maps, FR079 ~3.5 MB) are not read by a
+  // solve: freed, so that the solver's scratch (about as large) does not sit next to them at
+  // the run's memory peak. The next match grows them back (a few page faults a solve).
+  ScanMatcher::ReleaseScratch();
   if (!graph_->Solve(max_iterations).ok()) ++stats_.loop_solves_failed;
   // Submaps that finished since the last solve at poses it had not corrected yet: once more.
   std::vector<int> recheck;

@@ -99,10 +99,20 @@ SubmapGraph::SubmapGraph(const SubmapGraphOptions& options) : options_(options) 
   CHECK(options_.IsValid(&error)) << "invalid SubmapGraphOptions: " << error;
 }
 
+const std::vector<float>& SubmapGraph::NodeScan::NoFloats() {
+  static const auto* none = new std::vector<float>();
+  return *none;
+}
+
+const std::vector<Eigen::Vector2f>& SubmapGraph::NodeScan::NoPoints() {
+  static const auto* none = new std::vector<Eigen::Vector2f>();
+  return *none;
+}
+
 void SubmapGraph::NodeScan::DecodePoints(std::vector<Eigen::Vector2f>* out) const {
   out->clear();
   if (num_packed == 0) {
-    *out = points.all;
+    *out = all;
     return;
   }
   out->reserve(num_packed);
@@ -140,10 +150,14 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
   node.local_pose = result.local_pose;
   node.pose = problem_.AddPose(robot.robot_T_local * result.local_pose, kNodeGroup);
   NodeScan& scan = node.scan;
-  scan.points = std::move(result.points);
-  // Kept compactly (see Node), and the vectors lose the slack of their growth.
-  ScanPoints& points = scan.points;
-  if (!points.projected) std::vector<float>().swap(points.heights_meters);
+  // Kept compactly (see NodeScan): what most scans lack in `rare`, the points packed.
+  ScanPoints& points = result.points;
+  scan.sensor_robot = points.sensor_robot;
+  scan.projected = points.projected;
+  auto rare = std::make_unique<NodeScan::Rare>();
+  if (points.projected) rare->heights_meters = std::move(points.heights_meters);
+  rare->floor_obstacles = std::move(points.floor_obstacles);
+  rare->matching_weights = std::move(points.matching_weights);
   {
     // The matching points are points of `all` in its order: find each after the previous.
     std::vector<uint64_t> mask((points.all.size() + 63) / 64, 0);
@@ -157,14 +171,15 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
     }
     if (found == points.matching.size()) {
       scan.matching_mask = std::move(mask);
-      std::vector<Eigen::Vector2f>().swap(points.matching);
+    } else {
+      rare->matching = std::move(points.matching);
     }
   }
-  if (!points.labels.empty() &&
-      std::all_of(points.labels.begin(), points.labels.end(), [&](PointLabel l) { return l == points.labels[0]; })) {
-    scan.labels_uniform = true;
-    scan.uniform_label = points.labels[0];
-    std::vector<PointLabel>().swap(points.labels);
+  if (std::all_of(points.labels.begin(), points.labels.end(), [&](PointLabel l) { return l == points.labels[0]; })) {
+    scan.labels_uniform = true;  // also without labels: structure
+    if (!points.labels.empty()) scan.uniform_label = points.labels[0];
+  } else {
+    rare->labels = std::move(points.labels);
   }
   // The points to the millimetre (after the matching indices, which compare them exactly).
   constexpr float kMaxMeters = std::numeric_limits<int16_t>::max() / kPointsPerMeter;
@@ -194,14 +209,18 @@ NodeId SubmapGraph::AddNode(int robot_id, LocalResult result) {
     }
     packed.shrink_to_fit();
     scan.num_packed = static_cast<uint32_t>(points.all.size());
-    std::vector<Eigen::Vector2f>().swap(points.all);
+  } else {
+    scan.all = std::move(points.all);
+    scan.all.shrink_to_fit();
   }
-  points.all.shrink_to_fit();
-  points.labels.shrink_to_fit();
-  points.heights_meters.shrink_to_fit();
-  points.floor_obstacles.shrink_to_fit();
-  points.matching.shrink_to_fit();
-  points.matching_weights.shrink_to_fit();
+  if (!rare->empty()) {  // without the slack of their growth
+    rare->labels.shrink_to_fit();
+    rare->heights_meters.shrink_to_fit();
+    rare->floor_obstacles.shrink_to_fit();
+    rare->matching.shrink_to_fit();
+    rare->matching_weights.shrink_to_fit();
+    scan.rare = std::move(rare);
+  }
   robot.nodes.push_back(std::move(node));
   ++stats_.nodes;
 
@@ -548,8 +567,11 @@ int SubmapGraph::AttachRevisits(int robot_id) {
       // Its matching points served loop searches (done); what it saw stays for the rendered
       // maps (a revisit's scans clear the noise the first pass left in free space).
       std::vector<uint64_t>().swap(node.scan.matching_mask);
-      std::vector<Eigen::Vector2f>().swap(node.scan.points.matching);
-      std::vector<float>().swap(node.scan.points.matching_weights);
+      if (node.scan.rare) {
+        std::vector<Eigen::Vector2f>().swap(node.scan.rare->matching);
+        std::vector<float>().swap(node.scan.rare->matching_weights);
+        if (node.scan.rare->empty()) node.scan.rare.reset();
+      }
       ++attached;
       ++stats_.nodes_attached;
     }
@@ -581,9 +603,9 @@ SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) co
   MatchingPoints matching;
   if (node.host >= 0) return matching;  // released (AttachRevisits)
   const NodeScan& scan = node.scan;
-  matching.weights = scan.points.matching_weights;
+  matching.weights = scan.matching_weights();
   if (scan.matching_mask.empty()) {
-    matching.points = scan.points.matching;
+    matching.points = scan.matching();
   } else {
     size_t count = 0;
     for (const uint64_t word : scan.matching_mask) count += static_cast<size_t>(__builtin_popcountll(word));
@@ -740,7 +762,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
         const int cell = all->geometry().LinearIndex(all->geometry().WorldToCell(world));
         if (all->IsOccupied(cell) && (all->LabelMask(cell) & (1u << OccupancyGrid::kWallLabelBit))) walls.push_back(world);
       }
-      if (!walls.empty()) grid->InsertScan(world_T_node * scan.points.sensor_robot, walls, nullptr);
+      if (!walls.empty()) grid->InsertScan(world_T_node * scan.sensor_robot, walls, nullptr);
     }
     grid->DropSmallOccupiedPieces(options_.wall_min_length_meters, kWallPieceLinkCells);
     return grid;
@@ -757,7 +779,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       const NodeScan& scan = node.scan;
       if (scan.num_points() == 0) continue;
       const Pose2 world_T_node = NodePoseOf(it->second, node);
-      const Eigen::Vector2d sensor = world_T_node * scan.points.sensor_robot;
+      const Eigen::Vector2d sensor = world_T_node * scan.sensor_robot;
       lo = lo.cwiseMin(sensor);
       hi = hi.cwiseMax(sensor);
       scan.DecodePoints(&points_robot);
@@ -781,8 +803,8 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
         points_world.push_back(world_T_node * points_robot[k].cast<double>());
         labels.push_back(static_cast<uint8_t>(scan.Label(k)));
       }
-      grid->InsertScan(world_T_node * scan.points.sensor_robot, points_world, nullptr, &labels,
-                       scan.points.projected ? &scan.points.heights_meters : nullptr);
+      grid->InsertScan(world_T_node * scan.sensor_robot, points_world, nullptr, &labels,
+                       scan.projected ? &scan.heights_meters() : nullptr);
     }
     grid->DropWeakOccupiedCells(options_.map_min_hit_share);
     return grid;
@@ -805,8 +827,8 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   std::vector<std::pair<Pose2, const std::vector<Eigen::Vector2f>*>> scans;
   std::vector<Eigen::Vector2d> sensors;
   for (const Node& node : it->second.nodes) {
-    scans.push_back({NodePoseOf(it->second, node), &node.scan.points.floor_obstacles});
-    sensors.push_back(node.scan.points.sensor_robot);
+    scans.push_back({NodePoseOf(it->second, node), &node.scan.floor_obstacles()});
+    sensors.push_back(node.scan.sensor_robot);
   }
   for (const AnchoredPoints& points : extra) {
     if (points.node.robot != robot_id || points.node.index >= static_cast<int>(it->second.nodes.size())) continue;

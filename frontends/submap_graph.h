@@ -262,36 +262,59 @@ class SubmapGraph {
 
  private:
   // A node's points live as long as it is in the graph (FR079: 4395 nodes, the largest share of its
-  // memory after the maps), kept compactly: `points` as the LocalResult gave them, except
-  //  - heights_meters: empty unless `projected` (otherwise all 0 and never read);
-  //  - matching: empty when `matching_mask` holds it, one bit for each point of `all` that is
-  //    a matching point (they are points of `all` in its order: the voxel filter keeps a
-  //    voxel's first point; FR079: 48 bytes a scan instead of ~1.5 KB as points, ~380 as
+  // memory after the maps), kept compactly (FR079: ~1.1 KB a node with its 176-byte Node, was
+  // ~1.3 KB with a whole ScanPoints, 384 bytes, in each):
+  //  - all: each point rounded to the millimetre in 16-bit integers and delta-coded in `packed`
+  //    (~2.5 bytes a point instead of 8) when every point is within 32.7 m of the robot (as with
+  //    the default 30 m range), else as given; the node's points serve matches and maps on 5 cm
+  //    cells. See DecodePoints.
+  //  - matching: `matching_mask` when they are points of `all` in its order (the voxel filter
+  //    keeps a voxel's first point; FR079: 48 bytes a scan instead of ~1.5 KB as points, ~380 as
   //    16-bit indices), see NodeMatchingPoints;
-  //  - labels: empty when every point has `uniform_label` (a CARMEN scan's are all structure);
-  //  - all: empty when `packed` holds it, each point rounded to the millimetre in 16-bit
-  //    integers (every point within 32.7 m of the robot, as with the default 30 m range) and
-  //    delta-coded (~2.5 bytes a point instead of 8): the node's points serve matches and maps
-  //    on 5 cm cells. See DecodePoints.
-  // AttachRevisits releases `matching` and `matching_mask` (loop searches are done).
+  //  - labels: none when every point has `uniform_label` (a CARMEN scan's are all structure);
+  //  - what a plain 2D scan lacks (labels that differ, heights of a projected scan, floor
+  //    obstacles, matching points that are not a subset of `all`, matcher weights) in one
+  //    allocation, `rare`, absent when all of them are empty.
+  // AttachRevisits releases the matching points (loop searches are done).
   static constexpr float kPointsPerMeter = 1000.f;
   static constexpr uint8_t kPackedEscape = 0x80;  // NodeScan::packed: a point in full follows
   // What a node saw (AttachRevisits releases the matching points; the rest is rendered).
   struct NodeScan {
-    ScanPoints points;
+    struct Rare {
+      std::vector<PointLabel> labels;    // one per point of `all` (unless labels_uniform)
+      std::vector<float> heights_meters; // one per point of `all` when projected
+      std::vector<Eigen::Vector2f> floor_obstacles;
+      std::vector<Eigen::Vector2f> matching;  // when matching_mask cannot hold them
+      std::vector<float> matching_weights;
+      bool empty() const {
+        return labels.empty() && heights_meters.empty() && floor_obstacles.empty() && matching.empty() &&
+               matching_weights.empty();
+      }
+    };
     // `all` to the millimetre when packed (num_packed > 0): each point as its difference from
     // the previous one (the first from 0) in 16-bit millimetres, two signed bytes when both
     // parts are within ±127 mm (neighbouring beams on a surface), else the byte 0x80 and the
     // point itself, x and y in 16 bits (5 bytes). FR079: ~2.5 bytes a point instead of 8.
     std::vector<uint8_t> packed;
-    uint32_t num_packed = 0;
+    std::vector<Eigen::Vector2f> all;  // when not packed
     std::vector<uint64_t> matching_mask;  // bit k % 64 of word k / 64: point k of `all` matches
+    std::unique_ptr<Rare> rare;
+    Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();
+    uint32_t num_packed = 0;
+    bool projected = false;
     bool labels_uniform = false;
     PointLabel uniform_label = PointLabel::kStructure;
-    PointLabel Label(size_t k) const { return labels_uniform ? uniform_label : points.labels[k]; }
-    size_t num_points() const { return num_packed > 0 ? num_packed : points.all.size(); }
+    PointLabel Label(size_t k) const { return labels_uniform ? uniform_label : rare->labels[k]; }
+    size_t num_points() const { return num_packed > 0 ? num_packed : all.size(); }
+    // The rare parts (empty when absent).
+    const std::vector<float>& heights_meters() const { return rare ? rare->heights_meters : NoFloats(); }
+    const std::vector<Eigen::Vector2f>& floor_obstacles() const { return rare ? rare->floor_obstacles : NoPoints(); }
+    const std::vector<Eigen::Vector2f>& matching() const { return rare ? rare->matching : NoPoints(); }
+    const std::vector<float>& matching_weights() const { return rare ? rare->matching_weights : NoFloats(); }
     // Every point of `all`, in order, into `out` (replaced).
     void DecodePoints(std::vector<Eigen::Vector2f>* out) const;
+    static const std::vector<float>& NoFloats();
+    static const std::vector<Eigen::Vector2f>& NoPoints();
   };
   struct Node {
     double stamp_seconds = 0.0;

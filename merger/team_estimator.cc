@@ -1217,6 +1217,7 @@ std::vector<int> TeamEstimator::Group(int robot) const {
 }
 
 void TeamEstimator::Solve(int max_iterations) {
+  ScanMatcher::ReleaseScratch();  // not read by a solve (see OnlineEstimator::Solve)
   graph_->Solve(max_iterations).ok();  // an unusable solution keeps the poses (counted by the graph)
   // Groups follow the inter-robot constraints the graph kept.
   const std::vector<bool> kept = InterConstraintsKept();
