@@ -1,5 +1,9 @@
 #include "frontends/scan_matcher.h"
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -734,7 +738,19 @@ Pyramid& ThreadScratch() {
 
 }  // namespace
 
-void ScanMatcher::ReleaseScratch() { ThreadScratch() = Pyramid(); }
+void ScanMatcher::ReleaseScratch() {
+  Pyramid& pyramid = ThreadScratch();
+  const size_t bytes = pyramid.Bytes();
+  pyramid = Pyramid();
+#ifdef __GLIBC__
+  // Freed memory inside the heap stays resident until the allocator hands it out again: a wide
+  // search's tables (ACES: ~20 MB, the process's peak) are given back to the system at once.
+  // Not the smaller ones freed before every solve: their pages would be faulted in again by
+  // the next search (ACES, MIT CSAIL: 4% slower when trimming from 1 MiB).
+  constexpr size_t kTrimAboveBytes = size_t{8} << 20;
+  if (bytes >= kTrimAboveBytes) malloc_trim(0);
+#endif
+}
 
 size_t ScanMatcher::ScratchBytes() const { return ThreadScratch().Bytes(); }
 
