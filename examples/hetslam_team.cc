@@ -64,6 +64,9 @@ DEFINE_bool(more_constraints, true, "After two robots share a frame, search more
 DEFINE_double(inter_min_score, 0.5, "Minimum mean likelihood of a scan match between robots already in one frame.");
 DEFINE_double(second_constraint_min_distance, 3.0, "The second constraint of a robot pair lies at least this many "
               "metres from its first link.");
+DEFINE_int32(tag_min_votes, 2, "Sightings at one place of a robot's map that must report the same tag id before that "
+             "id names the place (merger/tag_places.h: a wrong id is outvoted). At least 1.");
+DEFINE_double(tag_min_vote_fraction, 0.6, "Share of a place's sightings that must report its id. In (0.5, 1].");
 DEFINE_bool(overlap_search, true, "Also join robots that share no tag by their maps alone: each robot's scans are "
             "searched in the other's submaps (every position, every heading), a relative pose needs "
             "--overlap_min_matches agreeing matches and must fit both whole maps (at most --overlap_max_conflict of "
@@ -137,6 +140,8 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->link_min_score = FLAGS_link_min_score;
   team->link_min_matches = FLAGS_link_min_matches;
   team->search_more_constraints = FLAGS_more_constraints;
+  team->places.min_votes = FLAGS_tag_min_votes;
+  team->places.min_vote_fraction = FLAGS_tag_min_vote_fraction;
   team->overlap_search = FLAGS_overlap_search;
   team->overlap_min_matches = FLAGS_overlap_min_matches;
   team->overlap_max_conflict = FLAGS_overlap_max_conflict;

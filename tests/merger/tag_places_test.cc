@@ -82,9 +82,46 @@ TEST(TagPlacesTest, AMinorityNeverNamesAPlace) {
 
 TEST(TagPlacesTest, TooFewVotesAreNotConfirmed) {
   std::mt19937_64 rng(4);
-  const std::vector<TagPlace> places = GroupTagSightings(TwoTags(2, 3, &rng), TagPlaceOptions());
-  EXPECT_EQ(nullptr, FindTagPlace(places, 1));  // 2 < min_votes
+  const std::vector<TagPlace> places = GroupTagSightings(TwoTags(1, 2, &rng), TagPlaceOptions());
+  EXPECT_EQ(nullptr, FindTagPlace(places, 1));  // 1 < min_votes
   EXPECT_NE(nullptr, FindTagPlace(places, 2));
+  TagPlaceOptions three;
+  three.min_votes = 3;
+  EXPECT_EQ(nullptr, FindTagPlace(GroupTagSightings(TwoTags(1, 2, &rng), three), 2));  // 2 < 3
+}
+
+// A tag passed by, seen three times, one of them with the other tag's id (team_three's drone
+// with wrong ids): the two that agree name the place; one against one does not.
+TEST(TagPlacesTest, TwoOfThreeNameAPlaceSeenInPassing) {
+  std::mt19937_64 rng(5);
+  std::vector<PlacedTagSighting> sightings = TwoTags(10, 3, &rng);
+  for (PlacedTagSighting& s : sightings) {
+    if (s.tag_id == 2) {
+      s.tag_id = 1;  // the first of tag 2's sightings
+      break;
+    }
+  }
+  std::vector<TagPlace> places = GroupTagSightings(sightings, TagPlaceOptions());
+  const TagPlace* two = FindTagPlace(places, 2);
+  ASSERT_NE(nullptr, two);
+  EXPECT_EQ(2, two->votes);
+  EXPECT_EQ(3u, two->members.size());
+  EXPECT_NEAR(16.0, two->robot_T_tag.x(), 0.05);
+  const TagPlace* one = FindTagPlace(places, 1);
+  ASSERT_NE(nullptr, one);
+  EXPECT_NEAR(0.0, one->robot_T_tag.x(), 0.05);  // not the relabelled sighting at x = 16
+  // Two sightings of tag 2, one relabelled: 1 of 2 is no majority.
+  sightings = TwoTags(10, 2, &rng);
+  for (PlacedTagSighting& s : sightings) {
+    if (s.tag_id == 2) {
+      s.tag_id = 1;
+      break;
+    }
+  }
+  places = GroupTagSightings(sightings, TagPlaceOptions());
+  EXPECT_EQ(nullptr, FindTagPlace(places, 2));
+  ASSERT_NE(nullptr, FindTagPlace(places, 1));
+  EXPECT_NEAR(0.0, FindTagPlace(places, 1)->robot_T_tag.x(), 0.05);
 }
 
 // One id confirmed at two places (a relabelled tag seen often enough): ambiguous, not used.
