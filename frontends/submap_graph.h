@@ -262,7 +262,7 @@ class SubmapGraph {
 
  private:
   // A node's points live as long as it is in the graph (FR079: 4395 nodes, the largest share of its
-  // memory after the maps), kept compactly (FR079: ~1.1 KB a node with its 176-byte Node, was
+  // memory after the maps), kept compactly (FR079: ~1.1 KB a node with its 224-byte Node, was
   // ~1.3 KB with a whole ScanPoints, 384 bytes, in each):
   //  - all: each point rounded to the millimetre in 16-bit integers and delta-coded in `packed`
   //    (~2.5 bytes a point instead of 8) when every point is within 32.7 m of the robot (as with
