@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <sstream>
 
 #include "Eigen/Geometry"
+#include "core/text_fields.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -38,12 +38,12 @@ const T* LatestAtOrBefore(const std::deque<T>& history, double stamp_seconds) {
 Status ApplyLogParams(const std::map<std::string, std::string>& params, OnlineEstimatorOptions* options) {
   const auto it = params.find("command_response_seconds");
   if (it == params.end()) return Status::Ok();
-  char* end = nullptr;
-  const double seconds = std::strtod(it->second.c_str(), &end);
+  double seconds = 0.0;
+  const bool number = text_fields::ParseFiniteDouble(it->second, &seconds);
   EkfStateUpdaterOptions ekf = options->ekf;
   ekf.command_response_seconds = seconds;
   std::string why;
-  if (it->second.empty() || end == nullptr || *end != '\0' || !ekf.IsValid(&why)) {
+  if (!number || !ekf.IsValid(&why)) {
     return Status::Error("PARAM command_response_seconds '" + it->second +
                          "': " + (why.empty() ? std::string("not a number") : why));
   }

@@ -562,5 +562,44 @@ TEST(EkfStateUpdaterTest, WithACommandResponseTheVelocityFollowsTheCommandWithIt
   EXPECT_THAT(error, HasSubstr("command_response_seconds"));
 }
 
+// With the lag model one prediction maps the covariance as F P Fᵀ + Q, F the Jacobian of the
+// state's prediction: P'(P0) - P'(0) against F P0 Fᵀ with F by central differences of the
+// predicted state, for a dense seeded P0 (every coupling exercised, the velocity's into the
+// position and the heading's into both).
+TEST(EkfStateUpdaterTest, WithACommandResponseTheCovarianceFollowsTheModelsJacobian) {
+  EkfStateUpdaterOptions options;
+  options.command_timeout_seconds = 5.0;
+  options.command_response_seconds = 0.25;
+  StateEstimate initial = InitialEstimate();
+  initial.state[kYaw] = 1.0;
+  initial.state[kVx] = 0.3;
+  initial.state[kVy] = -0.2;
+  initial.state[kRollRate] = 0.05;
+  auto predict = [&](const StateEstimate& from, StateEstimate* after) { CoastOnOneCommand(options, from, 0.4, after); };
+  EkfMatrix jacobian;
+  for (int k = 0; k < kEkfStateSize; ++k) {
+    StateEstimate plus = initial, minus = initial, plus_after, minus_after;
+    plus.state[k] += 1e-6;
+    minus.state[k] -= 1e-6;
+    predict(plus, &plus_after);
+    predict(minus, &minus_after);
+    ASSERT_FALSE(::testing::Test::HasFatalFailure());
+    jacobian.col(k) = (plus_after.state - minus_after.state) / 2e-6;
+  }
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal(0.0, 0.1);
+  EkfMatrix root;
+  for (int i = 0; i < kEkfStateSize * kEkfStateSize; ++i) root.data()[i] = normal(rng);
+  StateEstimate with_p0 = initial, without = initial, after_p0, after_zero;
+  with_p0.covariance = root * root.transpose();
+  without.covariance.setZero();
+  predict(with_p0, &after_p0);
+  predict(without, &after_zero);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+  const EkfMatrix expected = jacobian * with_p0.covariance * jacobian.transpose();
+  EXPECT_LT((after_p0.covariance - after_zero.covariance - expected).cwiseAbs().maxCoeff(), 1e-7)
+      << "got\n" << after_p0.covariance - after_zero.covariance << "\nexpected\n" << expected;
+}
+
 }  // namespace
 }  // namespace hetslam
