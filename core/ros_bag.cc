@@ -3,13 +3,11 @@
 // touches a ROS type or library is in core/ros_bag_plugin.cc; hetslam_core links libdl only.
 #include "core/ros_bag.h"
 
-#include <dlfcn.h>
-
 #include <atomic>
 #include <cstdlib>
-#include <cstring>
 #include <sstream>
 
+#include "core/plugin_loader.h"
 #include "core/ros_bag_plugin.h"
 #include "glog/logging.h"
 
@@ -51,29 +49,10 @@ namespace {
 std::atomic<const RosBagPluginApi*> linked_api{nullptr};
 std::atomic<bool> process_plugin_asked{false};
 
-// dlerror()'s text without the path it usually starts with (the message names the path).
-std::string DlErrorText(const std::string& path) {
-  const char* error = dlerror();
-  std::string text = error != nullptr ? error : "unknown dlopen error";
-  if (text.compare(0, path.size() + 2, path + ": ") == 0) text.erase(0, path.size() + 2);
-  return text;
-}
-
 // "" when `api` comes from this very build (ros_bag_plugin.h: same ABI version, same layouts
 // of the types exchanged, same compiler), else why not.
 std::string Mismatch(const RosBagPluginApi& api) {
-  if (api.abi_version != kAbiVersion) {
-    return "plugin ABI version " + std::to_string(api.abi_version) + ", this hetslam needs " +
-           std::to_string(kAbiVersion) + ": a plugin of another hetslam version";
-  }
-  if (api.layout_fingerprint != LayoutFingerprint()) {
-    return "built from other hetslam headers than this program (a stale plugin of an older build?)";
-  }
-  if (api.compiler == nullptr || std::strcmp(api.compiler, __VERSION__) != 0) {
-    return std::string("built by compiler '") + (api.compiler != nullptr ? api.compiler : "?") + "', this program by '" +
-           __VERSION__ + "'";
-  }
-  return "";
+  return PluginBuildMismatch(api.abi_version, kAbiVersion, api.layout_fingerprint, LayoutFingerprint(), api.compiler);
 }
 
 }  // namespace
@@ -82,44 +61,18 @@ std::vector<std::string> PluginCandidates() {
 #ifndef HETSLAM_HAVE_ROSBAG
   return {};
 #else
-  const char* variable = std::getenv(kPathVariable);
-  // The variable is the user's explicit choice: when it names a file that does not load, the
-  // error says so rather than another plugin being used silently.
-  if (variable != nullptr && variable[0] != '\0') return {variable};
-  return {HETSLAM_ROSBAG_PLUGIN_BUILD_PATH, HETSLAM_ROSBAG_PLUGIN_INSTALL_PATH};
+  return PluginCandidatePaths(kPathVariable, {HETSLAM_ROSBAG_PLUGIN_BUILD_PATH, HETSLAM_ROSBAG_PLUGIN_INSTALL_PATH});
 #endif
 }
 
 LoadedPlugin LoadPlugin(const std::vector<std::string>& candidates) {
+  const LoadedPluginTable table =
+      LoadPluginTable(candidates, kEntryPointName, "hetslam ROS bag plugin",
+                      [](const void* api) { return Mismatch(*static_cast<const RosBagPluginApi*>(api)); });
   LoadedPlugin loaded;
-  std::string tried;
-  for (const std::string& path : candidates) {
-    if (!tried.empty()) tried += ", ";
-    tried += path;
-    // RTLD_NOW: a missing ROS library fails here, with its name, not at the first call.
-    // RTLD_LOCAL: the ROS libraries' symbols stay out of the program's namespace.
-    void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr) {
-      tried += " (" + DlErrorText(path) + ")";
-      continue;
-    }
-    dlerror();  // clear, so that a null dlsym answer is told apart below
-    void* entry = dlsym(handle, kEntryPointName);
-    if (entry == nullptr) {
-      tried += std::string(" (no symbol ") + kEntryPointName + ": not a hetslam ROS bag plugin)";
-      continue;
-    }
-    const RosBagPluginApi* api = reinterpret_cast<const RosBagPluginApi* (*)()>(entry)();
-    const std::string mismatch = api != nullptr ? Mismatch(*api) : "its table is null";
-    if (!mismatch.empty()) {
-      tried += " (" + mismatch + ")";
-      continue;
-    }
-    loaded.api = api;
-    loaded.path = path;
-    return loaded;
-  }
-  loaded.tried = tried.empty() ? "no candidate" : tried;
+  loaded.api = static_cast<const RosBagPluginApi*>(table.table);
+  loaded.path = table.path;
+  loaded.tried = table.tried;
   return loaded;
 }
 

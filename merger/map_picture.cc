@@ -3,39 +3,120 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <sstream>
 
 #include "core/file_io.h"
-#include "core/map_io.h"
 #include "core/laser_scan.h"
+#include "core/map_io.h"
+#include "core/plugin_loader.h"
 #include "glog/logging.h"
-#include "opencv2/core.hpp"
-#include "opencv2/imgproc.hpp"
+#include "merger/map_picture_plugin.h"
 
 namespace hetslam {
 namespace {
 
-// Sub-pixel precision of the OpenCV drawing calls (coordinates are scaled by 2^kShift).
-constexpr int kShift = 4;
-constexpr double kShiftScale = 1 << kShift;
-constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+// Sub-pixel precision of the anti-aliased drawing calls (coordinates are scaled by 2^bits).
+constexpr double kShiftScale = 1 << map_picture_plugin::kSubpixelBits;
 constexpr Rgb kBlack = {0, 0, 0};
 constexpr Rgb kWhite = {255, 255, 255};
 constexpr Rgb kConstraintLineRgb = {70, 70, 70};
 constexpr Rgb kPanelLineRgb = {160, 160, 160};
 constexpr Rgb kNoteTextRgb = {90, 90, 90};
 
-// The picture is held in RGB order, as the PNG stores it (OpenCV's drawing calls do not care
-// what the channels mean): no conversion, and no second copy of the picture, before writing.
-cv::Scalar Pixel(const Rgb& c) { return cv::Scalar(c[0], c[1], c[2]); }
-cv::Vec3b Pixel3b(const Rgb& c) { return cv::Vec3b(c[0], c[1], c[2]); }
+// The process's drawing plugin (merger/map_picture_plugin.h), loaded with the first picture
+// (thread-safe: a function-local static); null, with why in `tried`, when none loads.
+const LoadedPluginTable& DrawingPlugin() {
+  static const LoadedPluginTable plugin = LoadPluginTable(
+      PluginCandidatePaths(map_picture_plugin::kPathVariable,
+                           {HETSLAM_PICTURE_PLUGIN_BUILD_PATH, HETSLAM_PICTURE_PLUGIN_INSTALL_PATH}),
+      map_picture_plugin::kEntryPointName, "hetslam map picture plugin", [](const void* table) {
+        const auto& api = *static_cast<const MapPicturePluginApi*>(table);
+        return PluginBuildMismatch(api.abi_version, map_picture_plugin::kAbiVersion, api.layout_fingerprint,
+                                   map_picture_plugin::LayoutFingerprint(), api.compiler);
+      },
+      // As when OpenCV was linked: OpenCV's symbols bound as they are called (binding all of
+      // them at once made Intel's run, whose peak is its picture, 0.4 MiB heavier).
+      PluginBinding::kLazy);
+  return plugin;
+}
 
-// OpenCV puts pixel centres at integer coordinates; ours (MapPictureLayout) at +0.5.
-cv::Point Fixed(const Eigen::Vector2d& pixel) {
-  return cv::Point(static_cast<int>(std::lround((pixel.x() - 0.5) * kShiftScale)),
-                   static_cast<int>(std::lround((pixel.y() - 0.5) * kShiftScale)));
+// A point in picture pixels: whole, or in 1/2^kSubpixelBits pixels for anti-aliased strokes.
+struct Point {
+  int x = 0;
+  int y = 0;
+  bool operator!=(const Point& other) const { return x != other.x || y != other.y; }
+};
+
+// OpenCV's drawing calls (through the plugin) on an RGB picture or a rectangle of one. The
+// picture is held in RGB order, as the PNG stores it (the drawing calls do not care what the
+// channels mean): no conversion, and no second copy of the picture, before writing.
+class Canvas {
+ public:
+  Canvas(const MapPicturePluginApi* api, const PictureView& view) : api_(api), view_(view) {}
+
+  // The top-left `width` x `height` pixels, to which drawing then clips.
+  Canvas TopLeft(int width, int height) const {
+    PictureView view = view_;
+    view.width = width;
+    view.height = height;
+    return Canvas(api_, view);
+  }
+  void FillRow(int row, int begin, int end, const Rgb& color) {
+    uint8_t* pixel = view_.data + row * view_.step + 3 * static_cast<size_t>(begin);
+    for (int x = begin; x < end; ++x, pixel += 3) std::memcpy(pixel, color.data(), 3);
+  }
+  void CopyRow(int from, int to, int width) {
+    std::memcpy(view_.data + to * view_.step, view_.data + from * view_.step, static_cast<size_t>(width) * 3);
+  }
+
+  // Anti-aliased, sub-pixel points; a negative thickness fills.
+  void Circle(Point centre, int radius, const Rgb& color, int thickness) {
+    api_->circle(&view_, centre.x, centre.y, radius, color.data(), thickness, PictureStroke::kAntiAliasedSubpixel);
+  }
+  void FillConvexPolygon(const std::vector<Point>& corners, const Rgb& color) {
+    if (corners.empty()) return;
+    api_->fill_convex_polygon(&view_, &corners.front().x, static_cast<int>(corners.size()), color.data(),
+                              PictureStroke::kAntiAliasedSubpixel);
+  }
+  void Polyline(const std::vector<Point>& points, bool closed, const Rgb& color, int thickness) {
+    if (points.empty()) return;
+    api_->polyline(&view_, &points.front().x, static_cast<int>(points.size()), closed, color.data(), thickness,
+                   PictureStroke::kAntiAliasedSubpixel);
+  }
+  void Rectangle(Point corner, Point opposite, const Rgb& color, int thickness) {
+    api_->rectangle(&view_, corner.x, corner.y, opposite.x, opposite.y, color.data(), thickness,
+                    PictureStroke::kAntiAliasedSubpixel);
+  }
+  void Line(Point from, Point to, const Rgb& color, int thickness) {
+    api_->line(&view_, from.x, from.y, to.x, to.y, color.data(), thickness, PictureStroke::kAntiAliasedSubpixel);
+  }
+  // Whole pixels, aliased: the `width` x `height` box from (x, y) (nothing when empty), a line.
+  void PixelBox(int x, int y, int width, int height, const Rgb& color, int thickness) {
+    if (width <= 0 || height <= 0) return;
+    api_->rectangle(&view_, x, y, x + width - 1, y + height - 1, color.data(), thickness, PictureStroke::kWholePixels);
+  }
+  void PixelLine(Point from, Point to, const Rgb& color, int thickness) {
+    api_->line(&view_, from.x, from.y, to.x, to.y, color.data(), thickness, PictureStroke::kWholePixels);
+  }
+  // Anti-aliased text in the Hershey simplex font; `origin` (whole pixels) is the left end of
+  // the baseline.
+  void Text(const std::string& text, Point origin, double font_scale, const Rgb& color, int thickness) {
+    api_->put_text(&view_, text.c_str(), origin.x, origin.y, font_scale, color.data(), thickness);
+  }
+ private:
+  const MapPicturePluginApi* api_;
+  PictureView view_;
+};
+
+constexpr int kFilled = -1;
+
+// Our pixel centres (MapPictureLayout) are at +0.5, the drawing calls' at integer coordinates.
+Point Fixed(const Eigen::Vector2d& pixel) {
+  return {static_cast<int>(std::lround((pixel.x() - 0.5) * kShiftScale)),
+          static_cast<int>(std::lround((pixel.y() - 0.5) * kShiftScale))};
 }
 int FixedLength(double pixels) { return static_cast<int>(std::lround(pixels * kShiftScale)); }
 
@@ -50,22 +131,20 @@ struct Shown {
 
 // Text measures at the picture's decoration scale.
 struct TextStyle {
+  const MapPicturePluginApi* api = nullptr;
   double font_scale = 0.5;
   int thickness = 1;
   int height = 14;  // pixels
 
-  int Width(const std::string& text) const {
-    int baseline = 0;
-    return cv::getTextSize(text, kFont, font_scale, thickness, &baseline).width;
-  }
+  int Width(const std::string& text) const { return api->text_width(text.c_str(), font_scale, thickness); }
   // `origin` is the left end of the baseline.
-  void Draw(cv::Mat& image, const std::string& text, cv::Point origin, const Rgb& color) const {
-    cv::putText(image, text, origin, kFont, font_scale, Pixel(color), thickness, cv::LINE_AA);
+  void Draw(Canvas& canvas, const std::string& text, Point origin, const Rgb& color) const {
+    canvas.Text(text, origin, font_scale, color, thickness);
   }
   // Text with a white halo: readable over any map colour.
-  void DrawHaloed(cv::Mat& image, const std::string& text, cv::Point origin) const {
-    cv::putText(image, text, origin, kFont, font_scale, Pixel(kWhite), thickness + 3, cv::LINE_AA);
-    Draw(image, text, origin, kBlack);
+  void DrawHaloed(Canvas& canvas, const std::string& text, Point origin) const {
+    canvas.Text(text, origin, font_scale, kWhite, thickness + 3);
+    Draw(canvas, text, origin, kBlack);
   }
 };
 
@@ -93,66 +172,59 @@ double NiceLength(double target) {
 
 // ---- Glyphs, drawn around a point in picture pixels (our convention). ----
 
-void DrawStartDisc(cv::Mat& image, const Eigen::Vector2d& at, const Rgb& color, int ui) {
-  cv::circle(image, Fixed(at), FixedLength(5.0 * ui), Pixel(color), cv::FILLED, cv::LINE_AA, kShift);
-  cv::circle(image, Fixed(at), FixedLength(5.0 * ui), Pixel(kBlack), ui, cv::LINE_AA, kShift);
+void DrawStartDisc(Canvas& canvas, const Eigen::Vector2d& at, const Rgb& color, int ui) {
+  canvas.Circle(Fixed(at), FixedLength(5.0 * ui), color, kFilled);
+  canvas.Circle(Fixed(at), FixedLength(5.0 * ui), kBlack, ui);
 }
 
 // An arrow head centred on `at`, pointing along `direction` (unit, picture pixels).
-void DrawArrowHead(cv::Mat& image, const Eigen::Vector2d& at, const Eigen::Vector2d& direction,
+void DrawArrowHead(Canvas& canvas, const Eigen::Vector2d& at, const Eigen::Vector2d& direction,
                    const Rgb& color, int ui) {
   const double length = 18.0 * ui;
   const Eigen::Vector2d normal(-direction.y(), direction.x());
   const Eigen::Vector2d base = at - 0.35 * length * direction;
-  const std::vector<cv::Point> corners = {Fixed(at + 0.65 * length * direction),
-                                          Fixed(base + 0.4 * length * normal),
-                                          Fixed(base - 0.4 * length * normal)};
-  cv::fillConvexPoly(image, corners, Pixel(color), cv::LINE_AA, kShift);
-  cv::polylines(image, corners, true, Pixel(kBlack), ui, cv::LINE_AA, kShift);
+  const std::vector<Point> corners = {Fixed(at + 0.65 * length * direction), Fixed(base + 0.4 * length * normal),
+                                     Fixed(base - 0.4 * length * normal)};
+  canvas.FillConvexPolygon(corners, color);
+  canvas.Polyline(corners, true, kBlack, ui);
 }
 
-void DrawMarkerGlyph(cv::Mat& image, const Eigen::Vector2d& at, MapPictureMarker::Kind kind,
+void DrawMarkerGlyph(Canvas& canvas, const Eigen::Vector2d& at, MapPictureMarker::Kind kind,
                      int ui) {
   switch (kind) {
     case MapPictureMarker::Kind::kTag: {
       const double half = 6.0 * ui, inner = 2.5 * ui;
-      cv::rectangle(image, Fixed(at - Eigen::Vector2d(half, half)),
-                    Fixed(at + Eigen::Vector2d(half, half)), Pixel(kBlack), cv::FILLED,
-                    cv::LINE_AA, kShift);
-      cv::rectangle(image, Fixed(at - Eigen::Vector2d(inner, inner)),
-                    Fixed(at + Eigen::Vector2d(inner, inner)), Pixel(kWhite), cv::FILLED,
-                    cv::LINE_AA, kShift);
+      canvas.Rectangle(Fixed(at - Eigen::Vector2d(half, half)), Fixed(at + Eigen::Vector2d(half, half)), kBlack,
+                       kFilled);
+      canvas.Rectangle(Fixed(at - Eigen::Vector2d(inner, inner)), Fixed(at + Eigen::Vector2d(inner, inner)), kWhite,
+                       kFilled);
       break;
     }
     case MapPictureMarker::Kind::kConstraint: {
       const double r = 7.0 * ui;
-      const std::vector<cv::Point> corners = {
-          Fixed(at + Eigen::Vector2d(0, -r)), Fixed(at + Eigen::Vector2d(r, 0)),
-          Fixed(at + Eigen::Vector2d(0, r)), Fixed(at + Eigen::Vector2d(-r, 0))};
-      cv::fillConvexPoly(image, corners, Pixel(kWhite), cv::LINE_AA, kShift);
-      cv::polylines(image, corners, true, Pixel(kBlack), 2 * ui, cv::LINE_AA, kShift);
+      const std::vector<Point> corners = {Fixed(at + Eigen::Vector2d(0, -r)), Fixed(at + Eigen::Vector2d(r, 0)),
+                                         Fixed(at + Eigen::Vector2d(0, r)), Fixed(at + Eigen::Vector2d(-r, 0))};
+      canvas.FillConvexPolygon(corners, kWhite);
+      canvas.Polyline(corners, true, kBlack, 2 * ui);
       break;
     }
     case MapPictureMarker::Kind::kPoint: {
       const double r = 6.0 * ui;
-      cv::line(image, Fixed(at + Eigen::Vector2d(-r, -r)), Fixed(at + Eigen::Vector2d(r, r)),
-               Pixel(kBlack), 2 * ui, cv::LINE_AA, kShift);
-      cv::line(image, Fixed(at + Eigen::Vector2d(-r, r)), Fixed(at + Eigen::Vector2d(r, -r)),
-               Pixel(kBlack), 2 * ui, cv::LINE_AA, kShift);
+      canvas.Line(Fixed(at + Eigen::Vector2d(-r, -r)), Fixed(at + Eigen::Vector2d(r, r)), kBlack, 2 * ui);
+      canvas.Line(Fixed(at + Eigen::Vector2d(-r, r)), Fixed(at + Eigen::Vector2d(r, -r)), kBlack, 2 * ui);
       break;
     }
   }
 }
 
-void DrawDashedLine(cv::Mat& image, const Eigen::Vector2d& from, const Eigen::Vector2d& to,
+void DrawDashedLine(Canvas& canvas, const Eigen::Vector2d& from, const Eigen::Vector2d& to,
                     int ui) {
   const double length = (to - from).norm();
   const double dash = 9.0 * ui, gap = 6.0 * ui;
   if (length == 0.0) return;
   const Eigen::Vector2d along = (to - from) / length;
   for (double s = 0.0; s < length; s += dash + gap) {
-    cv::line(image, Fixed(from + s * along), Fixed(from + std::min(length, s + dash) * along),
-             Pixel(kConstraintLineRgb), 2 * ui, cv::LINE_AA, kShift);
+    canvas.Line(Fixed(from + s * along), Fixed(from + std::min(length, s + dash) * along), kConstraintLineRgb, 2 * ui);
   }
 }
 
@@ -204,6 +276,16 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
                        const MapPictureOptions& options, MapPictureLayout* layout) {
   std::string why;
   if (!options.IsValid(&why)) return Status::Error(Error(path, "invalid options: " + why));
+  const LoadedPluginTable& plugin = DrawingPlugin();
+  if (plugin.table == nullptr) {
+    return Status::Error(Error(path, "its drawing plugin could not be loaded: tried " + plugin.tried + "; " +
+                                         (std::getenv(map_picture_plugin::kPathVariable) != nullptr
+                                              ? std::string("HETSLAM_PICTURE_PLUGIN must name the plugin's full path "
+                                                            "(unset, the built and the installed plugin are tried)")
+                                              : std::string("set HETSLAM_PICTURE_PLUGIN to the full path of "
+                                                            "libhetslam_picture_plugin.so"))));
+  }
+  const MapPicturePluginApi* api = static_cast<const MapPicturePluginApi*>(plugin.table);
   const GridGeometry& g = structure.geometry();
   const double resolution = g.resolution_meters();
   if (floor_obstacles != nullptr &&
@@ -362,9 +444,10 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
 
   // ---- Legend: only what the picture shows. ----
   TextStyle text;
+  text.api = api;
   text.height = options.text_height_pixels * ui;
   text.thickness = ui;
-  text.font_scale = cv::getFontScaleFromHeight(kFont, text.height, text.thickness);
+  text.font_scale = api->font_scale_from_height(text.height, text.thickness);
   std::vector<LegendEntry> legend;
   auto add_swatch = [&](bool show, const Rgb& color, const std::string& name) {
     if (show) legend.push_back({LegendEntry::Icon::kSwatch, color, {}, name});
@@ -406,19 +489,22 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   const int width = map_width + panel_width;
   const int height = std::max(map_height + strip_height, legend_height);
 
-  cv::Mat picture(height, width, CV_8UC3, Pixel(kWhite));
+  // One allocation, white, written by the PNG encoder in place.
+  std::vector<uint8_t> pixels(static_cast<size_t>(width) * height * 3, 255);
+  PictureView view;
+  view.data = pixels.data();
+  view.width = width;
+  view.height = height;
+  view.step = static_cast<size_t>(width) * 3;
+  Canvas picture(api, view);
   for (int row_cell = 0; row_cell < height_cells; ++row_cell) {
     const int64_t y = min_y + height_cells - 1 - row_cell;  // row 0 shows the largest y
-    cv::Vec3b* first_row = picture.ptr<cv::Vec3b>(row_cell * scale);
     for (int col_cell = 0; col_cell < width_cells; ++col_cell) {
-      const cv::Vec3b color = Pixel3b(cell_color(min_x + col_cell, y));
-      std::fill(first_row + col_cell * scale, first_row + (col_cell + 1) * scale, color);
+      picture.FillRow(row_cell * scale, col_cell * scale, (col_cell + 1) * scale, cell_color(min_x + col_cell, y));
     }
-    for (int r = 1; r < scale; ++r) {
-      std::memcpy(picture.ptr(row_cell * scale + r), first_row, static_cast<size_t>(map_width) * 3);
-    }
+    for (int r = 1; r < scale; ++r) picture.CopyRow(row_cell * scale, row_cell * scale + r, map_width);
   }
-  cv::Mat map = picture(cv::Rect(0, 0, map_width, map_height));  // drawing clips to the map
+  Canvas map = picture.TopLeft(map_width, map_height);  // drawing clips to the map
   auto to_pixel = [&](const Eigen::Vector2d& p_world) { return geometry.WorldToPixel(p_world); };
 
   // ---- Overlays, bottom to top: constraint lines, trajectories, their ends, markers, labels. ----
@@ -432,14 +518,13 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
     if (poses.size() < 2) continue;
     uint8_t rgb[3];
     TrajectoryColor(static_cast<int>(t), rgb);
-    std::vector<cv::Point> line;
+    std::vector<Point> line;
     line.reserve(poses.size());
     for (const Pose2& pose : poses) {
-      const cv::Point p = Fixed(to_pixel(pose.translation()));
+      const Point p = Fixed(to_pixel(pose.translation()));
       if (line.empty() || line.back() != p) line.push_back(p);
     }
-    cv::polylines(map, line, false, Pixel({rgb[0], rgb[1], rgb[2]}),
-                  options.trajectory_width_pixels * ui, cv::LINE_AA, kShift);
+    map.Polyline(line, false, {rgb[0], rgb[1], rgb[2]}, options.trajectory_width_pixels * ui);
   }
   for (size_t t = 0; t < trajectories.size(); ++t) {
     const std::vector<Pose2>& poses = trajectories[t].poses;
@@ -469,12 +554,11 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
     const int x = static_cast<int>(std::lround(at.x())) +
                   (left ? -10 * ui - text.Width(marker.label) : 10 * ui);
     const int y = static_cast<int>(std::lround(at.y())) + (below ? 8 * ui + text.height : -8 * ui);
-    text.DrawHaloed(map, marker.label, cv::Point(x, y));
+    text.DrawHaloed(map, marker.label, {x, y});
   }
 
   // ---- Legend panel, right of the map, over the whole height. ----
-  cv::line(picture, cv::Point(map_width, 0), cv::Point(map_width, height - 1),
-           Pixel(kPanelLineRgb), 1);
+  picture.PixelLine({map_width, 0}, {map_width, height - 1}, kPanelLineRgb, 1);
   for (size_t k = 0; k < legend.size(); ++k) {
     const LegendEntry& entry = legend[k];
     const int x0 = map_width + margin;
@@ -482,16 +566,14 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
     const Eigen::Vector2d icon_centre(x0 + icon_width / 2.0, centre_y + 0.5);
     switch (entry.icon) {
       case LegendEntry::Icon::kSwatch: {
-        const cv::Rect box(x0, centre_y - swatch / 2, swatch, swatch);
-        cv::rectangle(picture, box, Pixel(entry.color), cv::FILLED);
-        cv::rectangle(picture, box, Pixel(kPanelLineRgb), 1);
+        picture.PixelBox(x0, centre_y - swatch / 2, swatch, swatch, entry.color, kFilled);
+        picture.PixelBox(x0, centre_y - swatch / 2, swatch, swatch, kPanelLineRgb, 1);
         break;
       }
       case LegendEntry::Icon::kTrajectory: {
         const Eigen::Vector2d from(x0 + 0.5, centre_y + 0.5);
         const Eigen::Vector2d to(x0 + icon_width - 11.0 * ui, centre_y + 0.5);
-        cv::line(picture, Fixed(from), Fixed(to), Pixel(entry.color),
-                 options.trajectory_width_pixels * ui, cv::LINE_AA, kShift);
+        picture.Line(Fixed(from), Fixed(to), entry.color, options.trajectory_width_pixels * ui);
         DrawArrowHead(picture, to, Eigen::Vector2d(1.0, 0.0), entry.color, ui);
         break;
       }
@@ -503,37 +585,30 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
         DrawMarkerGlyph(picture, icon_centre, entry.marker, ui);
         break;
     }
-    text.Draw(picture, entry.text,
-              cv::Point(x0 + icon_width + margin, centre_y + text.height / 2), kBlack);
+    text.Draw(picture, entry.text, {x0 + icon_width + margin, centre_y + text.height / 2}, kBlack);
   }
 
   // ---- Scale bar strip, under the map. ----
   const int bar_length = static_cast<int>(std::lround(geometry.scale_bar_meters / resolution * scale));
   const int bar_y = map_height + margin + text.height;
   const int bar_thickness = 4 * ui;
-  cv::rectangle(picture, cv::Rect(margin, bar_y - bar_thickness / 2, bar_length, bar_thickness),
-                Pixel(kBlack), cv::FILLED);
+  picture.PixelBox(margin, bar_y - bar_thickness / 2, bar_length, bar_thickness, kBlack, kFilled);
   for (const int x : {margin, margin + bar_length - ui}) {
-    cv::rectangle(picture, cv::Rect(x, bar_y - 3 * bar_thickness / 2, ui, 3 * bar_thickness),
-                  Pixel(kBlack), cv::FILLED);
+    picture.PixelBox(x, bar_y - 3 * bar_thickness / 2, ui, 3 * bar_thickness, kBlack, kFilled);
   }
   const std::string bar_text = LengthText(geometry.scale_bar_meters);
-  text.Draw(picture, bar_text, cv::Point(margin + bar_length + margin, bar_y + text.height / 2),
-            kBlack);
+  text.Draw(picture, bar_text, {margin + bar_length + margin, bar_y + text.height / 2}, kBlack);
   const std::string cell_text = "cells " + LengthText(resolution);
-  text.Draw(picture, cell_text,
-            cv::Point(margin + bar_length + 3 * margin + text.Width(bar_text),
-                      bar_y + text.height / 2),
+  text.Draw(picture, cell_text, {margin + bar_length + 3 * margin + text.Width(bar_text), bar_y + text.height / 2},
             kNoteTextRgb);
 
   geometry.width_pixels = width;
   geometry.height_pixels = height;
   // Written by core's dependency-free PNG encoder (uncompressed): OpenCV's image codecs would
   // load ~130 shared libraries (GDAL, codecs) and ~45 MiB into every program that draws a map.
-  // In place and straight from the image's buffer (continuous: allocated whole above): a
-  // copy of the picture each would double or triple its memory (Intel's peak RSS).
-  CHECK(picture.isContinuous()) << "the picture is one allocation";
-  HETSLAM_RETURN_IF_ERROR(WritePngFromBuffer(path, picture.cols, picture.rows, 3, picture.data));
+  // In place and straight from the picture's buffer: a copy of the picture each would double
+  // or triple its memory (Intel's peak RSS).
+  HETSLAM_RETURN_IF_ERROR(WritePngFromBuffer(path, width, height, 3, pixels.data()));
   if (layout != nullptr) *layout = geometry;
   return Status::Ok();
 }
