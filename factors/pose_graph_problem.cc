@@ -101,8 +101,6 @@ int PoseGraphProblem::AddEdge(EdgeKind kind, int a, int b, const Pose2& a_T_b, c
   edge.kind = kind;
   edge.a = a;
   edge.b = b;
-  edge.a_T_b = a_T_b;
-  edge.sqrt_information = sqrt_information;
   edge.residual = problem_->AddResidualBlock(CreateRelativePose2Cost(a_T_b, sqrt_information),
                                              loss_function, poses_[a].block, poses_[b].block);
   return StoreEdge(edge);
@@ -138,8 +136,6 @@ int PoseGraphProblem::AddAnchoredEdge(int anchor_a, int a, int anchor_b, int b, 
   edge.a = a;
   edge.anchor_b = anchor_b;
   edge.b = b;
-  edge.a_T_b = a_T_b;
-  edge.sqrt_information = sqrt_information;
   edge.residual = problem_->AddResidualBlock(CreateAnchoredRelativePose2Cost(a_T_b, sqrt_information),
                                              loss_scale > 0 ? new ceres::HuberLoss(loss_scale) : nullptr,
                                              poses_[anchor_a].block, poses_[a].block, poses_[anchor_b].block,
@@ -174,6 +170,26 @@ void PoseGraphProblem::RemovePose(int index) {
   if (pose.in_problem) problem_->RemoveParameterBlock(pose.block);
   pose.in_problem = false;
   pose.removed = true;
+}
+
+Pose2 PoseGraphProblem::edge_measurement(int index) const {
+  const Edge& edge = edges_[index];
+  CHECK(!edge.removed) << "edge " << index << " is removed: its measurement is gone";
+  Pose2 measurement;
+  Eigen::Matrix3d sqrt_information;
+  CHECK(RelativePose2CostMeasurement(*problem_->GetCostFunctionForResidualBlock(edge.residual), &measurement,
+                                     &sqrt_information));
+  return measurement;
+}
+
+Eigen::Matrix3d PoseGraphProblem::edge_sqrt_information(int index) const {
+  const Edge& edge = edges_[index];
+  CHECK(!edge.removed) << "edge " << index << " is removed: its information is gone";
+  Pose2 measurement;
+  Eigen::Matrix3d sqrt_information;
+  CHECK(RelativePose2CostMeasurement(*problem_->GetCostFunctionForResidualBlock(edge.residual), &measurement,
+                                     &sqrt_information));
+  return sqrt_information;
 }
 
 Pose2 PoseGraphProblem::EdgeEstimate(int index) const {

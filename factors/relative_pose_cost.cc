@@ -32,6 +32,9 @@ class RelativePose2Cost final : public ceres::SizedCostFunction<3, 3, 3> {
     CheckMeasurement(a_T_b_measured_, sqrt_information_);
   }
 
+  const Pose2& measurement() const { return a_T_b_measured_; }
+  const Eigen::Matrix3d& sqrt_information() const { return sqrt_information_; }
+
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const double* a = parameters[0];
     const double* b = parameters[1];
@@ -75,6 +78,8 @@ class RelativePose2Cost final : public ceres::SizedCostFunction<3, 3, 3> {
   const Eigen::Matrix3d sqrt_information_;  // S, S^T S = Sigma^-1 of E; rows 1/m, 1/m, 1/rad
 };
 
+using AnchoredRelativePose2Cost = ceres::AutoDiffCostFunction<AnchoredRelativePose2Residual, 3, 3, 3, 3, 3>;
+
 }  // namespace
 
 RelativePose2Residual::RelativePose2Residual(const Pose2& a_T_b_measured,
@@ -96,8 +101,22 @@ AnchoredRelativePose2Residual::AnchoredRelativePose2Residual(
 
 ceres::CostFunction* CreateAnchoredRelativePose2Cost(const Pose2& ai_T_bj_measured,
                                                      const Eigen::Matrix3d& sqrt_information) {
-  return new ceres::AutoDiffCostFunction<AnchoredRelativePose2Residual, 3, 3, 3, 3, 3>(
-      new AnchoredRelativePose2Residual(ai_T_bj_measured, sqrt_information));
+  return new AnchoredRelativePose2Cost(new AnchoredRelativePose2Residual(ai_T_bj_measured, sqrt_information));
+}
+
+bool RelativePose2CostMeasurement(const ceres::CostFunction& cost, Pose2* measurement,
+                                  Eigen::Matrix3d* sqrt_information) {
+  if (const auto* between = dynamic_cast<const RelativePose2Cost*>(&cost)) {
+    *measurement = between->measurement();
+    *sqrt_information = between->sqrt_information();
+    return true;
+  }
+  if (const auto* anchored = dynamic_cast<const AnchoredRelativePose2Cost*>(&cost)) {
+    *measurement = anchored->functor().measurement();
+    *sqrt_information = anchored->functor().sqrt_information();
+    return true;
+  }
+  return false;
 }
 
 }  // namespace hetslam

@@ -41,6 +41,8 @@ namespace hetslam {
 class RelativePose2Residual {
  public:
   RelativePose2Residual(const Pose2& a_T_b_measured, const Eigen::Matrix3d& sqrt_information);
+  const Pose2& measurement() const { return a_T_b_measured_; }
+  const Eigen::Matrix3d& sqrt_information() const { return sqrt_information_; }
 
   template <typename T>
   bool operator()(const T* world_T_a, const T* world_T_b, T* residual) const {
@@ -80,6 +82,8 @@ class AnchoredRelativePose2Residual {
  public:
   AnchoredRelativePose2Residual(const Pose2& ai_T_bj_measured,
                                 const Eigen::Matrix3d& sqrt_information);
+  const Pose2& measurement() const { return ai_T_bj_measured_; }
+  const Eigen::Matrix3d& sqrt_information() const { return sqrt_information_; }
 
   template <typename T>
   bool operator()(const T* world_T_a_origin, const T* a_origin_T_ai, const T* world_T_b_origin,
@@ -103,6 +107,12 @@ class AnchoredRelativePose2Residual {
 // world_T_b_origin[3], b_origin_T_bj[3]); caller owns it. Give it a robust loss.
 ceres::CostFunction* CreateAnchoredRelativePose2Cost(const Pose2& ai_T_bj_measured,
                                                      const Eigen::Matrix3d& sqrt_information);
+
+// The measurement and S a cost made by CreateRelativePose2Cost or CreateAnchoredRelativePose2Cost
+// holds (so that a graph need not keep its own copy of every edge's); false, with the outputs
+// untouched, for any other cost function.
+bool RelativePose2CostMeasurement(const ceres::CostFunction& cost, Pose2* measurement,
+                                  Eigen::Matrix3d* sqrt_information);
 
 }  // namespace hetslam
 

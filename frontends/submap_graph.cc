@@ -873,7 +873,7 @@ PoseGraph2d SubmapGraph::ExportGraph(int robot_id) const {
     edge.from_T_to_measured = c.submap_T_node;
     edge.kind = c.kind;
     // The information the solve uses (AttachRevisits' summaries carry several constraints' worth).
-    const Eigen::Matrix3d& sqrt_information = problem_.edge_sqrt_information(c.edge);
+    const Eigen::Matrix3d sqrt_information = problem_.edge_sqrt_information(c.edge);
     edge.information = sqrt_information.transpose() * sqrt_information;
     graph.edges.push_back(edge);
   }

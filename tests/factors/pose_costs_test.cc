@@ -181,6 +181,28 @@ TEST(GradientCheckTest, PosePriorAndHeadingPriorCosts) {
   }
 }
 
+TEST(RelativePose2CostTest, MeasurementIsReadBackFromEitherCost) {
+  const Pose2 measured(1.5, -0.25, 0.3);
+  Eigen::Matrix3d s;
+  s << 10.0, 1.0, 0.5, 0.0, 20.0, 2.0, 0.0, 0.0, 30.0;
+  Pose2 read;
+  Eigen::Matrix3d read_s;
+  std::unique_ptr<ceres::CostFunction> between(CreateRelativePose2Cost(measured, s));
+  ASSERT_TRUE(RelativePose2CostMeasurement(*between, &read, &read_s));
+  EXPECT_EQ(measured.ToVector(), read.ToVector());
+  EXPECT_EQ(s, read_s);
+  const Pose2 anchored_measured(-3.0, 4.0, -2.5);
+  std::unique_ptr<ceres::CostFunction> anchored(CreateAnchoredRelativePose2Cost(anchored_measured, 2.0 * s));
+  ASSERT_TRUE(RelativePose2CostMeasurement(*anchored, &read, &read_s));
+  EXPECT_EQ(anchored_measured.ToVector(), read.ToVector());
+  EXPECT_EQ(2.0 * s, read_s);
+  // Any other cost: false, outputs untouched.
+  std::unique_ptr<ceres::CostFunction> other(
+      new ceres::AutoDiffCostFunction<RelativePose2Residual, 3, 3, 3>(new RelativePose2Residual(measured, s)));
+  EXPECT_FALSE(RelativePose2CostMeasurement(*other, &read, &read_s));
+  EXPECT_EQ(anchored_measured.ToVector(), read.ToVector());
+}
+
 TEST(RelativePose2CostTest, ResidualIsWhitenedG2oErrorByHand) {
   // a at the origin facing +y; b 2 m ahead of a, facing -x. Measured: 1.9 m ahead, +0.1 rad.
   const Pose2 world_T_a(0.0, 0.0, M_PI / 2), world_T_b(0.0, 2.0, M_PI);

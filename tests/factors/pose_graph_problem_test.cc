@@ -215,6 +215,36 @@ TEST(PoseGraphProblemTest, AnchoredInterRobotEdgeRecoversTheOtherRobotsAnchor) {
   }
 }
 
+TEST(PoseGraphProblemTest, AnEdgeReportsWhatItWasAddedWith) {
+  PoseGraphProblem problem;
+  const int a = problem.AddPose(Pose2(0.0, 0.0, 0.0));
+  const int b = problem.AddPose(Pose2(1.0, 0.0, 0.0));
+  const int c = problem.AddPose(Pose2(2.0, 0.0, 0.0));
+  Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
+  s(0, 1) = 0.5;
+  const int ab = problem.AddEdge(EdgeKind::kSequential, a, b, Pose2(1.0, 0.1, 0.2), 10.0 * s);
+  const int bc = problem.AddEdge(EdgeKind::kLoopClosure, b, c, Pose2(0.9, -0.1, -0.3), 20.0 * s, 1.0);
+  EXPECT_EQ(Pose2(1.0, 0.1, 0.2).ToVector(), problem.edge_measurement(ab).ToVector());
+  EXPECT_EQ(10.0 * s, problem.edge_sqrt_information(ab));
+  EXPECT_EQ(Pose2(0.9, -0.1, -0.3).ToVector(), problem.edge_measurement(bc).ToVector());
+  EXPECT_EQ(20.0 * s, problem.edge_sqrt_information(bc));
+  // A released slot handed out again reports its new edge.
+  problem.ReleaseEdge(ab);
+  const int ca = problem.AddEdge(EdgeKind::kLoopClosure, c, a, Pose2(-2.0, 0.0, 0.0), 5.0 * s, 1.0);
+  EXPECT_EQ(ab, ca);
+  EXPECT_EQ(Pose2(-2.0, 0.0, 0.0).ToVector(), problem.edge_measurement(ca).ToVector());
+  EXPECT_EQ(5.0 * s, problem.edge_sqrt_information(ca));
+}
+
+TEST(PoseGraphProblemDeathTest, ARemovedEdgeHasNoMeasurement) {
+  PoseGraphProblem problem;
+  const int a = problem.AddPose(Pose2(0.0, 0.0, 0.0));
+  const int b = problem.AddPose(Pose2(1.0, 0.0, 0.0));
+  const int ab = problem.AddEdge(EdgeKind::kSequential, a, b, Pose2(1.0, 0.0, 0.0), Eigen::Matrix3d::Identity());
+  problem.RemoveEdge(ab);
+  EXPECT_DEATH(problem.edge_measurement(ab), "edge 0 is removed");
+}
+
 TEST(PoseGraphProblemTest, InterRobotEdgeEstimateEqualsItsMeasurementAfterSolving) {
   PoseGraphProblem problem;
   const TwoRobots r = AddTwoRobots(Pose2(3.0, -2.0, M_PI / 2), &problem);
