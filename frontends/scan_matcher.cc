@@ -125,20 +125,23 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
 }
 
 // The branch-and-bound tables over the search region. Level 0 is the field (and the
-// free-space penalty) as floats: leaves are scored exactly. Level h >= 1 holds, for each cell
-// c, an upper bound of the max of level 0 over the 2^h × 2^h block whose minimum corner is c
-// (cells outside the field are 0), as a code rounded up, so a block's score stays an upper bound
-// of its members'. Level 1 in 16 bits (code q stands for lowest + q * step; looser by at most
-// one step, ~2e-5, per point); levels 2 and up in 8 bits (lowest + q * 257 step, ~6e-3): 8-bit
-// codes on level 1 too made Intel's loop search 1.5x slower (the looser bounds pruned fewer
-// blocks next to the best leaf), on levels >= 2 they cost no measurable time (Intel: trajectory
-// byte-identical, loop search 2.19 -> 2.16 s) and save a byte a cell a level: the tables of a
-// loop search (depth 5) take 4 + 2 + 4 = 10 bytes a cell of its region instead of 14.
+// free-space penalty, and the wall channel) in 16-bit codes rounded to the nearest: code q
+// stands for lowest + q * step over the range every such value can take (LeafRange; ~4e-5
+// a step), so a leaf's score is within half a step of the exact mean, summed in integers. Level
+// h >= 1 holds, for each cell c, the max of level 0 over the 2^h × 2^h block whose minimum corner
+// is c (cells outside the field are 0), so a block's score is an upper bound of its members'.
+// Level 1 in 16 bits too; levels 2 and up in 8 bits (the 16-bit max rounded up to a multiple of
+// 257 steps, ~1e-2): 8-bit codes on level 1 too made Intel's loop search 1.5x slower (the looser
+// bounds pruned fewer blocks next to the best leaf), on levels >= 2 they cost no measurable
+// time and save a byte a cell a level. Leaves as floats (4 bytes; until session 21) made FR079's
+// front-end tables 1 MB and ACES's wide loop search's 5 MB larger: the tables of a loop search
+// (depth 5) take 2 + 2 + 4 = 8 bytes a cell of its region.
 struct Pyramid {
   static constexpr int kLevels16 = 1;  // levels 1 .. kLevels16 in 16 bits, coarser ones in 8
-  std::vector<float> finest;
+  std::vector<uint16_t> finest;
   std::vector<std::vector<uint16_t>> coarse;  // coarse[h - 1]: level h <= kLevels16
   std::vector<std::vector<uint8_t>> coarse8;  // coarse8[h - kLevels16 - 1]: level h > kLevels16
+  std::vector<float> row;                     // one span's values before they are coded
   float lowest = 0.f;
   float step = 1.f;  // of the 16-bit codes; an 8-bit code q stands for lowest + q * 257 step
   // The tables are filled only where a search reads them (NeededSpans): spans[row_spans[r] ..
@@ -148,7 +151,8 @@ struct Pyramid {
   std::vector<int> row_spans;
   std::vector<uint8_t> needed;  // one flag a tile; scratch of NeededSpans
   size_t Bytes() const {
-    size_t bytes = finest.capacity() * sizeof(float) + spans.capacity() * sizeof(spans[0]) +
+    size_t bytes = finest.capacity() * sizeof(uint16_t) + row.capacity() * sizeof(float) +
+                   spans.capacity() * sizeof(spans[0]) +
                    row_spans.capacity() * sizeof(int) + needed.capacity();
     for (const std::vector<uint16_t>& level : coarse) bytes += level.capacity() * sizeof(uint16_t);
     for (const std::vector<uint8_t>& level : coarse8) bytes += level.capacity();
@@ -222,6 +226,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
     if (level.size() < size) level.resize(size);
   };
   ensure(pyramid->finest);
+  if (pyramid->row.size() < static_cast<size_t>(w)) pyramid->row.resize(w);
   pyramid->coarse.resize(std::min(depth, Pyramid::kLevels16));
   for (std::vector<uint16_t>& level : pyramid->coarse) ensure(level);
   pyramid->coarse8.resize(std::max(0, depth - Pyramid::kLevels16));
@@ -252,19 +257,25 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const TiledGrid<float>& log_odds = grid.log_odds();
   constexpr uint8_t kFree = static_cast<uint8_t>(CellState::kFree);
   const float occupied_threshold = grid.occupied_threshold_log_odds();
-  for_each_span([&](int y, int span_begin, int span_end) {
-    float* dst = pyramid->finest.data() + static_cast<size_t>(y) * w;
-    const int gy = s.region_min.y + y;
-    const int x_begin = std::max(span_begin, x_inside_begin), x_end = std::min(span_end, x_inside_end);
-    if (gy < 0 || gy >= g.height() || x_begin >= x_end) {
-      std::fill(dst + span_begin, dst + span_end, 0.f);
-      return;
-    }
-    std::fill(dst + span_begin, dst + x_begin, 0.f);
-    std::fill(dst + x_end, dst + span_end, 0.f);
-    float* out = dst + x_begin;
-    const int n = x_end - x_begin;
-    const int gx0 = s.region_min.x + x_begin;
+  if (wall_field != nullptr) {
+    CHECK_EQ(wall_field->frozen(), frozen_field) << "a LaserMap's fields freeze together";
+    CHECK(wall_field->geometry().num_cells() == g.num_cells() && wall_field->geometry().origin() == g.origin())
+        << "the wall field's geometry differs from the field's";
+  }
+  const float* wall_value = wall_field != nullptr && frozen_field ? wall_field->frozen_codes().value : nullptr;
+  // Every level-0 value lies in [lowest, highest]: a field value in [0, 1] or the penalty's
+  // -free_space_penalty, plus the wall channel's (wall_weight - 1) [0, 1].
+  const float wall_extra = wall_field != nullptr ? wall_weight - 1.f : 0.f;
+  const float lowest = -free_space_penalty + std::min(0.f, wall_extra);
+  const float highest = 1.f + std::max(0.f, wall_extra);
+  constexpr float kTop = 65535.f;
+  const float step = highest > lowest ? (highest - lowest) / kTop : 1.f;
+  const float inv_step = 1.f / step;
+  pyramid->lowest = lowest;
+  pyramid->step = step;
+
+  // The values of the n cells from (gx0, gy) of the field (inside it) into `out`.
+  auto field_values = [&](int gx0, int gy, int n, float* out) {
     if (frozen_field) {
       // Tile by tile: a tile without values is 0 or, where free, the penalty; a tile without
       // states is unknown, so just its values.
@@ -325,80 +336,55 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       }
       x += chunk;
     }
-  });
-  if (wall_field != nullptr) {
-    // Paper §III-E: T += (wall_weight - 1) L_wall, the wall channel at the same cell. Walls are
-    // some of the occupied cells and the window is the same, so L_wall is 0 where L is (up to
-    // the republish tolerance: each field publishes a moved hit point on its own), and the
-    // free-space penalty keeps its cells.
-    CHECK_EQ(wall_field->frozen(), frozen_field) << "a LaserMap's fields freeze together";
-    CHECK(wall_field->geometry().num_cells() == g.num_cells() && wall_field->geometry().origin() == g.origin())
-        << "the wall field's geometry differs from the field's";
-    const float extra = wall_weight - 1.f;
-    const float* wall_value = frozen_field ? wall_field->frozen_codes().value : nullptr;
-    for_each_span([&](int y, int span_begin, int span_end) {
-      const int gy = s.region_min.y + y;
-      const int x_begin = std::max(span_begin, x_inside_begin), x_end = std::min(span_end, x_inside_end);
-      if (gy < 0 || gy >= g.height() || x_begin >= x_end) return;
-      float* out = pyramid->finest.data() + static_cast<size_t>(y) * w + x_begin;
-      const int n = x_end - x_begin;
-      const int gx0 = s.region_min.x + x_begin;
+  };
+  // Paper §III-E: T += (wall_weight - 1) L_wall, the wall channel at the same cell. Walls are
+  // some of the occupied cells and the window is the same, so L_wall is 0 where L is (up to
+  // the republish tolerance: each field publishes a moved hit point on its own), and the
+  // free-space penalty keeps its cells.
+  auto add_walls = [&](int gx0, int gy, int n, float* out) {
+    for (int x = 0; x < n;) {
+      const int gx = gx0 + x;
       if (frozen_field) {
-        for (int x = 0; x < n;) {
-          const int gx = gx0 + x;
-          const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - (gx & (SparseTiles<uint8_t>::kTileSize - 1)));
-          const uint8_t* q = wall_field->FrozenCodesTileRow(gx, gy);
-          if (q != nullptr) {
-            for (int k = 0; k < chunk; ++k) out[x + k] += extra * wall_value[q[k]];
-          }
-          x += chunk;
+        const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - (gx & (SparseTiles<uint8_t>::kTileSize - 1)));
+        const uint8_t* q = wall_field->FrozenCodesTileRow(gx, gy);
+        if (q != nullptr) {
+          for (int k = 0; k < chunk; ++k) out[x + k] += wall_extra * wall_value[q[k]];
         }
+        x += chunk;
       } else {
-        for (int x = 0; x < n;) {
-          const int gx = gx0 + x;
-          const int chunk = std::min(n - x, TiledGrid<float>::kTileSize - (gx & (TiledGrid<float>::kTileSize - 1)));
-          const float* wall = wall_field->values().TileRow(gx, gy);
-          if (wall != nullptr) {
-            for (int k = 0; k < chunk; ++k) out[x + k] += extra * wall[k];
-          }
-          x += chunk;
+        const int chunk = std::min(n - x, TiledGrid<float>::kTileSize - (gx & (TiledGrid<float>::kTileSize - 1)));
+        const float* wall = wall_field->values().TileRow(gx, gy);
+        if (wall != nullptr) {
+          for (int k = 0; k < chunk; ++k) out[x + k] += wall_extra * wall[k];
         }
+        x += chunk;
       }
-    });
-  }
-  if (depth == 0) return;
-  // The codes' range: every level-0 value read is in [lowest, lowest + kTop step]; rounding up
-  // (with a margin for the division's rounding) keeps each code's value >= the value coded.
-  using Row = Eigen::Map<const Eigen::ArrayXf>;
-  float lowest = 0.f, highest = 0.f;
+    }
+  };
+  // Level 0: each span's values (0 outside the field), then their nearest codes.
   for_each_span([&](int y, int span_begin, int span_end) {
-    const Row row(pyramid->finest.data() + static_cast<size_t>(y) * w + span_begin, span_end - span_begin);
-    lowest = std::min(lowest, row.minCoeff());
-    highest = std::max(highest, row.maxCoeff());
+    float* values_row = pyramid->row.data();
+    const int gy = s.region_min.y + y;
+    const int x_begin = std::max(span_begin, x_inside_begin), x_end = std::min(span_end, x_inside_end);
+    if (gy < 0 || gy >= g.height() || x_begin >= x_end) {
+      std::fill(values_row + span_begin, values_row + span_end, 0.f);
+    } else {
+      std::fill(values_row + span_begin, values_row + x_begin, 0.f);
+      std::fill(values_row + x_end, values_row + span_end, 0.f);
+      const int gx0 = s.region_min.x + x_begin;
+      field_values(gx0, gy, x_end - x_begin, values_row + x_begin);
+      if (wall_field != nullptr) add_walls(gx0, gy, x_end - x_begin, values_row + x_begin);
+    }
+    // The nearest code: + 0.5, truncated (the values are >= lowest; the min guards rounding).
+    uint16_t* codes = pyramid->finest.data() + static_cast<size_t>(y) * w;
+    for (int x = span_begin; x < span_end; ++x) {
+      codes[x] = static_cast<uint16_t>(static_cast<int>(std::min(kTop, (values_row[x] - lowest) * inv_step + 0.5f)));
+    }
   });
-  constexpr float kTop = 65533.f;  // below the largest code: room for the margin
-  const float step = highest > lowest ? (highest - lowest) / kTop : 1.f;
-  pyramid->lowest = lowest;
-  pyramid->step = step;
-  const float inv_step = 1.f / step;
-  {
-    // Truncation (no std::ceil: without SSE4.1 that is a call per cell) of x + 1.02 is above x
-    // even after the product's rounding.
-    auto code = [&](float v) { return static_cast<uint16_t>(static_cast<int>(std::min(65535.f, (v - lowest) * inv_step + 1.02f))); };
-    const int x_split = std::max(0, w - 1);  // level 1: x + 1 stays inside the row
-    for_each_span([&](int y, int span_begin, int span_end) {
-      const float* a = pyramid->finest.data() + static_cast<size_t>(y) * w;
-      const float* b = pyramid->finest.data() + static_cast<size_t>(std::min(y + 1, h - 1)) * w;
-      uint16_t* o = pyramid->coarse[0].data() + static_cast<size_t>(y) * w;
-      const int split = std::min(span_end, x_split);
-      for (int x = span_begin; x < split; ++x) o[x] = code(std::max(std::max(a[x], a[x + 1]), std::max(b[x], b[x + 1])));
-      for (int x = std::max(span_begin, x_split); x < span_end; ++x) {
-        o[x] = code(std::max(std::max(a[x], a[w - 1]), std::max(b[x], b[w - 1])));
-      }
-    });
-  }
-  // Coarser levels: the codes are monotone, so the max of codes codes the max.
-  // The first 8-bit level rounds the 16-bit maxima up to multiples of 257 (65535 = 255 · 257).
+  if (depth == 0) return;
+  // Coarser levels: the max of four cells of the level below. Codes are monotone, so the max of
+  // codes codes the max; the first 8-bit level rounds the 16-bit maxima up to multiples of 257
+  // (65535 = 255 · 257).
   auto next_level = [&](const auto* in, int half, auto* out, auto code) {
     const int x_split = std::max(0, w - half);  // x + half stays inside the row below this
     for_each_span([&](int y, int span_begin, int span_end) {
@@ -416,12 +402,14 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   // (q + 256) / 257 as a multiply and a shift (equal for every q < 65536, checked exhaustively;
   // the division was 5% of an Intel run).
   auto to_8_bits = [](uint16_t q) { return static_cast<uint8_t>(((q + 256u) * 65281u) >> 24); };
-  for (int level = 2; level <= depth; ++level) {
+  for (int level = 1; level <= depth; ++level) {
     const int half = 1 << (level - 1);
+    const uint16_t* below16 = level == 1 ? pyramid->finest.data()
+                                         : level - 1 <= Pyramid::kLevels16 ? pyramid->coarse[level - 2].data() : nullptr;
     if (level <= Pyramid::kLevels16) {
-      next_level(pyramid->coarse[level - 2].data(), half, pyramid->coarse[level - 1].data(), same);
+      next_level(below16, half, pyramid->coarse[level - 1].data(), same);
     } else if (level == Pyramid::kLevels16 + 1) {
-      next_level(pyramid->coarse[level - 2].data(), half, pyramid->coarse8[0].data(), to_8_bits);
+      next_level(below16, half, pyramid->coarse8[0].data(), to_8_bits);
     } else {
       next_level(pyramid->coarse8[level - Pyramid::kLevels16 - 2].data(), half,
                  pyramid->coarse8[level - Pyramid::kLevels16 - 1].data(), same);
@@ -455,14 +443,7 @@ struct SearchContext {
     const float* const cell_weights = s.cell_weights.empty() ? nullptr : s.cell_weights.data() + s.begin[yaw_index];
     const ptrdiff_t base = static_cast<ptrdiff_t>(dy) * s.region_width + dx;
     double sum = 0.0;
-    if (level == 0) {
-      const float* data = pyramid->finest.data() + base;
-      if (weights->empty()) {
-        for (int i = 0; i < count; ++i) sum += data[offsets[i]];
-      } else {
-        for (int i = 0; i < count; ++i) sum += cell_weights[i] * data[offsets[i]];
-      }
-    } else {
+    {
       // sum of w_i (lowest + q_i step) = lowest sum w_i + step sum w_i q_i.
       auto coded_sum = [&](const auto* data, double step) {
         if (weights->empty()) {
@@ -485,7 +466,9 @@ struct SearchContext {
         }
         return pyramid->lowest * weight_sum + step * weighted_codes;
       };
-      if (level <= Pyramid::kLevels16) {
+      if (level == 0) {
+        sum = coded_sum(pyramid->finest.data() + base, static_cast<double>(pyramid->step));
+      } else if (level <= Pyramid::kLevels16) {
         sum = coded_sum(pyramid->coarse[level - 1].data() + base, static_cast<double>(pyramid->step));
       } else {
         sum = coded_sum(pyramid->coarse8[level - Pyramid::kLevels16 - 1].data() + base,

@@ -202,8 +202,9 @@ class ScanMatcher {
 
   // The search's table buffers are shared by every ScanMatcher of the calling thread (a front
   // end and a loop closer, or a team's robots, never search at once) and keep the size of the
-  // largest search so far (region cells × (4 + 2 branch_and_bound_depth) bytes: a float for
-  // the leaves, 16 bits per coarser level; MBs for a loop closer's wide window). This frees them; the next search of any matcher of the thread
+  // largest search so far (region cells × (3 + branch_and_bound_depth) bytes: 16 bits for the
+  // leaves and for level 1, 8 for each coarser level; MBs for a loop closer's wide window). This
+  // frees them; the next search of any matcher of the thread
   // allocates them again. After a rare search over a large window, and before a solve (which
   // does not read them). Tables of 8 MiB or more (a wide search's) are also given back to the
   // system at once (glibc: malloc_trim), not left resident in the heap.

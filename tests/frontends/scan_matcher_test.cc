@@ -129,6 +129,39 @@ TEST_F(ScanMatcherTest, BranchAndBoundMatchesBruteForceOnRandomPoses) {
 // tables left from a search of another map: in a 16 m hall, whose middle no search of a scan
 // along its walls reads, branch and bound still finds brute force's best score, also with
 // deeper blocks and wider windows.
+// A candidate's correlative score is the mean of its points' cell values, coded in 16 bits:
+// within half a code step (1 / 65535 of the values' range) of the exact mean, on a map being
+// built and on a frozen one.
+TEST_F(ScanMatcherTest, LeafScoresAreTheCellValuesMeanWithinHalfACodeStep) {
+  ScanMatcherOptions options;
+  options.linear_search_window_meters = 0.0;
+  options.angular_search_window_radians = 0.0;
+  options.refine_with_ceres = false;
+  options.free_space_penalty = 0.0;  // every point scores its cell's field value
+  options.min_correlative_score = 0.0;
+  const ScanMatcher matcher(options);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> offset(-0.3, 0.3);
+  LaserMap frozen = map_;
+  frozen.Freeze();
+  for (const LaserMap* map : {&map_, &frozen}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      const Pose2 truth(offset(rng), offset(rng), 0.0);
+      const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
+      const Pose2 at(truth.x() + offset(rng), truth.y() + offset(rng), offset(rng));
+      double sum = 0.0;
+      for (const Eigen::Vector2f& p : scan) {
+        sum += map->field().Value(map->field().geometry().WorldToCell(at * p.cast<double>()));
+      }
+      const double exact = sum / scan.size();
+      ASSERT_GT(exact, 0.05) << "trial " << trial;  // the points meet the map
+      const double half_step = 0.5 / 65535.0;
+      EXPECT_NEAR(exact, matcher.BruteForceSearch(*map, at, scan).correlative_score, half_step + 1e-7)
+          << "trial " << trial << (map == &frozen ? ", frozen" : "");
+    }
+  }
+}
+
 TEST(ScanMatcherBandTest, TablesFilledAlongTheScanAloneScoreLikeBruteForce) {
   sim::World hall;
   hall.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(16.0, 16.0), 0.0);
