@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,16 @@ enum class PluginBinding {
 LoadedPluginTable LoadPluginTable(const std::vector<std::string>& candidates, const char* entry_point,
                                   const char* kind, const std::function<std::string(const void* table)>& check,
                                   PluginBinding binding = PluginBinding::kNow);
+
+// A fingerprint of the sizes and alignments of the types a plugin's table exchanges (FNV-1a),
+// computed on each side of the boundary from the headers that side was compiled with: a field
+// added to one of them on one side changes it (a reordering of same-size fields does not: the
+// ABI version is for that).
+constexpr uint64_t PluginLayoutFingerprint(std::initializer_list<uint64_t> sizes) {
+  uint64_t hash = 14695981039346656037ull;
+  for (const uint64_t value : sizes) hash = (hash ^ value) * 1099511628211ull;
+  return hash;
+}
 
 // The usual check of a table's first fields: "" when they are this build's, else why not.
 std::string PluginBuildMismatch(uint32_t abi_version, uint32_t expected_abi_version, uint64_t layout_fingerprint,

@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "core/plugin_loader.h"
 #include "core/ros_bag.h"
 #include "core/status.h"
 
@@ -39,21 +40,14 @@ namespace ros_bag_plugin {
 // Bumped whenever the table below changes or one of its functions changes meaning.
 constexpr uint32_t kAbiVersion = 1;
 
-// A fingerprint of the sizes and alignments of the types the table's functions exchange,
-// computed on each side of the boundary from the headers that side was compiled with (FNV-1a).
-// A field added to one of them on one side changes it; a reordering of same-size fields does
-// not (the ABI version is for that).
+// The layout fingerprint (core/plugin_loader.h) of the types the table's functions exchange.
 constexpr uint64_t LayoutFingerprint() {
-  uint64_t hash = 14695981039346656037ull;
-  for (const uint64_t value :
-       {sizeof(std::string), sizeof(Status), sizeof(RosBagReadOptions), alignof(RosBagReadOptions),
-        sizeof(RosBagContents), alignof(RosBagContents), sizeof(LaserReading), alignof(LaserReading),
-        sizeof(MargSample), alignof(MargSample), sizeof(AttitudeReading), sizeof(OdometryReading),
-        alignof(OdometryReading), sizeof(VelocityCommand), sizeof(CameraImage), sizeof(StampedPose2),
-        alignof(StampedPose2), sizeof(TrajectoryBagOptions)}) {
-    hash = (hash ^ value) * 1099511628211ull;
-  }
-  return hash;
+  return PluginLayoutFingerprint(
+      {sizeof(std::string), sizeof(Status), sizeof(RosBagReadOptions), alignof(RosBagReadOptions),
+       sizeof(RosBagContents), alignof(RosBagContents), sizeof(LaserReading), alignof(LaserReading),
+       sizeof(MargSample), alignof(MargSample), sizeof(AttitudeReading), sizeof(OdometryReading),
+       alignof(OdometryReading), sizeof(VelocityCommand), sizeof(CameraImage), sizeof(StampedPose2),
+       alignof(StampedPose2), sizeof(TrajectoryBagOptions)});
 }
 
 // The name of the one symbol the plugin exports.

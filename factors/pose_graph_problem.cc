@@ -172,23 +172,24 @@ void PoseGraphProblem::RemovePose(int index) {
   pose.removed = true;
 }
 
-Pose2 PoseGraphProblem::edge_measurement(int index) const {
+void PoseGraphProblem::EdgeMeasurement(int index, Pose2* measurement, Eigen::Matrix3d* sqrt_information) const {
   const Edge& edge = edges_[index];
   CHECK(!edge.removed) << "edge " << index << " is removed: its measurement is gone";
+  CHECK(RelativePose2CostMeasurement(*problem_->GetCostFunctionForResidualBlock(edge.residual), measurement,
+                                     sqrt_information));
+}
+
+Pose2 PoseGraphProblem::edge_measurement(int index) const {
   Pose2 measurement;
   Eigen::Matrix3d sqrt_information;
-  CHECK(RelativePose2CostMeasurement(*problem_->GetCostFunctionForResidualBlock(edge.residual), &measurement,
-                                     &sqrt_information));
+  EdgeMeasurement(index, &measurement, &sqrt_information);
   return measurement;
 }
 
 Eigen::Matrix3d PoseGraphProblem::edge_sqrt_information(int index) const {
-  const Edge& edge = edges_[index];
-  CHECK(!edge.removed) << "edge " << index << " is removed: its information is gone";
   Pose2 measurement;
   Eigen::Matrix3d sqrt_information;
-  CHECK(RelativePose2CostMeasurement(*problem_->GetCostFunctionForResidualBlock(edge.residual), &measurement,
-                                     &sqrt_information));
+  EdgeMeasurement(index, &measurement, &sqrt_information);
   return sqrt_information;
 }
 

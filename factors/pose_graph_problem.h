@@ -134,6 +134,8 @@ class PoseGraphProblem {
     ceres::internal::ResidualBlock* residual = nullptr;
   };
   void EnsureInProblem(int pose);
+  // Both of what a live edge was added with, from its cost function.
+  void EdgeMeasurement(int edge, Pose2* measurement, Eigen::Matrix3d* sqrt_information) const;
   // Stores `edge` in a released slot, or at the end; returns its index.
   int StoreEdge(const Edge& edge);
   // Adds `delta` to the live-edge count of every pose `edge` touches.

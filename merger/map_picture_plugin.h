@@ -24,6 +24,8 @@
 #include <cstdint>
 #include <initializer_list>
 
+#include "core/plugin_loader.h"
+
 namespace hetslam {
 
 // An RGB picture (3 bytes a pixel, rows `step` bytes apart), or a rectangle of one: drawing
@@ -46,13 +48,10 @@ constexpr uint32_t kAbiVersion = 1;
 // Fractional bits of kAntiAliasedSubpixel coordinates.
 constexpr int kSubpixelBits = 4;
 
+// The layout fingerprint (core/plugin_loader.h) of what the table exchanges.
 constexpr uint64_t LayoutFingerprint() {
-  uint64_t hash = 14695981039346656037ull;
-  for (const uint64_t value : {sizeof(PictureView), alignof(PictureView), sizeof(PictureStroke), sizeof(size_t),
-                               static_cast<uint64_t>(kSubpixelBits)}) {
-    hash = (hash ^ value) * 1099511628211ull;
-  }
-  return hash;
+  return PluginLayoutFingerprint({sizeof(PictureView), alignof(PictureView), sizeof(PictureStroke), sizeof(size_t),
+                                  static_cast<uint64_t>(kSubpixelBits)});
 }
 
 constexpr char kEntryPointName[] = "hetslam_picture_plugin_api";

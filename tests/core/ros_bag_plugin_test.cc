@@ -4,17 +4,14 @@
 #include "core/ros_bag_plugin.h"
 
 #include <dlfcn.h>
-#include <link.h>
 #include <stdlib.h>
-#include <unistd.h>
 
-#include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <string>
 #include <vector>
 
 #include "core/ros_bag.h"
+#include "tests/core/mapped_libraries_test_util.h"
 #include "glog/logging.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -27,29 +24,11 @@ using ::testing::HasSubstr;
 
 const std::string kBuiltPlugin = HETSLAM_ROSBAG_PLUGIN_BUILD_PATH;
 
-// True when a library whose file name contains `name` is mapped into this process.
-bool Mapped(const std::string& name) {
-  struct Search {
-    std::string name;
-    bool found = false;
-  } search{name};
-  dl_iterate_phdr(
-      [](dl_phdr_info* info, size_t, void* data) {
-        auto* s = static_cast<Search*>(data);
-        if (info->dlpi_name != nullptr && std::string(info->dlpi_name).find(s->name) != std::string::npos) {
-          s->found = true;
-        }
-        return 0;
-      },
-      &search);
-  return search.found;
-}
-
 // Checked in a fresh process (the "threadsafe" death-test style runs the test binary again), so
 // that the other tests' loads do not count, whatever their order.
 TEST(RosBagPluginTest, NothingOfRosIsMappedBeforeABagIsTouched) {
   ::testing::GTEST_FLAG(death_test_style) = "threadsafe";
-  EXPECT_EXIT(std::exit(Mapped("librosbag_storage") ? 1 : Mapped("libpython") ? 2 : 0), ::testing::ExitedWithCode(0),
+  EXPECT_EXIT(std::exit(LibraryMapped("librosbag_storage") ? 1 : LibraryMapped("libpython") ? 2 : 0), ::testing::ExitedWithCode(0),
               "");
 }
 
@@ -59,7 +38,7 @@ TEST(RosBagPluginTest, TheBuiltPluginLoadsAndPassesItsChecks) {
   EXPECT_EQ(kBuiltPlugin, plugin.path);
   EXPECT_EQ(kAbiVersion, plugin.api->abi_version);
   EXPECT_EQ(LayoutFingerprint(), plugin.api->layout_fingerprint);
-  EXPECT_TRUE(Mapped("librosbag_storage"));  // brought in by the plugin
+  EXPECT_TRUE(LibraryMapped("librosbag_storage"));  // brought in by the plugin
 }
 
 TEST(RosBagPluginTest, CandidatesAreTriedInOrderAndEachFailureIsNamed) {
@@ -75,24 +54,13 @@ TEST(RosBagPluginTest, CandidatesAreTriedInOrderAndEachFailureIsNamed) {
   EXPECT_EQ("no candidate", LoadPlugin({}).tried);
 }
 
-TEST(RosBagPluginTest, AFileThatIsNotALibraryIsRefused) {
-  const std::string path = ::testing::TempDir() + "/ros_bag_plugin_test_" + std::to_string(getpid()) + ".so";
-  std::ofstream(path) << "not an ELF file, long enough to have a header of one ..................";
-  const LoadedPlugin plugin = LoadPlugin({path});
-  EXPECT_EQ(nullptr, plugin.api);
-  EXPECT_THAT(plugin.tried, HasSubstr(path + " ("));
-  EXPECT_THAT(plugin.tried, HasSubstr("ELF"));  // dlerror(): "invalid ELF header"
-  std::remove(path.c_str());
-}
-
-TEST(RosBagPluginTest, ALibraryWithoutTheEntryPointIsRefused) {
+// A file that is no library, or a library without the entry point: PluginLoaderTest (the loader
+// is shared); here, that the refusal names this plugin.
+TEST(RosBagPluginTest, ALibraryWithoutTheEntryPointIsRefusedAsNoRosBagPlugin) {
   Dl_info info;  // glog's shared library: loads, but is no plugin
   bool (*glog_function)() = &google::IsGoogleLoggingInitialized;
   ASSERT_NE(0, dladdr(reinterpret_cast<void*>(glog_function), &info));
-  const std::string glog = info.dli_fname;
-  const LoadedPlugin plugin = LoadPlugin({glog});
-  EXPECT_EQ(nullptr, plugin.api);
-  EXPECT_THAT(plugin.tried, HasSubstr(glog + " (no symbol hetslam_rosbag_plugin_api: not a hetslam ROS bag plugin)"));
+  EXPECT_THAT(LoadPlugin({info.dli_fname}).tried, HasSubstr("(no symbol hetslam_rosbag_plugin_api: not a hetslam ROS bag plugin)"));
 }
 
 TEST(RosBagPluginTest, TheVariableIsTheOnlyCandidateWhenSet) {

@@ -3,7 +3,6 @@
 // WriteMapPicture return an error naming what was tried. This binary links no OpenCV library.
 // Each test runs in a fresh process (the "threadsafe" death-test style runs the binary again):
 // the process's plugin is loaded once.
-#include <link.h>
 #include <stdlib.h>
 
 #include <cstdio>
@@ -14,27 +13,10 @@
 #include "gtest/gtest.h"
 #include "merger/map_picture.h"
 #include "merger/map_picture_plugin.h"
+#include "tests/core/mapped_libraries_test_util.h"
 
 namespace hetslam {
 namespace {
-
-// True when a library whose file name contains `name` is mapped into this process.
-bool Mapped(const std::string& name) {
-  struct Search {
-    std::string name;
-    bool found = false;
-  } search{name};
-  dl_iterate_phdr(
-      [](dl_phdr_info* info, size_t, void* data) {
-        auto* s = static_cast<Search*>(data);
-        if (info->dlpi_name != nullptr && std::string(info->dlpi_name).find(s->name) != std::string::npos) {
-          s->found = true;
-        }
-        return 0;
-      },
-      &search);
-  return search.found;
-}
 
 OccupancyGrid SmallGrid() {
   OccupancyGrid grid{OccupancyGridOptions()};
@@ -44,7 +26,7 @@ OccupancyGrid SmallGrid() {
 
 // 0 when the check held, else a code naming the first that failed.
 int DrawAndCheck(const std::string& path) {
-  if (Mapped("libopencv_core")) return 1;
+  if (LibraryMapped("libopencv_core")) return 1;
   const Status status = WriteMapPicture(path, SmallGrid(), nullptr, {{"t", {Pose2(0.0, 0.0, 0.0)}}}, {},
                                         MapPictureOptions());
   if (!status.ok()) {
@@ -52,7 +34,7 @@ int DrawAndCheck(const std::string& path) {
     return 2;
   }
   std::remove(path.c_str());
-  return Mapped("libopencv_core") && Mapped("libhetslam_picture_plugin") ? 0 : 3;
+  return LibraryMapped("libopencv_core") && LibraryMapped("libhetslam_picture_plugin") ? 0 : 3;
 }
 
 TEST(MapPicturePluginTest, OpenCvIsMappedOnlyOnceAPictureIsDrawn) {
