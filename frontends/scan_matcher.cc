@@ -126,8 +126,9 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
 
 // The branch-and-bound tables over the search region. Level 0 is the field (and the
 // free-space penalty, and the wall channel) in 16-bit codes rounded to the nearest: code q
-// stands for lowest + q * step over the range every such value can take (LeafRange; ~4e-5
-// a step), so a leaf's score is within half a step of the exact mean, summed in integers. Level
+// stands for lowest + q * step over the range every such value can take (BuildPyramid: a step
+// is (1 + penalty + |wall_weight - 1|) / 65535, ~2e-5 with the defaults), so a leaf's score is
+// within half a step of the exact mean, summed in integers. Level
 // h >= 1 holds, for each cell c, the max of level 0 over the 2^h × 2^h block whose minimum corner
 // is c (cells outside the field are 0), so a block's score is an upper bound of its members'.
 // Level 1 in 16 bits too; levels 2 and up in 8 bits (the 16-bit max rounded up to a multiple of

@@ -78,12 +78,14 @@ class Canvas {
   }
   void FillConvexPolygon(const std::vector<Point>& corners, const Rgb& color) {
     if (corners.empty()) return;
-    api_->fill_convex_polygon(&view_, &corners.front().x, static_cast<int>(corners.size()), color.data(),
+    const std::vector<int32_t> xy = Flat(corners);
+    api_->fill_convex_polygon(&view_, xy.data(), static_cast<int>(corners.size()), color.data(),
                               PictureStroke::kAntiAliasedSubpixel);
   }
   void Polyline(const std::vector<Point>& points, bool closed, const Rgb& color, int thickness) {
     if (points.empty()) return;
-    api_->polyline(&view_, &points.front().x, static_cast<int>(points.size()), closed, color.data(), thickness,
+    const std::vector<int32_t> xy = Flat(points);
+    api_->polyline(&view_, xy.data(), static_cast<int>(points.size()), closed, color.data(), thickness,
                    PictureStroke::kAntiAliasedSubpixel);
   }
   void Rectangle(Point corner, Point opposite, const Rgb& color, int thickness) {
@@ -106,7 +108,16 @@ class Canvas {
   void Text(const std::string& text, Point origin, double font_scale, const Rgb& color, int thickness) {
     api_->put_text(&view_, text.c_str(), origin.x, origin.y, font_scale, color.data(), thickness);
   }
+
  private:
+  // (x, y) pairs, as the plugin takes them.
+  static std::vector<int32_t> Flat(const std::vector<Point>& points) {
+    std::vector<int32_t> xy;
+    xy.reserve(2 * points.size());
+    for (const Point& p : points) xy.insert(xy.end(), {p.x, p.y});
+    return xy;
+  }
+
   const MapPicturePluginApi* api_;
   PictureView view_;
 };
@@ -278,8 +289,9 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   if (!options.IsValid(&why)) return Status::Error(Error(path, "invalid options: " + why));
   const LoadedPluginTable& plugin = DrawingPlugin();
   if (plugin.table == nullptr) {
+    const char* variable = std::getenv(map_picture_plugin::kPathVariable);
     return Status::Error(Error(path, "its drawing plugin could not be loaded: tried " + plugin.tried + "; " +
-                                         (std::getenv(map_picture_plugin::kPathVariable) != nullptr
+                                         (variable != nullptr && variable[0] != '\0'
                                               ? std::string("HETSLAM_PICTURE_PLUGIN must name the plugin's full path "
                                                             "(unset, the built and the installed plugin are tried)")
                                               : std::string("set HETSLAM_PICTURE_PLUGIN to the full path of "
