@@ -25,7 +25,7 @@ std::vector<std::string> PluginCandidatePaths(const char* variable, const std::v
 }
 
 LoadedPluginTable LoadPluginTable(const std::vector<std::string>& candidates, const char* entry_point,
-                                  const char* kind, const std::function<std::string(const void* table)>& check,
+                                  const void* (*call_entry)(void* symbol), const char* kind, const std::function<std::string(const void* table)>& check,
                                   PluginBinding binding) {
   LoadedPluginTable loaded;
   std::string tried;
@@ -43,7 +43,7 @@ LoadedPluginTable LoadPluginTable(const std::vector<std::string>& candidates, co
       tried += std::string(" (no symbol ") + entry_point + ": not a " + kind + ")";
       continue;
     }
-    const void* table = reinterpret_cast<const void* (*)()>(entry)();
+    const void* table = call_entry(entry);
     const std::string mismatch = table != nullptr ? check(table) : "its table is null";
     if (!mismatch.empty()) {
       tried += " (" + mismatch + ")";

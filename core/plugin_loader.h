@@ -39,13 +39,22 @@ enum class PluginBinding {
           // the plugin's libraries are not all read (OpenCV's: 0.4 MiB resident)
 };
 
+// Calls a plugin's entry point, the symbol found, with its true type `const Table* (*)()` (a call
+// through another function type is undefined behaviour, which clang's sanitizer reports).
+template <typename Table>
+const void* CallPluginEntryPoint(void* symbol) {
+  return reinterpret_cast<const Table* (*)()>(symbol)();
+}
+
 // dlopen(... | RTLD_LOCAL)s each candidate in order (RTLD_LOCAL: the plugin's libraries' symbols
-// stay out of the program's namespace), calls `entry_point` and passes its table to `check`,
+// stay out of the program's namespace), calls `entry_point` through `call_entry` (e.g.
+// CallPluginEntryPoint<RosBagPluginApi>) and passes its table to `check`,
 // which returns "" when the table may be used, else why not. `kind` names the plugin in messages
 // ("hetslam ROS bag plugin"). A file that opened but failed stays mapped (never dlclosed:
 // libraries it brought in may have registered exit handlers), unused.
 LoadedPluginTable LoadPluginTable(const std::vector<std::string>& candidates, const char* entry_point,
-                                  const char* kind, const std::function<std::string(const void* table)>& check,
+                                  const void* (*call_entry)(void* symbol), const char* kind,
+                                  const std::function<std::string(const void* table)>& check,
                                   PluginBinding binding = PluginBinding::kNow);
 
 // A fingerprint of the sizes and alignments of the types a plugin's table exchanges (FNV-1a),

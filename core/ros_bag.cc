@@ -67,7 +67,7 @@ std::vector<std::string> PluginCandidates() {
 
 LoadedPlugin LoadPlugin(const std::vector<std::string>& candidates) {
   const LoadedPluginTable table =
-      LoadPluginTable(candidates, kEntryPointName, "hetslam ROS bag plugin",
+      LoadPluginTable(candidates, kEntryPointName, &CallPluginEntryPoint<RosBagPluginApi>, "hetslam ROS bag plugin",
                       [](const void* api) { return Mismatch(*static_cast<const RosBagPluginApi*>(api)); });
   LoadedPlugin loaded;
   loaded.api = static_cast<const RosBagPluginApi*>(table.table);

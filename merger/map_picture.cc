@@ -32,7 +32,8 @@ const LoadedPluginTable& DrawingPlugin() {
   static const LoadedPluginTable plugin = LoadPluginTable(
       PluginCandidatePaths(map_picture_plugin::kPathVariable,
                            {HETSLAM_PICTURE_PLUGIN_BUILD_PATH, HETSLAM_PICTURE_PLUGIN_INSTALL_PATH}),
-      map_picture_plugin::kEntryPointName, "hetslam map picture plugin", [](const void* table) {
+      map_picture_plugin::kEntryPointName, &CallPluginEntryPoint<MapPicturePluginApi>, "hetslam map picture plugin",
+      [](const void* table) {
         const auto& api = *static_cast<const MapPicturePluginApi*>(table);
         return PluginBuildMismatch(api.abi_version, map_picture_plugin::kAbiVersion, api.layout_fingerprint,
                                    map_picture_plugin::LayoutFingerprint(), api.compiler);
