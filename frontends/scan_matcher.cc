@@ -135,7 +135,7 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
 // 257 steps, ~1e-2): 8-bit codes on level 1 too made Intel's loop search 1.5x slower (the looser
 // bounds pruned fewer blocks next to the best leaf), on levels >= 2 they cost no measurable
 // time and save a byte a cell a level. Leaves as floats (4 bytes; until session 21) made FR079's
-// front-end tables 1 MB and ACES's wide loop search's 5 MB larger: the tables of a loop search
+// front-end tables 1 MB and ACES's wide loop search's ~4 MB larger: the tables of a loop search
 // (depth 5) take 2 + 2 + 4 = 8 bytes a cell of its region.
 struct Pyramid {
   static constexpr int kLevels16 = 1;  // levels 1 .. kLevels16 in 16 bits, coarser ones in 8
