@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <tuple>
@@ -137,11 +138,51 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
 // time and save a byte a cell a level. Leaves as floats (4 bytes; until session 21) made FR079's
 // front-end tables 1 MB and ACES's wide loop search's ~4 MB larger: the tables of a loop search
 // (depth 5) take 2 + 2 + 4 = 8 bytes a cell of its region.
+//
+// A table's cells are written (NeededSpans) before they are read, so its buffer is never
+// initialised, and a buffer that must grow is allocated anew (the old one freed first, its
+// contents not copied) at the size it had before it was last released, if that is larger: the
+// tables are released before every solve (OnlineEstimator::Solve) and after a wide loop search
+// (LoopCloser::WideSearch), and the next searches' windows grew them back step by step, each
+// step a new buffer faulted in again (ACES: ~160 allocations of each level in 440 scans).
+// Unwritten cells cost no memory: a large buffer has pages of its own (hetslam_run's
+// --malloc_mmap_threshold_kib), resident only where a search has written; a table of w × h
+// cells is written in its first w × h cells.
+template <typename T>
+class TableBuffer {
+ public:
+  // At least n cells, their values unspecified; the old contents are not kept when it grows.
+  void Reserve(size_t n) {
+    used_ = std::max(used_, n);
+    if (n <= capacity_) return;
+    n = std::max({n, regrow_, capacity_ + capacity_ / 2});
+    cells_.reset();          // freed before the larger one is allocated: never two at once
+    cells_.reset(new T[n]);  // default-initialised: not written
+    capacity_ = n;
+  }
+  // Frees the cells; the next Reserve allocates as many as were held.
+  void Release() {
+    regrow_ = std::max(regrow_, capacity_);
+    cells_.reset();
+    capacity_ = used_ = 0;
+  }
+  T* data() { return cells_.get(); }
+  const T* data() const { return cells_.get(); }
+  // The most cells asked for since the buffer was allocated: a bound of what searches wrote.
+  size_t used() const { return used_; }
+
+ private:
+  std::unique_ptr<T[]> cells_;
+  size_t capacity_ = 0;
+  size_t used_ = 0;
+  size_t regrow_ = 0;
+};
+
 struct Pyramid {
   static constexpr int kLevels16 = 1;  // levels 1 .. kLevels16 in 16 bits, coarser ones in 8
-  std::vector<uint16_t> finest;
-  std::vector<std::vector<uint16_t>> coarse;  // coarse[h - 1]: level h <= kLevels16
-  std::vector<std::vector<uint8_t>> coarse8;  // coarse8[h - kLevels16 - 1]: level h > kLevels16
+  TableBuffer<uint16_t> finest;
+  std::vector<TableBuffer<uint16_t>> coarse;  // coarse[h - 1]: level h <= kLevels16
+  std::vector<TableBuffer<uint8_t>> coarse8;  // coarse8[h - kLevels16 - 1]: level h > kLevels16
   std::vector<float> row;                     // one span's values before they are coded
   float lowest = 0.f;
   float step = 1.f;  // of the 16-bit codes; an 8-bit code q stands for lowest + q * 257 step
@@ -151,13 +192,23 @@ struct Pyramid {
   std::vector<std::array<int, 2>> spans;
   std::vector<int> row_spans;
   std::vector<uint8_t> needed;  // one flag a tile; scratch of NeededSpans
+  // What the tables may hold resident (the levels' cells asked for, the scratch vectors).
   size_t Bytes() const {
-    size_t bytes = finest.capacity() * sizeof(uint16_t) + row.capacity() * sizeof(float) +
-                   spans.capacity() * sizeof(spans[0]) +
-                   row_spans.capacity() * sizeof(int) + needed.capacity();
-    for (const std::vector<uint16_t>& level : coarse) bytes += level.capacity() * sizeof(uint16_t);
-    for (const std::vector<uint8_t>& level : coarse8) bytes += level.capacity();
+    size_t bytes = finest.used() * sizeof(uint16_t) + row.capacity() * sizeof(float) +
+                   spans.capacity() * sizeof(spans[0]) + row_spans.capacity() * sizeof(int) + needed.capacity();
+    for (const TableBuffer<uint16_t>& level : coarse) bytes += level.used() * sizeof(uint16_t);
+    for (const TableBuffer<uint8_t>& level : coarse8) bytes += level.used();
     return bytes;
+  }
+  // Frees every buffer (see TableBuffer::Release).
+  void Release() {
+    finest.Release();
+    for (TableBuffer<uint16_t>& level : coarse) level.Release();
+    for (TableBuffer<uint8_t>& level : coarse8) level.Release();
+    row = std::vector<float>();  // (not `= {}`: that keeps the capacity)
+    spans = std::vector<std::array<int, 2>>();
+    row_spans = std::vector<int>();
+    needed = std::vector<uint8_t>();
   }
 };
 
@@ -221,21 +272,14 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
                   const LikelihoodField* wall_field, float wall_weight, Pyramid* pyramid) {
   const int w = s.region_width, h = s.region_height;
   const size_t size = static_cast<size_t>(w) * h;
-  // Every level is written over the needed spans below: a buffer only grows (shrunk and grown
-  // again, std::vector would zero the regrown part first: 2% of an Intel run), and is emptied
-  // before it grows, so that its old contents are not copied over (a table grows again after
-  // every solve, which frees it: ~9% of MIT CSAIL's page faults were those copies).
-  auto ensure = [size](auto& level) {
-    if (level.size() >= size) return;
-    level.clear();
-    level.resize(size);
-  };
-  ensure(pyramid->finest);
+  // Every level is written over the needed spans below before a search reads it: a buffer only
+  // grows, uninitialised, its old contents not copied (see TableBuffer).
+  pyramid->finest.Reserve(size);
   if (pyramid->row.size() < static_cast<size_t>(w)) pyramid->row.resize(w);
   pyramid->coarse.resize(std::min(depth, Pyramid::kLevels16));
-  for (std::vector<uint16_t>& level : pyramid->coarse) ensure(level);
+  for (TableBuffer<uint16_t>& level : pyramid->coarse) level.Reserve(size);
   pyramid->coarse8.resize(std::max(0, depth - Pyramid::kLevels16));
-  for (std::vector<uint8_t>& level : pyramid->coarse8) ensure(level);
+  for (TableBuffer<uint8_t>& level : pyramid->coarse8) level.Reserve(size);
   NeededSpans(s, 1 << depth, pyramid);
   // Calls f(y, begin, end) for every needed span [begin, end) of every row y.
   auto for_each_span = [pyramid, h](auto f) {
@@ -729,7 +773,7 @@ Pyramid& ThreadScratch() {
 void ScanMatcher::ReleaseScratch() {
   Pyramid& pyramid = ThreadScratch();
   const size_t bytes = pyramid.Bytes();
-  pyramid = Pyramid();
+  pyramid.Release();
 #ifdef __GLIBC__
   // Freed memory inside the heap stays resident until the allocator hands it out again: a wide
   // search's tables (ACES: ~20 MB, the process's peak) are given back to the system at once.

@@ -310,6 +310,46 @@ TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes)
 // as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
 // One straight wall (y = 0, 30 m): a scan from 2 m away is flat along it. Started 0.3 m
 // along and 4 cm across off, turned 1°, the refinement holding the along direction puts the
+
+// The tables are never initialised and keep their buffers across searches and releases
+// (frontends/scan_matcher.cc TableBuffer): a search writes every cell it reads, so what a
+// larger search or a released buffer left behind changes no result, and ScratchBytes follows
+// what the searches since the last release asked for.
+TEST_F(ScanMatcherTest, TablesLeftByLargerOrReleasedSearchesChangeNoResult) {
+  const Pose2 truth(0.4, -0.3, 0.3);
+  std::mt19937 rng(2);
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
+  const Pose2 predicted = truth * Pose2(0.1, -0.05, 0.03);
+  auto expect_same = [](const ScanMatchResult& a, const ScanMatchResult& b, const char* when) {
+    ASSERT_TRUE(a.converged && b.converged) << when;
+    EXPECT_EQ(a.pose.x(), b.pose.x()) << when;
+    EXPECT_EQ(a.pose.y(), b.pose.y()) << when;
+    EXPECT_EQ(a.pose.theta(), b.pose.theta()) << when;
+    EXPECT_EQ(a.correlative_score, b.correlative_score) << when;
+    EXPECT_EQ(a.score, b.score) << when;
+    EXPECT_EQ(a.candidates_scored, b.candidates_scored) << when;
+    EXPECT_TRUE(a.information == b.information) << when;
+  };
+  ScanMatcher::ReleaseScratch();
+  const ScanMatchResult first = matcher_.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2);
+  const size_t narrow_bytes = matcher_.ScratchBytes();
+  EXPECT_GT(narrow_bytes, 0u);
+  // A wide search from elsewhere writes larger tables over the same buffers.
+  const ScanMatchResult wide = matcher_.MatchWithinWindow(map_, Pose2(-1.0, 1.0, -1.0), scan, 2.0, M_PI);
+  ASSERT_TRUE(wide.converged) << wide.message;
+  const size_t wide_bytes = matcher_.ScratchBytes();
+  EXPECT_GT(wide_bytes, narrow_bytes);
+  expect_same(first, matcher_.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "after a wide search");
+  // Released: nothing held, then the narrow search's tables again, in the buffers it had.
+  ScanMatcher::ReleaseScratch();
+  EXPECT_EQ(0u, matcher_.ScratchBytes());
+  expect_same(first, matcher_.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "after a release");
+  EXPECT_EQ(narrow_bytes, matcher_.ScratchBytes());
+  // Another matcher of the thread shares the tables.
+  const ScanMatcher other{ScanMatcherOptions()};
+  expect_same(first, other.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "with another matcher");
+  ScanMatcher::ReleaseScratch();
+}
 // pose back on the wall's distance and heading and leaves it 0.3 m along, where it started.
 TEST(ScanMatcherRefineHoldingDirectionTest, PlacesAcrossAndInYawKeepsAlong) {
   sim::World world;
