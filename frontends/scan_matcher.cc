@@ -57,10 +57,24 @@ inline int FloorToInt(double v) {
   return i - (v < i);
 }
 
-DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Pose2& predicted,
-                             const std::vector<Eigen::Vector2f>& points, const std::vector<float>& weights,
-                             int block_cells) {
-  DiscretizedSearch search;
+// Empties `v` with room for n elements; one too small is freed before the larger one is
+// allocated (never both at once, as reserve() would hold them).
+template <typename T>
+void ClearWithRoomFor(size_t n, std::vector<T>* v) {
+  v->clear();
+  if (v->capacity() >= n) return;
+  *v = std::vector<T>();
+  v->reserve(n);
+}
+
+// Into `search` and the scratch `cells`, whose buffers are kept (the thread's: see Pyramid).
+void Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Pose2& predicted,
+                const std::vector<Eigen::Vector2f>& points, const std::vector<float>& weights, int block_cells,
+                DiscretizedSearch* search_ptr, std::vector<CellIndex>* cells_ptr) {
+  DiscretizedSearch& search = *search_ptr;
+  search.yaws.clear();
+  search.yaw_offsets.clear();
+  search.begin.clear();
   const GridGeometry& geometry = map.field().geometry();
   const double r = geometry.resolution_meters();
   double step = options.angular_step_radians;
@@ -88,9 +102,9 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
   search.yaws.reserve(num_yaws);
   search.yaw_offsets.reserve(num_yaws);
   search.begin.reserve(num_yaws + 1);
-  std::vector<CellIndex> cells;
-  cells.reserve(num_yaws * points.size());
-  if (!weights.empty()) search.cell_weights.reserve(num_yaws * points.size());
+  std::vector<CellIndex>& cells = *cells_ptr;
+  ClearWithRoomFor(num_yaws * points.size(), &cells);
+  ClearWithRoomFor(weights.empty() ? 0 : num_yaws * points.size(), &search.cell_weights);
   const double ox = geometry.origin().x(), oy = geometry.origin().y();
   for (int k = -num_steps; k <= num_steps; ++k) {
     const double yaw = predicted.theta() + k * step;
@@ -118,11 +132,11 @@ DiscretizedSearch Discretize(const ScanMatcherOptions& options, const LaserMap& 
   search.region_min = {lo.x - w, lo.y - w};
   search.region_width = hi.x - lo.x + 2 * w + block_cells + 1;
   search.region_height = hi.y - lo.y + 2 * w + block_cells + 1;
+  ClearWithRoomFor(cells.size(), &search.offsets);
   search.offsets.resize(cells.size());
   for (size_t i = 0; i < cells.size(); ++i) {
     search.offsets[i] = (cells[i].y - search.region_min.y) * search.region_width + (cells[i].x - search.region_min.x);
   }
-  return search;
 }
 
 // The branch-and-bound tables over the search region. Level 0 is the field (and the
@@ -192,10 +206,20 @@ struct Pyramid {
   std::vector<std::array<int, 2>> spans;
   std::vector<int> row_spans;
   std::vector<uint8_t> needed;  // one flag a tile; scratch of NeededSpans
+  // The search's other buffers, kept like the tables: allocated anew for every search, those of
+  // 256 KiB and more had pages of their own, faulted in on every scan (ACES: 17% of the run's
+  // page faults were the front end's cell lists).
+  DiscretizedSearch search;
+  std::vector<CellIndex> cells;  // scratch of Discretize
+  std::vector<Candidate> top, top_copy;
   // What the tables may hold resident (the levels' cells asked for, the scratch vectors).
   size_t Bytes() const {
     size_t bytes = finest.used() * sizeof(uint16_t) + row.capacity() * sizeof(float) +
-                   spans.capacity() * sizeof(spans[0]) + row_spans.capacity() * sizeof(int) + needed.capacity();
+                   spans.capacity() * sizeof(spans[0]) + row_spans.capacity() * sizeof(int) + needed.capacity() +
+                   search.yaws.capacity() * sizeof(double) + search.yaw_offsets.capacity() * sizeof(double) +
+                   search.offsets.capacity() * sizeof(int32_t) + search.cell_weights.capacity() * sizeof(float) +
+                   search.begin.capacity() * sizeof(int) + cells.capacity() * sizeof(CellIndex) +
+                   (top.capacity() + top_copy.capacity()) * sizeof(Candidate);
     for (const TableBuffer<uint16_t>& level : coarse) bytes += level.used() * sizeof(uint16_t);
     for (const TableBuffer<uint8_t>& level : coarse8) bytes += level.used();
     return bytes;
@@ -209,6 +233,10 @@ struct Pyramid {
     spans = std::vector<std::array<int, 2>>();
     row_spans = std::vector<int>();
     needed = std::vector<uint8_t>();
+    search = DiscretizedSearch();
+    cells = std::vector<CellIndex>();
+    top = std::vector<Candidate>();
+    top_copy = std::vector<Candidate>();
   }
 };
 
@@ -820,8 +848,9 @@ ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& 
   result.pose = predicted;
   const LikelihoodField& field = map.field();
   if (points_robot.empty() || field.geometry().num_cells() == 0) return result;
-  const DiscretizedSearch s = Discretize(options_, map, predicted, points_robot, weights, 1);
   Pyramid pyramid;
+  Discretize(options_, map, predicted, points_robot, weights, 1, &pyramid.search, &pyramid.cells);
+  const DiscretizedSearch& s = pyramid.search;
   BuildPyramid(map, s, 0, options_.free_space_penalty, WallFieldFor(options_, map),
                static_cast<float>(options_.wall_weight), &pyramid);
   const SearchContext context = MakeContext(options_, map, s, pyramid, weights, points_robot.size());
@@ -931,8 +960,9 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   ScanMatcherOptions windows = options_;
   windows.linear_search_window_meters = linear_window_meters;
   windows.angular_search_window_radians = angular_window_radians;
-  const DiscretizedSearch s = Discretize(windows, map, predicted, points_robot, weights, block);
   Pyramid& pyramid = ThreadScratch();
+  Discretize(windows, map, predicted, points_robot, weights, block, &pyramid.search, &pyramid.cells);
+  const DiscretizedSearch& s = pyramid.search;
   // The search weighs walls; the refinement (cost, acceptance, information, profile) only with
   // wall_weight_in_refinement (see the option).
   const LikelihoodField* search_wall_field = WallFieldFor(options_, map);
@@ -942,9 +972,9 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
                &pyramid);
   const SearchContext context = MakeContext(options_, map, s, pyramid, weights, points_robot.size());
 
-  std::vector<Candidate> top;
+  std::vector<Candidate>& top = pyramid.top;
   const size_t blocks_per_side = static_cast<size_t>(2 * s.window_cells / block + 1);
-  top.reserve(s.yaws.size() * blocks_per_side * blocks_per_side);  // one allocation, no regrowth
+  ClearWithRoomFor(s.yaws.size() * blocks_per_side * blocks_per_side, &top);  // no regrowth below
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
     for (int dy = -s.window_cells; dy <= s.window_cells; dy += block) {
       for (int dx = -s.window_cells; dx <= s.window_cells; dx += block) {
@@ -954,8 +984,11 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   }
   result.candidates_scored = static_cast<int>(top.size());
   const bool second_mode = second_mode_exclusion_meters > 0 || second_mode_exclusion_radians > 0;
-  std::vector<Candidate> top_copy;
-  if (second_mode) top_copy = top;
+  std::vector<Candidate>& top_copy = pyramid.top_copy;
+  if (second_mode) {
+    ClearWithRoomFor(top.size(), &top_copy);
+    top_copy.assign(top.begin(), top.end());
+  }
   Candidate best{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
   BranchAndBound(context, top.data(), top.data() + top.size(), depth, &best, &result.candidates_scored);
   if (best.yaw_index < 0) {
