@@ -206,20 +206,19 @@ struct Pyramid {
   std::vector<std::array<int, 2>> spans;
   std::vector<int> row_spans;
   std::vector<uint8_t> needed;  // one flag a tile; scratch of NeededSpans
-  // The search's other buffers, kept like the tables: allocated anew for every search, those of
+  // The search's cell lists, kept like the tables: allocated anew for every search, those of
   // 256 KiB and more had pages of their own, faulted in on every scan (ACES: 17% of the run's
-  // page faults were the front end's cell lists).
+  // page faults were the front end's). (The top-level candidates are not kept: a wide search's
+  // are MBs, and kept they raised ACES's peak by 0.5 MiB.)
   DiscretizedSearch search;
   std::vector<CellIndex> cells;  // scratch of Discretize
-  std::vector<Candidate> top, top_copy;
   // What the tables may hold resident (the levels' cells asked for, the scratch vectors).
   size_t Bytes() const {
     size_t bytes = finest.used() * sizeof(uint16_t) + row.capacity() * sizeof(float) +
                    spans.capacity() * sizeof(spans[0]) + row_spans.capacity() * sizeof(int) + needed.capacity() +
                    search.yaws.capacity() * sizeof(double) + search.yaw_offsets.capacity() * sizeof(double) +
                    search.offsets.capacity() * sizeof(int32_t) + search.cell_weights.capacity() * sizeof(float) +
-                   search.begin.capacity() * sizeof(int) + cells.capacity() * sizeof(CellIndex) +
-                   (top.capacity() + top_copy.capacity()) * sizeof(Candidate);
+                   search.begin.capacity() * sizeof(int) + cells.capacity() * sizeof(CellIndex);
     for (const TableBuffer<uint16_t>& level : coarse) bytes += level.used() * sizeof(uint16_t);
     for (const TableBuffer<uint8_t>& level : coarse8) bytes += level.used();
     return bytes;
@@ -235,8 +234,6 @@ struct Pyramid {
     needed = std::vector<uint8_t>();
     search = DiscretizedSearch();
     cells = std::vector<CellIndex>();
-    top = std::vector<Candidate>();
-    top_copy = std::vector<Candidate>();
   }
 };
 
@@ -972,9 +969,9 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
                &pyramid);
   const SearchContext context = MakeContext(options_, map, s, pyramid, weights, points_robot.size());
 
-  std::vector<Candidate>& top = pyramid.top;
+  std::vector<Candidate> top;
   const size_t blocks_per_side = static_cast<size_t>(2 * s.window_cells / block + 1);
-  ClearWithRoomFor(s.yaws.size() * blocks_per_side * blocks_per_side, &top);  // no regrowth below
+  top.reserve(s.yaws.size() * blocks_per_side * blocks_per_side);  // one allocation, no regrowth
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
     for (int dy = -s.window_cells; dy <= s.window_cells; dy += block) {
       for (int dx = -s.window_cells; dx <= s.window_cells; dx += block) {
@@ -984,11 +981,8 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   }
   result.candidates_scored = static_cast<int>(top.size());
   const bool second_mode = second_mode_exclusion_meters > 0 || second_mode_exclusion_radians > 0;
-  std::vector<Candidate>& top_copy = pyramid.top_copy;
-  if (second_mode) {
-    ClearWithRoomFor(top.size(), &top_copy);
-    top_copy.assign(top.begin(), top.end());
-  }
+  std::vector<Candidate> top_copy;
+  if (second_mode) top_copy = top;
   Candidate best{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
   BranchAndBound(context, top.data(), top.data() + top.size(), depth, &best, &result.candidates_scored);
   if (best.yaw_index < 0) {
