@@ -153,8 +153,10 @@ void Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Po
 // front-end tables 1 MB and ACES's wide loop search's ~4 MB larger: the tables of a loop search
 // (depth 5) take 2 + 2 + 4 = 8 bytes a cell of its region.
 //
-// A table's cells are written (NeededSpans) before they are read, so its buffer is never
-// initialised, and a buffer that must grow is allocated anew (the old one freed first, its
+// A table's cells are written (NeededSpans) before a search reads them, so its buffer is never
+// initialised (the coarse levels' cells near a band's far edge may be computed from cells no
+// span wrote, see NeededSpans: no search reads those; with every new buffer filled with a
+// poison byte the real logs' and scenarios' outputs were byte-identical), and a buffer that must grow is allocated anew (the old one freed first, its
 // contents not copied) at the size it had before it was last released, if that is larger: the
 // tables are released before every solve (OnlineEstimator::Solve) and after a wide loop search
 // (LoopCloser::WideSearch), and the next searches' windows grew them back step by step, each
