@@ -154,16 +154,16 @@ void Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Po
 // (depth 5) take 2 + 2 + 4 = 8 bytes a cell of its region.
 //
 // A table's cells are written (NeededSpans) before a search reads them, so its buffer is never
-// initialised (the coarse levels' cells near a band's far edge may be computed from cells no
-// span wrote, see NeededSpans: no search reads those; with every new buffer filled with a
-// poison byte the real logs' and scenarios' outputs were byte-identical), and a buffer that must grow is allocated anew (the old one freed first, its
-// contents not copied) at the size it had before it was last released, if that is larger: the
-// tables are released before every solve (OnlineEstimator::Solve) and after a wide loop search
-// (LoopCloser::WideSearch), and the next searches' windows grew them back step by step, each
-// step a new buffer faulted in again (ACES: ~160 allocations of each level in 440 scans).
-// Unwritten cells cost no memory: a large buffer has pages of its own (hetslam_run's
-// --malloc_mmap_threshold_kib), resident only where a search has written; a table of w × h
-// cells is written in its first w × h cells.
+// initialised. (The coarse levels' cells near a band's far edge may be computed from cells no
+// span wrote, see NeededSpans: no search reads those. With every new buffer filled with a
+// poison byte, the real logs' and scenarios' outputs were byte-identical.) A buffer that must
+// grow is allocated anew (the old one freed first, its contents not copied), at least at the
+// largest size it has had: the tables are released before every solve (OnlineEstimator::Solve)
+// and after a wide loop search that grew them (LoopCloser::WideSearch), and the next searches'
+// windows grew them back step by step, each step a new buffer faulted in again (ACES: ~160
+// allocations of each level in 440 scans). Unwritten cells cost no memory: a large buffer has
+// pages of its own (hetslam_run's --malloc_mmap_threshold_kib), resident only where a search has
+// written; a table of w × h cells is written in its first w × h cells.
 template <typename T>
 class TableBuffer {
  public:
@@ -176,7 +176,7 @@ class TableBuffer {
     cells_.reset(new T[n]);  // default-initialised: not written
     capacity_ = n;
   }
-  // Frees the cells; the next Reserve allocates as many as were held.
+  // Frees the cells; the next Reserve allocates at least as many as were ever held.
   void Release() {
     regrow_ = std::max(regrow_, capacity_);
     cells_.reset();

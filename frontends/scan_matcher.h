@@ -205,10 +205,10 @@ class ScanMatcher {
   // largest search so far (region cells × (3 + branch_and_bound_depth) bytes: 16 bits for the
   // leaves and for level 1, 8 for each coarser level; MBs for a loop closer's wide window). This
   // frees them; the next search of any matcher of the thread allocates them again, at once at
-  // the size they had (unwritten cells of a large buffer take no memory). After a rare search
-  // over a large window, and before a solve (which does not read them). Tables of 8 MiB or more
-  // (a wide search's) are also given back to the system at once (glibc: malloc_trim), not left
-  // resident in the heap.
+  // the largest size they have had (unwritten cells of a large buffer take no memory). After a
+  // rare search over a large window, and before a solve (which does not read them). Tables of
+  // 8 MiB or more (a wide search's) are also given back to the system at once (glibc:
+  // malloc_trim), not left resident in the heap.
   static void ReleaseScratch();
   // Bytes the calling thread's tables may hold resident: the cells searches asked for since
   // their buffers were allocated, and the scratch vectors.

@@ -306,11 +306,6 @@ TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes)
   }
 }
 
-// The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
-// as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
-// One straight wall (y = 0, 30 m): a scan from 2 m away is flat along it. Started 0.3 m
-// along and 4 cm across off, turned 1°, the refinement holding the along direction puts the
-
 // The tables are never initialised and keep their buffers across searches and releases
 // (frontends/scan_matcher.cc TableBuffer): a search writes every cell it reads, so what a
 // larger search or a released buffer left behind changes no result, and ScratchBytes follows
@@ -350,6 +345,11 @@ TEST_F(ScanMatcherTest, TablesLeftByLargerOrReleasedSearchesChangeNoResult) {
   expect_same(first, other.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "with another matcher");
   ScanMatcher::ReleaseScratch();
 }
+
+// The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
+// as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
+// One straight wall (y = 0, 30 m): a scan from 2 m away is flat along it. Started 0.3 m
+// along and 4 cm across off, turned 1°, the refinement holding the along direction puts the
 // pose back on the wall's distance and heading and leaves it 0.3 m along, where it started.
 TEST(ScanMatcherRefineHoldingDirectionTest, PlacesAcrossAndInYawKeepsAlong) {
   sim::World world;
