@@ -13,6 +13,7 @@
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "opencv2/core.hpp"
 #include "opencv2/imgcodecs.hpp"
 
 namespace hetslam {
@@ -175,6 +176,62 @@ TEST(PngTest, GreyAndRgbRoundTripThroughOpenCv) {
       }
     }
   }
+}
+
+// Maps are long runs and rows like the one above: matches that run on across scanline ends
+// (over the filter byte, 0, which a run of zeros takes along), rows equal to the one above
+// with a few bytes changed, runs longer than deflate's 258, widths of 1 and 2 bytes.
+TEST(PngTest, RunsAndRepeatedRowsAcrossScanlinesRoundTrip) {
+  std::mt19937 rng(11);
+  const uint8_t greys[] = {0, 0, 255, 205, 128};
+  std::uniform_int_distribution<int> pick(0, 4), run_length(1, 400), percent(0, 99);
+  const int sizes[][2] = {{1, 40}, {2, 30}, {5, 20}, {300, 60}, {301, 41}};
+  for (const auto& size : sizes) {
+    for (int channels : {1, 3}) {
+      const int width = size[0], height = size[1];
+      const size_t row_bytes = static_cast<size_t>(width) * channels;
+      std::vector<uint8_t> pixels(row_bytes * height);
+      for (int r = 0; r < height; ++r) {
+        uint8_t* row = pixels.data() + r * row_bytes;
+        const int kind = percent(rng);
+        if (r > 0 && kind < 40) {  // the row above, a few bytes changed
+          std::copy(row - row_bytes, row, row);
+          for (int k = 0; k < 3; ++k) row[std::uniform_int_distribution<size_t>(0, row_bytes - 1)(rng)] = greys[pick(rng)];
+        } else if (kind < 60) {  // one grey throughout (zeros join the filter bytes around)
+          std::fill(row, row + row_bytes, greys[pick(rng)]);
+        } else {  // runs of greys
+          for (size_t x = 0; x < row_bytes;) {
+            const size_t end = std::min(row_bytes, x + run_length(rng));
+            std::fill(row + x, row + end, greys[pick(rng)]);
+            x = end;
+          }
+        }
+      }
+      const std::string path = TempPath("runs.png");
+      ASSERT_TRUE(WritePng(path, width, height, channels, pixels).ok());
+      const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+      ASSERT_FALSE(image.empty()) << width << "x" << height << "x" << channels;
+      ASSERT_EQ(width, image.cols);
+      ASSERT_EQ(height, image.rows);
+      for (int r = 0; r < height; ++r) {
+        for (int c = 0; c < width; ++c) {
+          for (int k = 0; k < channels; ++k) {
+            const int cv_k = channels == 3 ? 2 - k : 0;
+            ASSERT_EQ(pixels[r * row_bytes + c * channels + k], image.ptr<uint8_t>(r)[c * channels + cv_k])
+                << width << "x" << height << "x" << channels << " at " << r << "," << c;
+          }
+        }
+      }
+    }
+  }
+  // One grey throughout is one run: a 1000 x 1000 image in well under 1% of its bytes.
+  const std::string path = TempPath("flat.png");
+  ASSERT_TRUE(WritePng(path, 1000, 1000, 1, std::vector<uint8_t>(1000 * 1000, 205)).ok());
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
+  EXPECT_LT(static_cast<long>(file.tellg()), 10000);
+  const cv::Mat flat = cv::imread(path, cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(flat.empty());
+  EXPECT_EQ(1000000, cv::countNonZero(flat == 205));
 }
 
 TEST(PngTest, FileStructureIsValid) {
