@@ -315,7 +315,6 @@ std::string FlagsNamedIn(const std::string& message) {
       {"densify_max_gap_meters", "--densify_max_gap"},
       {"matching_voxel_meters", "--matching_voxel"},
       {"angular_search_window_radians", "--angular_window_deg"},
-      {"heading_hint_window_radians", "--heading_hint_window_deg"},
       {"wide_window_meters", "--loop_wide_window"},
       {"max_time_gap_seconds", "--max_time_gap"},
       {"flaser_fov_radians", "--flaser_fov_deg"},
@@ -421,7 +420,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
   options->heading_hint_from_directions = FLAGS_heading_hint_window_deg > 0;
-  options->matcher.heading_hint_window_radians = FLAGS_heading_hint_window_deg * M_PI / 180.0;
+  options->matcher.hinted_angular_search_window_radians = FLAGS_heading_hint_window_deg * M_PI / 180.0;
   options->scans_per_submap = FLAGS_no_loop_closure ? 0 : FLAGS_scans_per_submap;
   if (FLAGS_use_odometry) {
     options->prediction = MotionPrediction::kOdometry;

@@ -30,7 +30,7 @@ ScanMatcherOptions LocalSlamOptions::DefaultFrontEndMatcherOptions() {
   options.narrow_linear_search_window_meters = 0.4;
   options.narrow_angular_search_window_radians = 10.0 * M_PI / 180.0;
   options.narrow_accept_score = 0.4;
-  options.heading_hint_window_radians = 6.0 * M_PI / 180.0;
+  options.hinted_angular_search_window_radians = 6.0 * M_PI / 180.0;
   return options;
 }
 
@@ -519,7 +519,7 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
       if (options_.heading_hint_from_directions && !prediction.external && !state.recent.empty()) {
         const ScanMatcherOptions& m = options_.matcher;
         if (const std::optional<double> change = HeadingChangeFromDirections(
-                state.last_directions, directions, m.angular_search_window_radians - m.heading_hint_window_radians)) {
+                state.last_directions, directions, m.angular_search_window_radians - m.hinted_angular_search_window_radians)) {
           yaw_hint = WrapAngle(state.recent.back().pose.theta() + *change - prediction.pose.theta());
         }
       }

@@ -55,7 +55,7 @@ struct LocalSlamOptions {
   double angular_velocity_fraction = 0.0;
   // Without an external prediction (odometry, the EKF), a hint of the heading change from the
   // scans' surface directions (HeadingChangeFromDirections) lets the front end's full search
-  // try ± matcher.heading_hint_window_radians around it first (sparse logs turn
+  // try ± matcher.hinted_angular_search_window_radians around it first (sparse logs turn
   // 20-30° between scans: the full search spans ±40°).
   bool heading_hint_from_directions = true;
   // Points farther than this are not used (long ranges amplify yaw error and cost time).
@@ -300,6 +300,7 @@ struct ActiveSubmap {
   int num_filtered = 0;  // scans the motion filter let into it (not counted in num_scans)
 };
 
+// The last scan the motion filter let in (see LocalSlamOptions::motion_filter_distance_meters).
 // The directions of a scan's surfaces, for a heading change between two scans without any
 // motion source: a histogram over [0°, 180°) in 1° bins of the lines from each point (robot
 // frame, beam order) to the first later one at least 0.1 m away, where that is at most 0.5 m
@@ -312,7 +313,6 @@ std::vector<float> DirectionHistogram(const std::vector<Eigen::Vector2f>& points
 std::optional<double> HeadingChangeFromDirections(const std::vector<float>& previous, const std::vector<float>& current,
                                                   double max_radians);
 
-// The last scan the motion filter let in (see LocalSlamOptions::motion_filter_distance_meters).
 struct InsertedScan {
   double stamp_seconds = 0.0;
   Pose2 local_pose;

@@ -777,8 +777,8 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   if (!(narrow_linear_search_window_meters >= 0 && narrow_angular_search_window_radians >= 0 &&
         narrow_angular_search_window_radians <= M_PI && narrow_accept_score >= 0))
     msg << "narrow windows and narrow_accept_score must be >= 0 (angular <= pi); ";
-  if (!(heading_hint_window_radians >= 0 && heading_hint_window_radians <= M_PI))
-    msg << "heading_hint_window_radians must be in [0, pi] (got " << heading_hint_window_radians
+  if (!(hinted_angular_search_window_radians >= 0 && hinted_angular_search_window_radians <= M_PI))
+    msg << "hinted_angular_search_window_radians must be in [0, pi] (got " << hinted_angular_search_window_radians
         << "); ";
   if (!(translation_penalty_per_square_meter >= 0 && rotation_penalty_per_square_radian >= 0))
     msg << "motion penalties must be >= 0; ";
@@ -909,7 +909,7 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
   const double exclusion_radians =
       wide_modes ? options_.wide_second_mode_exclusion_radians : options_.second_mode_exclusion_radians;
   const double min_ratio = wide_modes ? options_.wide_second_mode_min_score_ratio : 0.0;
-  const double hinted_window = options_.heading_hint_window_radians;
+  const double hinted_window = options_.hinted_angular_search_window_radians;
   if (yaw_hint_radians.has_value() && hinted_window > 0.0 && hinted_window < options_.angular_search_window_radians &&
       std::abs(*yaw_hint_radians) + hinted_window < options_.angular_search_window_radians && !points_robot.empty() &&
       map.field().geometry().num_cells() > 0) {

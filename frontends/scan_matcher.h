@@ -75,7 +75,7 @@ struct ScanMatcherOptions {
   // Where the full window's best lies inside the hinted one, both give the same result, bit
   // for bit; a better pose at a heading outside the hinted window is not seen (measured: on the
   // four real logs every hinted match kept was the full search's, see the README).
-  double heading_hint_window_radians = 0.0;
+  double hinted_angular_search_window_radians = 0.0;
   // Second mode (0 disables): after the best candidate, the best discrete candidate farther
   // than second_mode_exclusion_meters (in x or y) or second_mode_exclusion_radians from it is
   // searched too (ScanMatchResult::second_mode_*): a scan that fits two places of the map
@@ -178,7 +178,7 @@ class ScanMatcher {
   // false when the prediction is not trusted to be that close (large recent motion).
   // `yaw_hint_radians`: an estimate of the heading's offset from `predicted` (e.g. from the
   // scan's surface directions, DirectionHistogram), tried before the full windows (see
-  // ScanMatcherOptions::heading_hint_window_radians).
+  // ScanMatcherOptions::hinted_angular_search_window_radians).
   ScanMatchResult Match(const LaserMap& map, const Pose2& predicted,
                         const std::vector<Eigen::Vector2f>& points_robot,
                         const std::vector<float>& weights = {}, bool try_narrow_first = true,

@@ -307,12 +307,12 @@ TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes)
 }
 
 // A heading hint narrows the full search's yaws (ScanMatcherOptions::
-// heading_hint_window_radians): with the hint right, the result is the full search's
+// hinted_angular_search_window_radians): with the hint right, the result is the full search's
 // bit for bit (same yaw lattice, same prediction) for fewer candidates; with the hint 15° off,
 // the hinted window's best lies on its border and the full search follows, same result again.
 TEST_F(ScanMatcherTest, HeadingHintGivesTheFullSearchsResultBitForBit) {
   ScanMatcherOptions options;
-  options.heading_hint_window_radians = 6 * M_PI / 180;
+  options.hinted_angular_search_window_radians = 6 * M_PI / 180;
   options.narrow_accept_score = 0.4;
   const ScanMatcher matcher(options);
   const double deg = M_PI / 180.0;
@@ -642,9 +642,9 @@ TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("wall_weight"));
   options = ScanMatcherOptions();
-  options.heading_hint_window_radians = -0.1;
+  options.hinted_angular_search_window_radians = -0.1;
   EXPECT_FALSE(options.IsValid(&error));
-  EXPECT_NE(std::string::npos, error.find("heading_hint_window_radians"));
+  EXPECT_NE(std::string::npos, error.find("hinted_angular_search_window_radians"));
 }
 
 }  // namespace
