@@ -77,12 +77,6 @@ DEFINE_double(velocity_fraction, 0.5, "Fraction of the last scan-to-scan transla
               "constant_velocity, in [0, 1.5].");
 DEFINE_double(angular_velocity_fraction, 0.0, "Fraction of the last scan-to-scan heading change extrapolated by "
               "constant_velocity, in [0, 1.5].");
-DEFINE_double(heading_hint_window_deg, 6.0,
-              "Without odometry or an EKF prediction: the front end's full search first tries ± this many degrees "
-              "around the heading change its scan's surface directions suggest (against the previous scan's), with "
-              "the full linear window, and keeps that match when it scores at least the narrow try's threshold off "
-              "the window's border; else the full ±--angular_window_deg search follows. 0 = off (always the full "
-              "search).");
 DEFINE_double(resolution, 0.05, "Grid cell size in metres (paper: 5 cm).");
 DEFINE_double(sigma, 0.10, "Likelihood field p_hit ~ exp(-d / sigma): sigma in metres.");
 DEFINE_string(refine_interpolation, "distances", "What the front end's Ceres refinement of a scan match interpolates "
@@ -419,8 +413,6 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->matching_voxel_meters = FLAGS_matching_voxel;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
-  options->heading_hint_from_directions = FLAGS_heading_hint_window_deg > 0;
-  options->matcher.hinted_angular_search_window_radians = FLAGS_heading_hint_window_deg * M_PI / 180.0;
   options->scans_per_submap = FLAGS_no_loop_closure ? 0 : FLAGS_scans_per_submap;
   if (FLAGS_use_odometry) {
     options->prediction = MotionPrediction::kOdometry;

@@ -30,7 +30,6 @@ ScanMatcherOptions LocalSlamOptions::DefaultFrontEndMatcherOptions() {
   options.narrow_linear_search_window_meters = 0.4;
   options.narrow_angular_search_window_radians = 10.0 * M_PI / 180.0;
   options.narrow_accept_score = 0.4;
-  options.hinted_angular_search_window_radians = 6.0 * M_PI / 180.0;
   return options;
 }
 
@@ -99,58 +98,6 @@ Pose2 PredictNextPose(const LocalSlamOptions& options, const std::vector<Stamped
       return last * Between(*last_motion, *motion);
   }
   return last;
-}
-
-std::vector<float> DirectionHistogram(const std::vector<Eigen::Vector2f>& points) {
-  constexpr int kBins = 180;
-  constexpr float kMinLength = 0.1f, kMaxLength = 0.5f, kMaxGap = 0.25f;
-  std::vector<float> histogram;
-  for (size_t i = 0; i + 1 < points.size(); ++i) {
-    for (size_t j = i + 1; j < points.size() && j <= i + 8; ++j) {
-      if ((points[j] - points[j - 1]).norm() > kMaxGap) break;
-      const Eigen::Vector2f line = points[j] - points[i];
-      const float length = line.norm();
-      if (length < kMinLength) continue;
-      if (length <= kMaxLength) {
-        if (histogram.empty()) histogram.assign(kBins, 0.f);
-        double degrees = std::atan2(line.y(), line.x()) * 180.0 / M_PI;  // (-180, 180]
-        if (degrees < 0) degrees += 180.0;
-        histogram[std::min(kBins - 1, static_cast<int>(degrees))] += 1.f;
-      }
-      break;
-    }
-  }
-  return histogram;
-}
-
-std::optional<double> HeadingChangeFromDirections(const std::vector<float>& previous, const std::vector<float>& current,
-                                                  double max_radians) {
-  const int bins = static_cast<int>(current.size());
-  if (bins == 0 || previous.size() != current.size()) return std::nullopt;
-  const int max_shift = std::min(bins / 2 - 1, static_cast<int>(std::floor(max_radians * 180.0 / M_PI)));
-  if (max_shift < 1) return std::nullopt;
-  // Each histogram smoothed over neighbouring bins (1 2 1), then correlated at every shift.
-  auto smooth = [bins](const std::vector<float>& h) {
-    std::vector<double> out(bins);
-    for (int b = 0; b < bins; ++b) out[b] = h[(b + bins - 1) % bins] + 2.0 * h[b] + h[(b + 1) % bins];
-    return out;
-  };
-  const std::vector<double> p = smooth(previous), c = smooth(current);
-  std::vector<double> correlation(2 * max_shift + 1);
-  for (int shift = -max_shift; shift <= max_shift; ++shift) {
-    double sum = 0.0;
-    for (int b = 0; b < bins; ++b) sum += c[b] * p[((b + shift) % bins + bins) % bins];
-    correlation[shift + max_shift] = sum;
-  }
-  const int best = static_cast<int>(std::max_element(correlation.begin(), correlation.end()) - correlation.begin());
-  if (!(correlation[best] > 0.0)) return std::nullopt;
-  double offset = 0.0;
-  if (best > 0 && best + 1 < static_cast<int>(correlation.size())) {
-    const double before = correlation[best - 1], at = correlation[best], after = correlation[best + 1];
-    const double curvature = before - 2.0 * at + after;
-    if (curvature < 0.0) offset = std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5);
-  }
-  return (best - max_shift + offset) * M_PI / 180.0;
 }
 
 bool NarrowSearchTrusted(const LocalSlamOptions& options, const std::vector<StampedPose2>& trajectory) {
@@ -467,8 +414,6 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
   if (static_cast<int>(points.all.size()) < options_.min_points) return result;
   LocalSlamState& state = state_;
   const auto match_start = std::chrono::steady_clock::now();
-  std::vector<float> directions;
-  if (options_.heading_hint_from_directions) directions = DirectionHistogram(points.all);
   // Match against the oldest active submap, in its frame.
   if (!state.active.empty() && state.active.front().num_scans > 0) {
     // (A map shared with another particle is updated in place: both hold the same scans.)
@@ -514,17 +459,8 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
         }
       }
     } else {
-      const bool narrow_first = prediction.external || NarrowSearchTrusted(options_, state.recent);
-      std::optional<double> yaw_hint;
-      if (options_.heading_hint_from_directions && !prediction.external && !state.recent.empty()) {
-        const ScanMatcherOptions& m = options_.matcher;
-        if (const std::optional<double> change = HeadingChangeFromDirections(
-                state.last_directions, directions, m.angular_search_window_radians - m.hinted_angular_search_window_radians)) {
-          yaw_hint = WrapAngle(state.recent.back().pose.theta() + *change - prediction.pose.theta());
-        }
-      }
       result.match = matcher_.Match(*target.map, predicted_submap, points.matching, points.matching_weights,
-                                    narrow_first, yaw_hint);
+                                    prediction.external || NarrowSearchTrusted(options_, state.recent));
     }
     if (result.match.converged) {
       // Along a flat direction the prediction is kept, when it measures the motion there; the
@@ -548,7 +484,6 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
   state.recent.push_back({stamp_seconds, result.local_pose});
   if (state.recent.size() > 2) state.recent.erase(state.recent.begin());
-  state.last_directions = std::move(directions);
   result.points = std::move(points);
   result.awaiting_insertion = true;
   return result;

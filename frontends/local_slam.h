@@ -53,11 +53,6 @@ struct LocalSlamOptions {
   // extrapolated.
   double velocity_fraction = 0.5;
   double angular_velocity_fraction = 0.0;
-  // Without an external prediction (odometry, the EKF), a hint of the heading change from the
-  // scans' surface directions (HeadingChangeFromDirections) lets the front end's full search
-  // try ± matcher.hinted_angular_search_window_radians around it first (sparse logs turn
-  // 20-30° between scans: the full search spans ±40°).
-  bool heading_hint_from_directions = true;
   // Points farther than this are not used (long ranges amplify yaw error and cost time).
   double max_point_range_meters = 30.0;
   // Points used for matching are thinned to one per voxel of this size (0 = all points);
@@ -301,18 +296,6 @@ struct ActiveSubmap {
 };
 
 // The last scan the motion filter let in (see LocalSlamOptions::motion_filter_distance_meters).
-// The directions of a scan's surfaces, for a heading change between two scans without any
-// motion source: a histogram over [0°, 180°) in 1° bins of the lines from each point (robot
-// frame, beam order) to the first later one at least 0.1 m away, where that is at most 0.5 m
-// away with no gap over 0.25 m between (one surface), each line counting once.
-std::vector<float> DirectionHistogram(const std::vector<Eigen::Vector2f>& points);
-// The heading change from the scan of `previous` to that of `current` (DirectionHistogram):
-// the shift within ± max_radians under which the two histograms correlate best, refined by a
-// parabola through its neighbours. A wall at world angle phi is at phi - yaw in the robot's
-// frame, so current[b] matches previous[b + change]. Nothing when either histogram is empty.
-std::optional<double> HeadingChangeFromDirections(const std::vector<float>& previous, const std::vector<float>& current,
-                                                  double max_radians);
-
 struct InsertedScan {
   double stamp_seconds = 0.0;
   Pose2 local_pose;
@@ -325,9 +308,6 @@ struct LocalSlamState {
   std::vector<StampedPose2> recent;           // the last (up to) two matched local poses
   std::optional<Pose2> last_odometry;         // odometry pose at the last matched scan
   std::optional<InsertedScan> last_inserted;
-  // DirectionHistogram of the scan at recent.back(), when LocalSlamOptions::
-  // heading_hint_from_directions (the yaw hint of the next search).
-  std::vector<float> last_directions;
   int next_submap_index = 0;
   int num_inserted = 0;
 };

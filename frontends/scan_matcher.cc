@@ -67,30 +67,26 @@ void ClearWithRoomFor(size_t n, std::vector<T>* v) {
   v->reserve(n);
 }
 
-// The search's yaw step: the options' own, or one that moves a point at the scan's 90th
-// percentile range d by one cell of resolution r (law of cosines), within the options' bounds.
-double YawStep(const ScanMatcherOptions& options, double r, const std::vector<Eigen::Vector2f>& points) {
-  if (options.angular_step_radians > 0.0) return options.angular_step_radians;
-  std::vector<float> ranges;
-  ranges.reserve(points.size());
-  for (const auto& p : points) ranges.push_back(p.norm());
-  std::nth_element(ranges.begin(), ranges.begin() + ranges.size() * 9 / 10, ranges.end());
-  const double d = std::max<double>(ranges[ranges.size() * 9 / 10], r);
-  const double step = std::acos(std::clamp(1.0 - r * r / (2.0 * d * d), -1.0, 1.0));
-  return std::clamp(step, options.min_angular_step_radians, options.max_angular_step_radians);
-}
-
 // Into `search` and the scratch `cells`, whose buffers are kept (the thread's: see Pyramid).
 void Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Pose2& predicted,
                 const std::vector<Eigen::Vector2f>& points, const std::vector<float>& weights, int block_cells,
-                DiscretizedSearch* search_ptr, std::vector<CellIndex>* cells_ptr, int yaw_center_steps = 0) {
+                DiscretizedSearch* search_ptr, std::vector<CellIndex>* cells_ptr) {
   DiscretizedSearch& search = *search_ptr;
   search.yaws.clear();
   search.yaw_offsets.clear();
   search.begin.clear();
   const GridGeometry& geometry = map.field().geometry();
   const double r = geometry.resolution_meters();
-  const double step = YawStep(options, r, points);
+  double step = options.angular_step_radians;
+  if (step <= 0.0) {
+    std::vector<float> ranges;
+    for (const auto& p : points) ranges.push_back(p.norm());
+    std::nth_element(ranges.begin(), ranges.begin() + ranges.size() * 9 / 10, ranges.end());
+    const double d = std::max<double>(ranges[ranges.size() * 9 / 10], r);
+    // A yaw step that moves a point at range d by one cell (law of cosines).
+    step = std::acos(std::clamp(1.0 - r * r / (2.0 * d * d), -1.0, 1.0));
+    step = std::clamp(step, options.min_angular_step_radians, options.max_angular_step_radians);
+  }
   const int num_steps = static_cast<int>(std::ceil(options.angular_search_window_radians / step));
   search.window_cells = static_cast<int>(std::ceil(options.linear_search_window_meters / r));
   const int w = search.window_cells;
@@ -110,7 +106,7 @@ void Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Po
   ClearWithRoomFor(num_yaws * points.size(), &cells);
   ClearWithRoomFor(weights.empty() ? 0 : num_yaws * points.size(), &search.cell_weights);
   const double ox = geometry.origin().x(), oy = geometry.origin().y();
-  for (int k = yaw_center_steps - num_steps; k <= yaw_center_steps + num_steps; ++k) {
+  for (int k = -num_steps; k <= num_steps; ++k) {
     const double yaw = predicted.theta() + k * step;
     const Pose2 world_T_robot(predicted.translation(), yaw);
     // world_T_robot * p with the cosine and sine taken once per yaw, and GridGeometry::WorldToCell
@@ -777,9 +773,6 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   if (!(narrow_linear_search_window_meters >= 0 && narrow_angular_search_window_radians >= 0 &&
         narrow_angular_search_window_radians <= M_PI && narrow_accept_score >= 0))
     msg << "narrow windows and narrow_accept_score must be >= 0 (angular <= pi); ";
-  if (!(hinted_angular_search_window_radians >= 0 && hinted_angular_search_window_radians <= M_PI))
-    msg << "hinted_angular_search_window_radians must be in [0, pi] (got " << hinted_angular_search_window_radians
-        << "); ";
   if (!(translation_penalty_per_square_meter >= 0 && rotation_penalty_per_square_radian >= 0))
     msg << "motion penalties must be >= 0; ";
   if (!(second_mode_exclusion_meters >= 0 && second_mode_exclusion_meters <= 50 && second_mode_exclusion_radians >= 0))
@@ -887,8 +880,7 @@ bool ScanMatcher::OnWindowBorder(const Pose2& predicted, const Pose2& pose, doub
 
 ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                    const std::vector<Eigen::Vector2f>& points_robot,
-                                   const std::vector<float>& weights, bool try_narrow_first,
-                                   std::optional<double> yaw_hint_radians) const {
+                                   const std::vector<float>& weights, bool try_narrow_first) const {
   int narrow_candidates = 0;
   if (try_narrow_first && options_.narrow_linear_search_window_meters > 0.0 &&
       options_.narrow_angular_search_window_radians > 0.0) {
@@ -909,25 +901,6 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
   const double exclusion_radians =
       wide_modes ? options_.wide_second_mode_exclusion_radians : options_.second_mode_exclusion_radians;
   const double min_ratio = wide_modes ? options_.wide_second_mode_min_score_ratio : 0.0;
-  const double hinted_window = options_.hinted_angular_search_window_radians;
-  if (yaw_hint_radians.has_value() && hinted_window > 0.0 && hinted_window < options_.angular_search_window_radians &&
-      std::abs(*yaw_hint_radians) + hinted_window < options_.angular_search_window_radians && !points_robot.empty() &&
-      map.field().geometry().num_cells() > 0) {
-    // On the full search's yaw lattice (predicted yaw + k step): where the full windows' best
-    // lies inside this one, both searches find the same candidate.
-    const double step = YawStep(options_, map.field().geometry().resolution_meters(), points_robot);
-    const int center_steps = static_cast<int>(std::lround(*yaw_hint_radians / step));
-    const Pose2 hinted(predicted.translation(), predicted.theta() + center_steps * step);
-    ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, options_.linear_search_window_meters,
-                                       hinted_window, exclusion_meters, exclusion_radians, min_ratio, 0.0, center_steps);
-    result.candidates_scored += narrow_candidates;
-    if (result.converged && result.score >= options_.narrow_accept_score &&
-        !OnWindowBorder(hinted, result.pose, options_.linear_search_window_meters, hinted_window)) {
-      result.wide_search = true;
-      return result;
-    }
-    narrow_candidates = result.candidates_scored;
-  }
   ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, options_.linear_search_window_meters,
                                      options_.angular_search_window_radians, exclusion_meters, exclusion_radians,
                                      min_ratio);
@@ -967,7 +940,7 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
                                        const std::vector<float>& weights, double linear_window_meters,
                                        double angular_window_radians, double second_mode_exclusion_meters,
                                        double second_mode_exclusion_radians, double second_mode_min_score_ratio,
-                                       double min_score, int yaw_center_steps) const {
+                                       double min_score) const {
   CHECK(weights.empty() || weights.size() == points_robot.size())
       << weights.size() << " weights for " << points_robot.size() << " points";
   const LikelihoodField& field = map.field();
@@ -987,7 +960,7 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   windows.linear_search_window_meters = linear_window_meters;
   windows.angular_search_window_radians = angular_window_radians;
   Pyramid& pyramid = ThreadScratch();
-  Discretize(windows, map, predicted, points_robot, weights, block, &pyramid.search, &pyramid.cells, yaw_center_steps);
+  Discretize(windows, map, predicted, points_robot, weights, block, &pyramid.search, &pyramid.cells);
   const DiscretizedSearch& s = pyramid.search;
   // The search weighs walls; the refinement (cost, acceptance, information, profile) only with
   // wall_weight_in_refinement (see the option).

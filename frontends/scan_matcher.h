@@ -26,7 +26,6 @@
 #ifndef HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 #define HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -68,14 +67,6 @@ struct ScanMatcherOptions {
   double narrow_linear_search_window_meters = 0.0;
   double narrow_angular_search_window_radians = 0.0;
   double narrow_accept_score = 0.5;
-  // Yaw hint (0 disables): with a hint of the heading change (Match's `yaw_hint_radians`), the
-  // full linear window is first searched over only ± this angle around the hinted heading,
-  // on the same yaw lattice, and the result kept under the narrow try's rule (score at least
-  // `narrow_accept_score`, not on the window's border); otherwise the full windows follow.
-  // Where the full window's best lies inside the hinted one, both give the same result, bit
-  // for bit; a better pose at a heading outside the hinted window is not seen (measured: on the
-  // four real logs every hinted match kept was the full search's, see the README).
-  double hinted_angular_search_window_radians = 0.0;
   // Second mode (0 disables): after the best candidate, the best discrete candidate farther
   // than second_mode_exclusion_meters (in x or y) or second_mode_exclusion_radians from it is
   // searched too (ScanMatchResult::second_mode_*): a scan that fits two places of the map
@@ -176,13 +167,9 @@ class ScanMatcher {
   // per point. The map must not change during the call.
   // `try_narrow_first`: allow the narrow first try (when its windows are set); callers pass
   // false when the prediction is not trusted to be that close (large recent motion).
-  // `yaw_hint_radians`: an estimate of the heading's offset from `predicted` (e.g. from the
-  // scan's surface directions, DirectionHistogram), tried before the full windows (see
-  // ScanMatcherOptions::hinted_angular_search_window_radians).
   ScanMatchResult Match(const LaserMap& map, const Pose2& predicted,
                         const std::vector<Eigen::Vector2f>& points_robot,
-                        const std::vector<float>& weights = {}, bool try_narrow_first = true,
-                        std::optional<double> yaw_hint_radians = std::nullopt) const;
+                        const std::vector<float>& weights = {}, bool try_narrow_first = true) const;
 
   // One search within the given windows (instead of the options' windows), without the wider
   // fallback search. A refined result whose score is below `min_score` (a caller that rejects
@@ -236,11 +223,7 @@ class ScanMatcher {
                             const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights,
                             double linear_window_meters, double angular_window_radians,
                             double second_mode_exclusion_meters, double second_mode_exclusion_radians,
-                            double second_mode_min_score_ratio = 0.0, double min_score = 0.0,
-                            int yaw_center_steps = 0) const;
-  // (`yaw_center_steps`: the yaws searched are predicted yaw + k step for k within the window's
-  // steps of this index, on the lattice of a search centred on the prediction, whose offsets
-  // from the prediction they keep; the translations are centred on the prediction.)
+                            double second_mode_min_score_ratio = 0.0, double min_score = 0.0) const;
 
   ScanMatcherOptions options_;
 };

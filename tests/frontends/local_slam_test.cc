@@ -416,61 +416,6 @@ TEST(LocalSlamOptionsTest, MotionFilterRanges) {
   EXPECT_NE(std::string::npos, error.find("motion_filter_time_seconds"));
 }
 
-// A scan of the rectangle [0, 8] x [0, 6] m with a 1 m x 0.5 m box in it, from `world_T_robot`:
-// beams every 0.5° over ±135°, robot frame, in beam order, with Gaussian range noise.
-std::vector<Eigen::Vector2f> RoomScan(const Pose2& world_T_robot, double noise_std, std::mt19937* rng) {
-  std::normal_distribution<double> noise(0.0, noise_std);
-  // Each side as a point and a direction, the box's sides too.
-  const double sides[][4] = {{0, 0, 1, 0}, {0, 6, 1, 0}, {0, 0, 0, 1}, {8, 0, 0, 1},
-                             {5, 4, 1, 0}, {5, 4.5, 1, 0}, {5, 4, 0, 1}, {6, 4, 0, 1}};
-  const double lengths[] = {8, 8, 6, 6, 1, 1, 0.5, 0.5};
-  std::vector<Eigen::Vector2f> points;
-  for (int i = 0; i <= 540; ++i) {
-    const double angle = (-135.0 + 0.5 * i) * M_PI / 180.0;
-    const Eigen::Vector2d d(std::cos(world_T_robot.theta() + angle), std::sin(world_T_robot.theta() + angle));
-    double range = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 8; ++k) {
-      // origin + t d = side point + u side direction.
-      const Eigen::Vector2d a(sides[k][0], sides[k][1]), e(sides[k][2], sides[k][3]);
-      const double det = d.x() * -e.y() - d.y() * -e.x();
-      if (std::abs(det) < 1e-12) continue;
-      const Eigen::Vector2d b = a - world_T_robot.translation();
-      const double t = (b.x() * -e.y() - b.y() * -e.x()) / det;
-      const double u = (d.x() * b.y() - d.y() * b.x()) / det;
-      if (t > 0.05 && u >= 0 && u <= lengths[k]) range = std::min(range, t);
-    }
-    if (!std::isfinite(range)) continue;
-    const double r = range + noise(*rng);
-    points.emplace_back(static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle)));
-  }
-  return points;
-}
-
-TEST(HeadingChangeFromDirectionsTest, RecoversTheTurnBetweenTwoScansOfARoom) {
-  std::mt19937 rng(3);
-  const double deg = M_PI / 180.0;
-  const Pose2 before(2.0, 1.5, 0.4);
-  const std::vector<float> previous = DirectionHistogram(RoomScan(before, 0.01, &rng));
-  ASSERT_EQ(180u, previous.size());
-  for (const double turn_deg : {0.0, 7.0, -23.0, 31.5}) {
-    const Pose2 after = before * Pose2(0.6, 0.2, turn_deg * deg);
-    const std::optional<double> change =
-        HeadingChangeFromDirections(previous, DirectionHistogram(RoomScan(after, 0.01, &rng)), 34 * deg);
-    ASSERT_TRUE(change.has_value());
-    EXPECT_NEAR(turn_deg, *change / deg, 1.5) << "turned " << turn_deg << "°";
-  }
-  // A turn beyond the bound is not reported as itself; nothing without directions.
-  const std::optional<double> beyond = HeadingChangeFromDirections(
-      previous, DirectionHistogram(RoomScan(before * Pose2(0, 0, 50 * deg), 0.01, &rng)), 34 * deg);
-  ASSERT_TRUE(beyond.has_value());
-  EXPECT_LE(std::abs(*beyond), 34 * deg);
-  EXPECT_FALSE(HeadingChangeFromDirections(previous, {}, 34 * deg).has_value());
-  EXPECT_FALSE(HeadingChangeFromDirections({}, previous, 34 * deg).has_value());
-  EXPECT_TRUE(DirectionHistogram({}).empty());
-  // Points too far apart to be one surface give no direction.
-  EXPECT_TRUE(DirectionHistogram({Eigen::Vector2f(0, 0), Eigen::Vector2f(1, 0), Eigen::Vector2f(2, 0)}).empty());
-}
-
 TEST(NarrowSearchTrustedTest, OnlyAfterSmallMotionOrWithOdometry) {
   LocalSlamOptions options;  // narrow ±0.4 m, ±10° by default
   std::vector<StampedPose2> trajectory = {{0.0, Pose2(0, 0, 0)}};

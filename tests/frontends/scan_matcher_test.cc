@@ -306,41 +306,6 @@ TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes)
   }
 }
 
-// A heading hint narrows the full search's yaws (ScanMatcherOptions::
-// hinted_angular_search_window_radians): with the hint right, the result is the full search's
-// bit for bit (same yaw lattice, same prediction) for fewer candidates; with the hint 15° off,
-// the hinted window's best lies on its border and the full search follows, same result again.
-TEST_F(ScanMatcherTest, HeadingHintGivesTheFullSearchsResultBitForBit) {
-  ScanMatcherOptions options;
-  options.hinted_angular_search_window_radians = 6 * M_PI / 180;
-  options.narrow_accept_score = 0.4;
-  const ScanMatcher matcher(options);
-  const double deg = M_PI / 180.0;
-  std::mt19937 rng(2);
-  for (const Pose2& truth : {Pose2(0.4, -0.3, 0.3), Pose2(-0.5, 0.2, 1.2)}) {
-    const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
-    const Pose2 predicted = truth * Pose2(0.5, -0.4, -25 * deg);  // the turn not predicted
-    const ScanMatchResult full = matcher.Match(map_, predicted, scan);
-    ASSERT_TRUE(full.converged) << full.message;
-    for (const double hint_error_deg : {0.0, 2.5, -3.0, -15.0}) {
-      const double hint = WrapAngle(truth.theta() - predicted.theta()) + hint_error_deg * deg;
-      const ScanMatchResult hinted = matcher.Match(map_, predicted, scan, {}, true, hint);
-      ASSERT_TRUE(hinted.converged) << hinted.message;
-      EXPECT_EQ(full.pose.x(), hinted.pose.x()) << "hint off by " << hint_error_deg << "°";
-      EXPECT_EQ(full.pose.y(), hinted.pose.y()) << "hint off by " << hint_error_deg << "°";
-      EXPECT_EQ(full.pose.theta(), hinted.pose.theta()) << "hint off by " << hint_error_deg << "°";
-      EXPECT_EQ(full.score, hinted.score);
-      EXPECT_EQ(full.correlative_score, hinted.correlative_score);
-      EXPECT_TRUE(hinted.wide_search);
-      if (std::abs(hint_error_deg) < 4.0) {
-        EXPECT_LT(hinted.candidates_scored, full.candidates_scored) << "hint off by " << hint_error_deg << "°";
-      } else {
-        EXPECT_GT(hinted.candidates_scored, full.candidates_scored) << "hint off by " << hint_error_deg << "°";
-      }
-    }
-  }
-}
-
 // The tables are never initialised and keep their buffers across searches and releases
 // (frontends/scan_matcher.cc TableBuffer): a search writes every cell it reads, so what a
 // larger search or a released buffer left behind changes no result, and ScratchBytes follows
@@ -641,10 +606,6 @@ TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   options.wall_weight = 0.5;  // below 1: the wall channel's cost weight sqrt(w - 1) is undefined
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("wall_weight"));
-  options = ScanMatcherOptions();
-  options.hinted_angular_search_window_radians = -0.1;
-  EXPECT_FALSE(options.IsValid(&error));
-  EXPECT_NE(std::string::npos, error.find("hinted_angular_search_window_radians"));
 }
 
 }  // namespace
