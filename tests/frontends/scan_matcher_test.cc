@@ -346,8 +346,6 @@ TEST_F(ScanMatcherTest, TablesLeftByLargerOrReleasedSearchesChangeNoResult) {
   ScanMatcher::ReleaseScratch();
 }
 
-// The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
-// as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
 // One straight wall (y = 0, 30 m): a scan from 2 m away is flat along it. Started 0.3 m
 // along and 4 cm across off, turned 1°, the refinement holding the along direction puts the
 // pose back on the wall's distance and heading and leaves it 0.3 m along, where it started.
@@ -375,6 +373,8 @@ TEST(ScanMatcherRefineHoldingDirectionTest, PlacesAcrossAndInYawKeepsAlong) {
   EXPECT_EQ(start.ToVector(), matcher.RefineHoldingDirection(map, start, Eigen::Vector2d::UnitX(), {}).ToVector());
 }
 
+// The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
+// as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
 TEST(ScanMatcherSecondModeTest, TellsASymmetricRoomFromAnAsymmetricOne) {
   ScanMatcherOptions options;
   options.translation_penalty_per_square_meter = 0.0;
