@@ -50,12 +50,33 @@ struct DiscretizedSearch {
   int region_height = 0;
 };
 
+// Hot loops compiled twice, for AVX2 (twice the lanes) and for any x86-64 CPU, the loader
+// picking one when the program starts. Integer loops give the same integers either way, and
+// floating-point ones the same doubles (no -ffast-math; AVX2 does not bring FMA contraction).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__ELF__)
+#define HETSLAM_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define HETSLAM_CLONES
+#endif
+
 // floor(v) for |v| < 2^31, without a libm call (std::floor is one unless the target has
 // SSE4.1): truncation, one less for a negative non-integer. The same integer as
 // static_cast<int>(std::floor(v)).
 inline int FloorToInt(double v) {
   const int i = static_cast<int>(v);
   return i - (v < i);
+}
+
+// The cells of n points placed by the rotation (cos_yaw, sin_yaw) and translation (tx, ty) in
+// a grid of cells r wide from (ox, oy): world_T_robot * p with the cosine and sine taken once,
+// and GridGeometry::WorldToCell inline (the same arithmetic: the same cells).
+HETSLAM_CLONES void CellsOfPoints(const Eigen::Vector2f* points, size_t n, double cos_yaw, double sin_yaw, double tx,
+                                  double ty, double ox, double oy, double r, CellIndex* cells) {
+  for (size_t i = 0; i < n; ++i) {
+    const double px = points[i].x(), py = points[i].y();
+    cells[i] = {FloorToInt((tx + cos_yaw * px - sin_yaw * py - ox) / r),
+                FloorToInt((ty + sin_yaw * px + cos_yaw * py - oy) / r)};
+  }
 }
 
 // Empties `v` with room for n elements; one too small is freed before the larger one is
@@ -107,24 +128,28 @@ void Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Po
   ClearWithRoomFor(num_yaws * points.size(), &cells);
   ClearWithRoomFor(weights.empty() ? 0 : num_yaws * points.size(), &search.cell_weights);
   const double ox = geometry.origin().x(), oy = geometry.origin().y();
+  const size_t n = points.size();
   for (int k = -num_steps; k <= num_steps; ++k) {
     const double yaw = predicted.theta() + k * step;
     const Pose2 world_T_robot(predicted.translation(), yaw);
-    // world_T_robot * p with the cosine and sine taken once per yaw, and GridGeometry::WorldToCell
-    // inline (same arithmetic: the same cells).
     const double cos_yaw = std::cos(world_T_robot.theta()), sin_yaw = std::sin(world_T_robot.theta());
     const double tx = world_T_robot.x(), ty = world_T_robot.y();
     search.begin.push_back(static_cast<int>(cells.size()));
-    for (size_t i = 0; i < points.size(); ++i) {
-      const double px = points[i].x(), py = points[i].y();
-      const CellIndex c{FloorToInt((tx + cos_yaw * px - sin_yaw * py - ox) / r),
-                        FloorToInt((ty + sin_yaw * px + cos_yaw * py - oy) / r)};
+    // Every point's cell after the kept ones so far (within the capacity reserved above), then
+    // the kept ones moved up behind them.
+    const size_t first = cells.size();
+    cells.resize(first + n);
+    CellsOfPoints(points.data(), n, cos_yaw, sin_yaw, tx, ty, ox, oy, r, cells.data() + first);
+    size_t kept = first;
+    for (size_t i = 0; i < n; ++i) {
+      const CellIndex c = cells[first + i];
       if (c.x < keep_min.x || c.y < keep_min.y || c.x > keep_max.x || c.y > keep_max.y) continue;
-      cells.push_back(c);
+      cells[kept++] = c;
       if (!weights.empty()) search.cell_weights.push_back(weights[i]);
       lo = {std::min(lo.x, c.x), std::min(lo.y, c.y)};
       hi = {std::max(hi.x, c.x), std::max(hi.y, c.y)};
     }
+    cells.resize(kept);
     search.yaws.push_back(yaw);
     search.yaw_offsets.push_back(k * step);
   }
@@ -296,28 +321,20 @@ void NeededSpans(const DiscretizedSearch& s, int block, Pyramid* pyramid) {
 
 // One row of a coarser level over cells [begin, end), where x + half stays in the row:
 // o[x] = max(a[x], a[x + half], b[x], b[x + half]) of rows a and b of the level below (16-bit
-// codes to 16, 16 to 8 rounding up to multiples of 257, 8 to 8). These loops are a fifth of a
-// sparse log's run; compiled twice, for AVX2 (twice the lanes) and for any x86-64 CPU, the
-// loader picking one (the same integers either way).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__ELF__)
-#define HETSLAM_ROW_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define HETSLAM_ROW_CLONES
-#endif
-HETSLAM_ROW_CLONES void MaxOfFour(const uint16_t* a, const uint16_t* b, int half, int begin, int end, uint16_t* o) {
+// codes to 16, 16 to 8 rounding up to multiples of 257, 8 to 8): a large share of a sparse
+// log's run (HETSLAM_CLONES).
+HETSLAM_CLONES void MaxOfFour(const uint16_t* a, const uint16_t* b, int half, int begin, int end, uint16_t* o) {
   for (int x = begin; x < end; ++x) o[x] = std::max(std::max(a[x], a[x + half]), std::max(b[x], b[x + half]));
 }
 // (q + 256) / 257 as a multiply and a shift (equal for every q < 65536, checked exhaustively;
 // the division was 5% of an Intel run).
 inline uint8_t To8Bits(uint16_t q) { return static_cast<uint8_t>(((q + 256u) * 65281u) >> 24); }
-HETSLAM_ROW_CLONES void MaxOfFour(const uint16_t* a, const uint16_t* b, int half, int begin, int end, uint8_t* o) {
+HETSLAM_CLONES void MaxOfFour(const uint16_t* a, const uint16_t* b, int half, int begin, int end, uint8_t* o) {
   for (int x = begin; x < end; ++x) o[x] = To8Bits(std::max(std::max(a[x], a[x + half]), std::max(b[x], b[x + half])));
 }
-HETSLAM_ROW_CLONES void MaxOfFour(const uint8_t* a, const uint8_t* b, int half, int begin, int end, uint8_t* o) {
+HETSLAM_CLONES void MaxOfFour(const uint8_t* a, const uint8_t* b, int half, int begin, int end, uint8_t* o) {
   for (int x = begin; x < end; ++x) o[x] = std::max(std::max(a[x], a[x + half]), std::max(b[x], b[x + half]));
 }
-#undef HETSLAM_ROW_CLONES
-
 // Builds `pyramid` where a search of `s` reads it (NeededSpans; its buffers are reused between
 // calls and keep their capacity).
 void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, float free_space_penalty,
