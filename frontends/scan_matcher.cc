@@ -225,7 +225,7 @@ struct Pyramid {
   TableBuffer<uint16_t> finest;
   std::vector<TableBuffer<uint16_t>> coarse;  // coarse[h - 1]: level h <= kLevels16
   std::vector<TableBuffer<uint8_t>> coarse8;  // coarse8[h - kLevels16 - 1]: level h > kLevels16
-  std::vector<float> row;                     // one span's values before they are coded
+  std::vector<float> row;                     // with a wall channel: a span's summed values
   float lowest = 0.f;
   float step = 1.f;  // of the 16-bit codes; an 8-bit code q stands for lowest + q * 257 step
   // The tables are filled only where a search reads them (NeededSpans): spans[row_spans[r] ..
@@ -344,7 +344,7 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   // Every level is written over the needed spans below before a search reads it: a buffer only
   // grows, uninitialised, its old contents not copied (see TableBuffer).
   pyramid->finest.Reserve(size);
-  if (pyramid->row.size() < static_cast<size_t>(w)) pyramid->row.resize(w);
+  if (wall_field != nullptr && pyramid->row.size() < static_cast<size_t>(w)) pyramid->row.resize(w);
   pyramid->coarse.resize(std::min(depth, Pyramid::kLevels16));
   for (TableBuffer<uint16_t>& level : pyramid->coarse) level.Reserve(size);
   pyramid->coarse8.resize(std::max(0, depth - Pyramid::kLevels16));
