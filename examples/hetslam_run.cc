@@ -171,6 +171,10 @@ DEFINE_bool(use_attitude, true, "Robot logs: project each scan with the body att
             "false = treat every scan as level (plain 2D). CARMEN logs carry no attitude.");
 DEFINE_string(attitude_source, "marg", "Where the attitude for the 2.5D projection comes from: marg (our MARG filter on "
               "the log's raw MARG samples) or logged (the log's ATTITUDE lines, the sensor's own filter).");
+DEFINE_double(floor_tilt_gain, hetslam::OnlineEstimatorOptions().floor_tilt_gain,
+              "With an attitude: each scan whose floor hits lie on a line away from the body (a laser tilted down) "
+              "corrects the attitude's roll and pitch for the later scans by this fraction of the tilt the line says "
+              "the projection got wrong (an accelerometer bias tilts the MARG filter's attitude for good); 0 = off.");
 DEFINE_double(floor_max_height, 0.08, "With an attitude: end points lower than this above the floor (metres) are floor "
               "hits, neither matched nor mapped.");
 DEFINE_double(floor_obstacle_max_height, 0.35, "With an attitude: points at most this high above the floor (metres) and "
@@ -443,6 +447,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
     return false;
   }
   if (!FLAGS_use_attitude) estimator->attitude_source = AttitudeSource::kLevel;
+  estimator->floor_tilt_gain = FLAGS_floor_tilt_gain;
   estimator->loop_closure = !FLAGS_no_loop_closure;
   LoopCloserOptions* loop = &estimator->loop;
   loop->min_score = FLAGS_loop_min_score;
@@ -562,6 +567,13 @@ std::string Summary(const OnlineEstimator& estimator) {
   if (s.marg_samples > 0) {
     std::snprintf(line, sizeof(line), "MARG: %d samples (%d refused), EKF: %d updates refused, %lld replayed\n",
                   s.marg_samples, s.marg_errors, s.ekf_errors, static_cast<long long>(estimator.ekf().num_replayed()));
+    out += line;
+  }
+  if (s.floor_tilt_updates > 0) {
+    std::snprintf(line, sizeof(line),
+                  "floor tilt: %d scans' floor lines corrected the attitude (--floor_tilt_gain); correction at the end "
+                  "roll %+.3f deg, pitch %+.3f deg\n",
+                  s.floor_tilt_updates, s.floor_tilt_radians.x() * 180.0 / M_PI, s.floor_tilt_radians.y() * 180.0 / M_PI);
     out += line;
   }
   const ParticleFilterStats& p = estimator.particle_filter().stats();

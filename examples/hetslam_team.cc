@@ -51,6 +51,10 @@ DEFINE_double(skip_static_images_within, 0.02, "While no tag is in view, also sk
 DEFINE_double(skip_static_images_within_deg, 1.0, "See --skip_static_images_within.");
 DEFINE_string(attitude_source, "marg", "Each robot's attitude for the 2.5D scan projection: marg (our MARG filter on "
               "the raw samples), logged (the log's ATTITUDE lines) or level.");
+DEFINE_double(floor_tilt_gain, hetslam::OnlineEstimatorOptions().floor_tilt_gain,
+              "Each robot with an attitude: a scan whose floor hits lie on a line away from the body (a laser tilted "
+              "down) corrects the attitude's roll and pitch for the later scans by this fraction of the tilt the line "
+              "says the projection got wrong (an accelerometer bias tilts the MARG filter's attitude for good); 0 = off.");
 DEFINE_double(command_response, -1.0, "Seconds of each robot's velocity response to a command: the EKF's command model "
               "lets the velocity follow the commanded one with this first-order lag (a multirotor's velocity controller); "
               "0 = the velocity is the command (paper eq. 3). Negative (default): each log's PARAM "
@@ -128,6 +132,7 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   if (!ParseAttitudeSource(FLAGS_attitude_source, &robot->attitude_source)) {
     return (*error = "--attitude_source must be marg, logged or level (got '" + FLAGS_attitude_source + "')"), false;
   }
+  robot->floor_tilt_gain = FLAGS_floor_tilt_gain;
   if (!ParseScanCostInterpolation(FLAGS_refine_interpolation, &robot->local.matcher.refine_interpolation)) {
     return (*error = "--refine_interpolation must be values or distances (got '" + FLAGS_refine_interpolation + "')"),
            false;
@@ -404,7 +409,15 @@ int Run() {
   for (int r = 0; r < team.num_robots(); ++r) {
     const std::string frame = team.InCommonFrame(r) ? "in the common frame at " + PoseText(team.CommonTRobot(r))
                                                     : "NOT MERGED: own frame (not " + robots[0].name + "'s)";
-    std::printf("%s: %d nodes, %s\n", robots[r].name.c_str(), team.graph().num_nodes(r), frame.c_str());
+    const OnlineEstimatorStats& stats = team.estimator(r).stats();
+    std::string tilt;
+    if (stats.floor_tilt_updates > 0) {
+      char text[160];
+      std::snprintf(text, sizeof(text), "; the floor corrected its attitude on %d scans (roll %+.3f deg, pitch %+.3f deg)",
+                    stats.floor_tilt_updates, stats.floor_tilt_radians.x() / kDeg, stats.floor_tilt_radians.y() / kDeg);
+      tilt = text;
+    }
+    std::printf("%s: %d nodes, %s%s\n", robots[r].name.c_str(), team.graph().num_nodes(r), frame.c_str(), tilt.c_str());
   }
   for (const TeamTagPlace& tag : team.TagPlaces()) {
     const TagPlace& p = tag.place;

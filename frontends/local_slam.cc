@@ -264,6 +264,29 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line) {
   return true;
 }
 
+double SensorHeight(const LaserScan& scan, const BodyAttitude& attitude) {
+  return (RotationFromRollPitchYaw(attitude.roll_radians, attitude.pitch_radians, 0.0) * scan.robot_T_sensor.translation())
+             .z() +
+         attitude.base_height_meters;
+}
+
+bool FloorTiltError(const FloorLine& line, double min_distance_meters, double max_distance_meters,
+                    Eigen::Vector2d* roll_pitch_radians) {
+  const Eigen::Vector2d c = line.centre.cast<double>();
+  const Eigen::Vector2d d = line.direction.cast<double>().normalized();
+  // [-c_y  c_x] [ω_x]   [offset]
+  // [-d_y  d_x] [ω_y] = [slope ]
+  const double determinant = c.x() * d.y() - c.y() * d.x();
+  if (!(min_distance_meters > 0.0) || !(std::abs(determinant) >= min_distance_meters) ||
+      !(std::abs(determinant) <= max_distance_meters)) {
+    return false;
+  }
+  const double offset = line.offset, slope = line.slope;
+  *roll_pitch_radians = Eigen::Vector2d((offset * d.x() - c.x() * slope) / determinant,
+                                        (d.y() * offset - c.y() * slope) / determinant);
+  return true;
+}
+
 ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
                              const std::optional<BodyAttitude>& attitude) {
   ScanPoints points;
@@ -273,9 +296,7 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   const float step = static_cast<float>(options.grid.resolution_meters);
   const BodyAttitude body = attitude.value_or(BodyAttitude());
   // Height of the sensor above the floor: a point well below it and low is a floor obstacle.
-  const float sensor_height = static_cast<float>(
-      (RotationFromRollPitchYaw(body.roll_radians, body.pitch_radians, 0.0) * scan.robot_T_sensor.translation()).z() +
-      body.base_height_meters);
+  const float sensor_height = static_cast<float>(SensorHeight(scan, body));
   const float obstacle_max_height = static_cast<float>(options.floor_obstacle_max_height_meters);
   const float floor_slope = static_cast<float>(std::tan(options.floor_attitude_tolerance_radians));
   const Eigen::Vector2f sensor_xy = (RotationFromRollPitchYaw(body.roll_radians, body.pitch_radians, 0.0) *
@@ -293,10 +314,11 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
     return obstacle_max_height > 0 && p.z_meters <= obstacle_max_height &&
            p.z_meters < sensor_height - obstacle_min_drop && p.p_robot.norm() <= max_range;
   };
-  // Low floor obstacles: heights above the floor this scan sees (FitFloorLine).
+  // The floor this scan sees (FitFloorLine): low floor obstacles stand above it, and its tilt
+  // is the attitude's error (FloorTiltError; ScanPoints::floor_line).
   std::optional<FloorLine> floor_line;
   const float min_above_floor = static_cast<float>(options.floor_obstacle_min_height_above_floor_meters);
-  if (attitude.has_value() && min_above_floor > 0) {
+  if (attitude.has_value()) {
     std::vector<Eigen::Vector3f> floor_hits;
     for (const ProjectedPoint& p : projected) {
       if (in_floor_band(p)) floor_hits.emplace_back(p.p_robot.x(), p.p_robot.y(), p.z_meters);
@@ -309,7 +331,7 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
     ++points.valid_points;
     if (in_floor_band(p)) {
       ++points.floor_points;
-      if (floor_line.has_value() && p.z_meters - floor_line->HeightAt(p.p_robot) >= above_floor &&
+      if (min_above_floor > 0 && floor_line.has_value() && p.z_meters - floor_line->HeightAt(p.p_robot) >= above_floor &&
           low_obstacle_shape(p)) {
         points.floor_obstacles.push_back(p.p_robot);
       }
@@ -348,6 +370,7 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
                         : points.all;
   points.sensor_robot = scan.robot_T_sensor.translation().head<2>();
   points.attitude = body;
+  points.floor_line = floor_line;
   return points;
 }
 

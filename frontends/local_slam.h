@@ -192,29 +192,6 @@ struct LocalSlamOptions {
 };
 
 
-// A scan's valid end points in the robot frame within max_point_range_meters (for the map),
-// one label (core/laser_scan.h PointLabel, kept in the map's label layer) and one height each,
-// and their voxel-thinned subset (for matching) with a matching
-// weight each. With an attitude: the 2.5D projection, floor hits removed (counted); without,
-// the scan is taken as level (height 0).
-struct ScanPoints {
-  std::vector<Eigen::Vector2f> all;
-  std::vector<PointLabel> labels;    // one per point of `all`
-  std::vector<float> heights_meters; // one per point of `all`: height above the floor
-  bool projected = false;            // 2.5D projection with an attitude (heights meaningful)
-  int valid_points = 0;              // valid beams of the scan
-  int floor_points = 0;              // removed as floor hits (with the low floor obstacles)
-  std::vector<Eigen::Vector2f> floor_obstacles;  // robot frame; not in `all`
-  std::vector<Eigen::Vector2f> matching;
-  BodyAttitude attitude;             // of the projection (all 0 when not projected)
-  // Scan matcher weights, one per point of `matching`; empty = every weight 1.
-  std::vector<float> matching_weights;
-  Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();  // sensor origin, robot frame
-};
-
-ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
-                             const std::optional<BodyAttitude>& attitude = std::nullopt);
-
 // The floor as one projected scan sees it (LocalSlamOptions::
 // floor_obstacle_min_height_above_floor_meters). A tilted scan's plane meets the floor in a line,
 // so its floor hits lie on one line of the ground plane (their projected x, y), and their
@@ -236,6 +213,52 @@ struct FloorLine {
 // False, `line` untouched, with fewer than 20 points (or inliers) or when they span less than
 // 0.3 m along the axis.
 bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line);
+
+// The laser's height above the floor: its mount turned by the attitude's roll and pitch, plus
+// the body's height (BodyAttitude::base_height_meters).
+double SensorHeight(const LaserScan& scan, const BodyAttitude& attitude);
+
+// The body tilt the floor line says the projection got wrong, as the (roll, pitch) to add to
+// the attitude (radians). Paper §III-A takes the attitude from a MARG filter; an accelerometer
+// bias b tilts it by about b / g (0.3° for a MEMS part's 0.05 m/s²), and no gyro or
+// accelerometer can tell that bias from a tilt. The floor can: when the projection's roll is
+// ω_x and its pitch ω_y too small (small angles about the level robot frame's axes; pitch
+// positive nose down), a floor hit projected to (x, y) from the body origin comes out at height
+// z = ω_y x - ω_x y instead of 0. On the line z = offset + slope t at p = c + t d:
+// ω_y c_x - ω_x c_y = offset and ω_y d_x - ω_x d_y = slope. The two are independent when the
+// line passes away from the body origin: false when that distance, |c × d|, is under
+// `min_distance_meters`. A body height error h lifts every line alike and reads as a tilt of
+// h / |c × d| on a line that far. False too when the line is farther than
+// `max_distance_meters`: there the beams meet the floor at a grazing angle (and a level laser's
+// low hits on distant walls fall in the floor band).
+bool FloorTiltError(const FloorLine& line, double min_distance_meters, double max_distance_meters,
+                    Eigen::Vector2d* roll_pitch_radians);
+
+// A scan's valid end points in the robot frame within max_point_range_meters (for the map),
+// one label (core/laser_scan.h PointLabel, kept in the map's label layer) and one height each,
+// and their voxel-thinned subset (for matching) with a matching
+// weight each. With an attitude: the 2.5D projection, floor hits removed (counted); without,
+// the scan is taken as level (height 0).
+struct ScanPoints {
+  std::vector<Eigen::Vector2f> all;
+  std::vector<PointLabel> labels;    // one per point of `all`
+  std::vector<float> heights_meters; // one per point of `all`: height above the floor
+  bool projected = false;            // 2.5D projection with an attitude (heights meaningful)
+  int valid_points = 0;              // valid beams of the scan
+  int floor_points = 0;              // removed as floor hits (with the low floor obstacles)
+  std::vector<Eigen::Vector2f> floor_obstacles;  // robot frame; not in `all`
+  std::vector<Eigen::Vector2f> matching;
+  BodyAttitude attitude;             // of the projection (all 0 when not projected)
+  // The floor this scan saw (FitFloorLine on its floor-band hits), when it could be fitted.
+  std::optional<FloorLine> floor_line;
+  // Scan matcher weights, one per point of `matching`; empty = every weight 1.
+  std::vector<float> matching_weights;
+  Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();  // sensor origin, robot frame
+};
+
+ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
+                             const std::optional<BodyAttitude>& attitude = std::nullopt);
+
 
 // Paper §III-A/E: whether the laser faces the floor (more than suspend_floor_fraction of the
 // scan's valid beams hit it): then matching and map updates stop (LocalResult::suspended).

@@ -84,6 +84,12 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
     msg << "attitude, altitude and odometry ages must be >= 0; ";
   if (!(degenerate_sigma_meters > 0 && degenerate_sigma_meters <= 1e3)) msg << "degenerate_sigma_meters must be in (0, 1000]; ";
   if (!(max_scan_jump_meters > 0)) msg << "max_scan_jump_meters must be > 0; ";
+  if (!(floor_tilt_gain >= 0 && floor_tilt_gain <= 1))
+    msg << "floor_tilt_gain must be in [0, 1] (0 = off), got " << floor_tilt_gain << "; ";
+  if (!(floor_tilt_min_line_distance_meters > 0 && floor_tilt_max_rms_meters > 0 && floor_tilt_max_error_radians > 0))
+    msg << "floor_tilt_min_line_distance_meters, floor_tilt_max_rms_meters and floor_tilt_max_error_radians must be > 0; ";
+  if (!(floor_tilt_min_depression_radians > 0 && floor_tilt_min_depression_radians < M_PI / 2))
+    msg << "floor_tilt_min_depression_radians must be in (0, pi/2); ";
   if (!(min_well_constrained_fraction >= 0 && min_well_constrained_fraction <= 1))
     msg << "min_well_constrained_fraction must be in [0, 1]; ";
   if (!(retire_revisited_share >= 0 && retire_revisited_share <= 1))
@@ -248,6 +254,8 @@ std::optional<BodyAttitude> OnlineEstimator::AttitudeAt(double stamp_seconds) co
       break;
     }
   }
+  attitude.roll_radians += stats_.floor_tilt_radians.x();
+  attitude.pitch_radians += stats_.floor_tilt_radians.y();
   const AltitudeReading* altitude = LatestAtOrBefore(altitudes_, stamp_seconds);
   if (altitude != nullptr && stamp_seconds - altitude->stamp_seconds <= options_.altitude_max_age_seconds) {
     attitude.base_height_meters = altitude->height_meters;
@@ -285,6 +293,17 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   stats_.prepare_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - prepare_start).count();
   stats_.floor_points += points.floor_points;
   stats_.projected_scans += points.projected;
+  // The floor corrects the tilt of the attitude for the scans after this one.
+  Eigen::Vector2d tilt_error;
+  if (options_.floor_tilt_gain > 0 && attitude.has_value() && points.floor_line.has_value() &&
+      points.floor_line->rms <= options_.floor_tilt_max_rms_meters &&
+      FloorTiltError(*points.floor_line, options_.floor_tilt_min_line_distance_meters,
+                     SensorHeight(reading.scan, *attitude) / std::tan(options_.floor_tilt_min_depression_radians),
+                     &tilt_error) &&
+      tilt_error.lpNorm<Eigen::Infinity>() <= options_.floor_tilt_max_error_radians) {
+    stats_.floor_tilt_radians += options_.floor_tilt_gain * tilt_error;
+    ++stats_.floor_tilt_updates;
+  }
 
   // Prediction: odometry, else the EKF when motion inputs reach the scan, else extrapolation.
   std::optional<Pose2> odometry;

@@ -118,6 +118,23 @@ struct OnlineEstimatorOptions {
   // this old; else the scan is taken as level (at height 0).
   double attitude_max_age_seconds = 0.1;
   double altitude_max_age_seconds = 0.3;
+  // The floor corrects the attitude's tilt (FloorTiltError, frontends/local_slam.h): the
+  // (roll, pitch) a scan's floor line says the projection got wrong is added to a correction,
+  // times this gain, that every later scan's attitude takes (from either attitude source). An
+  // accelerometer bias tilts a MARG filter's attitude for good; the floor sees it whenever a
+  // tilted laser meets the floor in a line (a humanoid's head looking down). 0 = off. At 0.05
+  // a correction settles over ~20 such scans (2 s of a 10 Hz laser looking down), averaging
+  // the single lines' noise (a tenth of a degree or more) down by ~4.
+  double floor_tilt_gain = 0.05;
+  // Only lines this far from the body origin (nearer, a body height error looks like a tilt),
+  // seen by beams tilted down at least this much (the line at most sensor height / tan of it
+  // from the body: a level laser's grazing or wall hits in the floor band say nothing), fitted
+  // within this RMS, and saying at most this much tilt (more is not a bias: a slope, a step, a
+  // fit on something else) count.
+  double floor_tilt_min_line_distance_meters = 0.5;
+  double floor_tilt_min_depression_radians = 0.087;  // 5°
+  double floor_tilt_max_rms_meters = 0.02;
+  double floor_tilt_max_error_radians = 0.035;
 
   EkfStateUpdaterOptions ekf;
   bool use_commands = true;    // commands drive the EKF prediction
@@ -177,6 +194,8 @@ struct OnlineEstimatorStats {
   int filtered_scans = 0;           // matched, not inserted: nothing new (the motion filter)
   int projected_scans = 0;          // projected with an attitude (2.5D)
   int scans_without_attitude = 0;   // the stream has attitudes, but none near the scan: level
+  int floor_tilt_updates = 0;       // scans whose floor line corrected the attitude's tilt
+  Eigen::Vector2d floor_tilt_radians = Eigen::Vector2d::Zero();  // the (roll, pitch) correction now
   int ekf_predicted_scans = 0;      // scans predicted by the EKF
   size_t active_submap_bytes_at_finish = 0;  // LaserMap::MemoryBytes of the active submaps Finish() freed
   int marg_samples = 0;

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "core/carmen_log.h"
+#include "core/euler.h"
 #include "core/relations.h"
 #include "core/trajectory_metrics.h"
 #include "datasets/sim/scenario.h"
@@ -556,6 +557,45 @@ TEST(FitFloorLineTest, RecoversATiltedLineDespiteLowObstaclesAndRefusesTooFewOrT
   for (int i = 0; i < 30; ++i) short_span.emplace_back(0.6f, 0.005f * i, 0.f);  // 14.5 cm
   EXPECT_FALSE(FitFloorLine(short_span, &untouched));
   EXPECT_EQ(7.f, untouched.offset);
+}
+
+// The pitched laser on a body truly tilted 0.4° in roll and 0.7° in pitch sees a flat floor
+// across its path. Projected with a level attitude (or one that has part of the tilt), the
+// floor line says what the projection missed; a line through the body says nothing.
+TEST(FloorTiltErrorTest, TheFloorLineRecoversTheTiltTheProjectionMissed) {
+  const double roll = 0.4 * M_PI / 180.0, pitch = 0.7 * M_PI / 180.0;
+  LaserScan scan = PitchedLaserScan(121, -M_PI / 3);
+  const Eigen::Matrix3d body = RotationFromRollPitchYaw(roll, pitch, 0.0);
+  const Eigen::Vector3d origin = body * scan.robot_T_sensor.translation();
+  for (double angle : scan.angles_radians) {
+    const Eigen::Vector3d direction =
+        body * scan.robot_T_sensor.linear() * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0);
+    scan.ranges_meters.push_back(origin.z() / -direction.z());
+  }
+  LocalSlamOptions options;
+  for (const double share : {0.0, 0.5}) {
+    BodyAttitude estimate;
+    estimate.roll_radians = share * roll;
+    estimate.pitch_radians = share * pitch;
+    const ScanPoints points = PrepareScanPoints(options, scan, estimate);
+    ASSERT_TRUE(points.floor_line.has_value());
+    Eigen::Vector2d error;
+    ASSERT_TRUE(FloorTiltError(*points.floor_line, 0.3, 1.0, &error));
+    EXPECT_NEAR((1 - share) * roll, error.x(), 0.01 * M_PI / 180.0) << share;
+    EXPECT_NEAR((1 - share) * pitch, error.y(), 0.01 * M_PI / 180.0) << share;
+  }
+  // The floor 0.6 m ahead: a line 0.6 m from the body, refused nearer than 0.7 m or farther
+  // than 0.5 m.
+  Eigen::Vector2d unused;
+  const FloorLine ahead = *PrepareScanPoints(options, scan, BodyAttitude()).floor_line;
+  EXPECT_FALSE(FloorTiltError(ahead, 0.7, 1.0, &unused));
+  EXPECT_FALSE(FloorTiltError(ahead, 0.3, 0.5, &unused));
+  // A line through the body: a tilt about its direction moves nothing on it.
+  FloorLine through;
+  through.centre = {0.1f, 0.f};
+  through.direction = {1.f, 0.f};
+  through.offset = 0.01f;
+  EXPECT_FALSE(FloorTiltError(through, 0.3, 1.0, &unused));
 }
 
 // A wall 1 m to the side seen at grazing angles: neighbouring beams' end points lie up to

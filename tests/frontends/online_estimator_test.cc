@@ -414,6 +414,13 @@ TEST(OnlineEstimatorOptionsTest, RejectsBadValues) {
   EXPECT_NE(std::string::npos, error.find("scans_per_submap"));
   EXPECT_NE(std::string::npos, error.find("min_score"));
 
+  OnlineEstimatorOptions tilt;
+  tilt.floor_tilt_gain = 1.5;
+  tilt.floor_tilt_min_depression_radians = 0.0;
+  EXPECT_FALSE(tilt.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("floor_tilt_gain"));
+  EXPECT_NE(std::string::npos, error.find("floor_tilt_min_depression_radians"));
+
   OnlineEstimatorOptions wide;
   wide.loop.wide_window_meters = 0;
   wide.loop.wide_min_score = 1.5;
@@ -518,6 +525,37 @@ TEST(OnlineEstimatorStreamingTest, SuspendPredictResumeKeepsAStandingHumanoidInP
     EXPECT_LT(moved.translation().norm(), 0.04) << "t=" << p.stamp_seconds;
     EXPECT_LT(std::abs(moved.theta()), 0.6 * M_PI / 180) << "t=" << p.stamp_seconds;
   }
+}
+
+// An accelerometer bias tilts the MARG filter's attitude for good (paper §III-A's filter cannot
+// tell it from a tilt); the floor the tilted head sees measures it (FloorTiltError). The same
+// 40 s of humanoid_explore with (0.1, -0.06, 0) m/s² added to every accelerometer sample: the
+// filter's pitch comes out 0.1 / g too small and its roll 0.06 / g too large, and the floor's
+// correction grows by just that (to within 0.15°).
+TEST(OnlineEstimatorStreamingTest, TheFloorCorrectsTheTiltOfABiasedAccelerometer) {
+  const MeasurementLog log = HumanoidStream(40.0);
+  const Eigen::Vector3d bias(0.1, -0.06, 0.0);
+  std::vector<Measurement> biased = log.measurements;
+  for (Measurement& m : biased) {
+    if (MargSample* sample = std::get_if<MargSample>(&m)) sample->accel_mps2 += bias;
+  }
+  OnlineEstimatorStats plain, corrected;
+  RunStream(log.measurements, &plain);
+  RunStream(biased, &corrected);
+  ASSERT_GT(OnlineEstimatorOptions().floor_tilt_gain, 0.0);
+  EXPECT_GT(plain.floor_tilt_updates, 100);
+  EXPECT_GT(corrected.floor_tilt_updates, 100);
+  const double g = OnlineEstimatorOptions().marg.gravity_mps2;
+  const Eigen::Vector2d grown = corrected.floor_tilt_radians - plain.floor_tilt_radians;
+  EXPECT_NEAR(-bias.y() / g, grown.x(), 0.15 * M_PI / 180.0);  // roll
+  EXPECT_NEAR(bias.x() / g, grown.y(), 0.15 * M_PI / 180.0);   // pitch
+  // Off, the attitude is the filter's own.
+  OnlineEstimatorOptions off;
+  off.floor_tilt_gain = 0.0;
+  OnlineEstimator estimator(off);
+  for (const Measurement& m : biased) ASSERT_TRUE(estimator.Add(m).ok());
+  EXPECT_EQ(0, estimator.stats().floor_tilt_updates);
+  EXPECT_EQ(Eigen::Vector2d::Zero(), estimator.stats().floor_tilt_radians);
 }
 
 // Bad data is returned as an error and leaves the estimator usable.
