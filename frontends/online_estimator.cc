@@ -90,6 +90,8 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
     msg << "floor_tilt_min_line_distance_meters, floor_tilt_max_rms_meters and floor_tilt_max_error_radians must be > 0; ";
   if (!(floor_tilt_min_depression_radians > 0 && floor_tilt_min_depression_radians < M_PI / 2))
     msg << "floor_tilt_min_depression_radians must be in (0, pi/2); ";
+  if (!(floor_tilt_max_correction_radians >= 0 && floor_tilt_max_correction_radians < M_PI / 4))
+    msg << "floor_tilt_max_correction_radians must be in [0, pi/4); ";
   if (!(min_well_constrained_fraction >= 0 && min_well_constrained_fraction <= 1))
     msg << "min_well_constrained_fraction must be in [0, 1]; ";
   if (!(retire_revisited_share >= 0 && retire_revisited_share <= 1))
@@ -301,7 +303,9 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
                      SensorHeight(reading.scan, *attitude) / std::tan(options_.floor_tilt_min_depression_radians),
                      &tilt_error) &&
       tilt_error.lpNorm<Eigen::Infinity>() <= options_.floor_tilt_max_error_radians) {
-    stats_.floor_tilt_radians += options_.floor_tilt_gain * tilt_error;
+    const double bound = options_.floor_tilt_max_correction_radians;
+    stats_.floor_tilt_radians =
+        (stats_.floor_tilt_radians + options_.floor_tilt_gain * tilt_error).cwiseMax(-bound).cwiseMin(bound);
     ++stats_.floor_tilt_updates;
   }
 

@@ -135,6 +135,9 @@ struct OnlineEstimatorOptions {
   double floor_tilt_min_depression_radians = 0.087;  // 5°
   double floor_tilt_max_rms_meters = 0.02;
   double floor_tilt_max_error_radians = 0.035;
+  // The correction's roll and pitch stay within this (a MEMS accelerometer's bias is at most a
+  // few tenths of m/s², under 3°): a floor that is not level (a ramp) cannot tilt it further.
+  double floor_tilt_max_correction_radians = 0.05;
 
   EkfStateUpdaterOptions ekf;
   bool use_commands = true;    // commands drive the EKF prediction

@@ -417,7 +417,9 @@ TEST(OnlineEstimatorOptionsTest, RejectsBadValues) {
   OnlineEstimatorOptions tilt;
   tilt.floor_tilt_gain = 1.5;
   tilt.floor_tilt_min_depression_radians = 0.0;
+  tilt.floor_tilt_max_correction_radians = -1.0;
   EXPECT_FALSE(tilt.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("floor_tilt_max_correction_radians"));
   EXPECT_NE(std::string::npos, error.find("floor_tilt_gain"));
   EXPECT_NE(std::string::npos, error.find("floor_tilt_min_depression_radians"));
 
@@ -549,6 +551,14 @@ TEST(OnlineEstimatorStreamingTest, TheFloorCorrectsTheTiltOfABiasedAccelerometer
   const Eigen::Vector2d grown = corrected.floor_tilt_radians - plain.floor_tilt_radians;
   EXPECT_NEAR(-bias.y() / g, grown.x(), 0.15 * M_PI / 180.0);  // roll
   EXPECT_NEAR(bias.x() / g, grown.y(), 0.15 * M_PI / 180.0);   // pitch
+  // The correction stays within its bound (a floor that is not level cannot tilt it further).
+  OnlineEstimatorOptions bounded;
+  bounded.floor_tilt_max_correction_radians = 0.1 * M_PI / 180.0;
+  OnlineEstimator clamped(bounded);
+  for (const Measurement& m : biased) ASSERT_TRUE(clamped.Add(m).ok());
+  EXPECT_GT(clamped.stats().floor_tilt_updates, 100);
+  EXPECT_NEAR(bounded.floor_tilt_max_correction_radians, clamped.stats().floor_tilt_radians.y(), 1e-12);
+  EXPECT_LE(clamped.stats().floor_tilt_radians.cwiseAbs().maxCoeff(), bounded.floor_tilt_max_correction_radians);
   // Off, the attitude is the filter's own.
   OnlineEstimatorOptions off;
   off.floor_tilt_gain = 0.0;
