@@ -584,8 +584,8 @@ TEST(FloorTiltErrorTest, TheFloorLineRecoversTheTiltTheProjectionMissed) {
     EXPECT_NEAR((1 - share) * roll, error.x(), 0.01 * M_PI / 180.0) << share;
     EXPECT_NEAR((1 - share) * pitch, error.y(), 0.01 * M_PI / 180.0) << share;
   }
-  // The floor 0.6 m ahead: a line 0.6 m from the body, refused nearer than 0.7 m or farther
-  // than 0.5 m.
+  // The floor 0.6 m ahead: a line 0.6 m from the body, refused when lines must be at least
+  // 0.7 m away, or at most 0.5 m.
   Eigen::Vector2d unused;
   const FloorLine ahead = *PrepareScanPoints(options, scan, BodyAttitude()).floor_line;
   EXPECT_FALSE(FloorTiltError(ahead, 0.7, 1.0, &unused));
