@@ -192,8 +192,9 @@ struct LocalSlamOptions {
 };
 
 
-// The floor as one projected scan sees it (LocalSlamOptions::
-// floor_obstacle_min_height_above_floor_meters). A tilted scan's plane meets the floor in a line,
+// The floor as one projected scan sees it: low floor obstacles stand above it
+// (LocalSlamOptions::floor_obstacle_min_height_above_floor_meters), and its tilt is the
+// attitude's error (FloorTiltError). A tilted scan's plane meets the floor in a line,
 // so its floor hits lie on one line of the ground plane (their projected x, y), and their
 // heights along it vary linearly (an attitude error tilts that line; a body height error lifts
 // it): z = offset + slope · t, t = direction · (p - centre), robot frame.
@@ -258,7 +259,6 @@ struct ScanPoints {
 
 ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& scan,
                              const std::optional<BodyAttitude>& attitude = std::nullopt);
-
 
 // Paper §III-A/E: whether the laser faces the floor (more than suspend_floor_fraction of the
 // scan's valid beams hit it): then matching and map updates stop (LocalResult::suspended).

@@ -256,8 +256,8 @@ std::optional<BodyAttitude> OnlineEstimator::AttitudeAt(double stamp_seconds) co
       break;
     }
   }
-  attitude.roll_radians += stats_.floor_tilt_radians.x();
-  attitude.pitch_radians += stats_.floor_tilt_radians.y();
+  attitude.roll_radians += floor_tilt_radians_.x();
+  attitude.pitch_radians += floor_tilt_radians_.y();
   const AltitudeReading* altitude = LatestAtOrBefore(altitudes_, stamp_seconds);
   if (altitude != nullptr && stamp_seconds - altitude->stamp_seconds <= options_.altitude_max_age_seconds) {
     attitude.base_height_meters = altitude->height_meters;
@@ -304,8 +304,8 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
                      &tilt_error) &&
       tilt_error.lpNorm<Eigen::Infinity>() <= options_.floor_tilt_max_error_radians) {
     const double bound = options_.floor_tilt_max_correction_radians;
-    stats_.floor_tilt_radians =
-        (stats_.floor_tilt_radians + options_.floor_tilt_gain * tilt_error).cwiseMax(-bound).cwiseMin(bound);
+    floor_tilt_radians_ = (floor_tilt_radians_ + options_.floor_tilt_gain * tilt_error).cwiseMax(-bound).cwiseMin(bound);
+    stats_.floor_tilt_radians = floor_tilt_radians_;
     ++stats_.floor_tilt_updates;
   }
 

@@ -312,6 +312,9 @@ class OnlineEstimator {
   EkfStateUpdater ekf_;
   // Histories of the last ekf.history_window_seconds (attitude at a scan's stamp).
   std::deque<MargAttitude> marg_attitudes_;
+  // The (roll, pitch) the floor lines say every scan's attitude needs (floor_tilt_gain); kept in
+  // stats_ too.
+  Eigen::Vector2d floor_tilt_radians_ = Eigen::Vector2d::Zero();
   std::deque<AttitudeReading> logged_attitudes_;
   std::deque<AltitudeReading> altitudes_;
   std::deque<OdometryReading> odometry_;
