@@ -202,7 +202,7 @@ bool FacesFloor(const LocalSlamOptions& options, const ScanPoints& points) {
          points.floor_points > options.suspend_floor_fraction * points.valid_points;
 }
 
-bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line) {
+bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, double max_tilt, FloorLine* line) {
   constexpr int kMinPoints = 20;
   constexpr double kMinSpanMeters = 0.3;
   if (static_cast<int>(points.size()) < kMinPoints) return false;
@@ -225,8 +225,55 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line) {
     t_max = std::max(t_max, t);
   }
   if (t_max - t_min < kMinSpanMeters) return false;
-  float keep_within = std::numeric_limits<float>::infinity();
-  std::vector<float> absolute_residuals;
+  // The start: among the lines through two of ~32 points spread over the list, no steeper than
+  // max_tilt, the one with the most points within 1 cm of it, each count weighed by how level
+  // the line lies. A tilted scan also puts low wall hits in the floor band, often more of them
+  // than floor hits (a wall seen along it, a room's corner at the laser's range); a
+  // least-squares start over every point (or a median-based one, when the floor is not the
+  // majority) is pulled up by them, and trimming about it then keeps them. What tells the floor:
+  // - projected with an attitude error below max_tilt, the floor lies on the plane through the
+  //   body z = ω_y x − ω_x y (FloorTiltError), so a floor point's |z| / (its distance) is at
+  //   most the error, where a wall's low hits stand higher: the weight is a normal density of
+  //   the line's largest such ratio (and of its slope) with max_tilt as two standard deviations;
+  // - the floor is the lowest surface the beams reach: a line with more than a tenth as many
+  //   points 2 cm or more below it as within 1 cm of it is a wall's low hits.
+  constexpr float kConsensusMeters = 0.01f;
+  const float tilt_sigma = 0.5f * static_cast<float>(max_tilt);
+  const int count = static_cast<int>(points.size());
+  const int stride = std::max(1, count / 32);
+  auto level = [&](const Eigen::Vector3f& p) { return std::abs(p.z()) / std::max(0.3f, p.head<2>().norm()); };
+  int best_support = 0;
+  float best_score = 0.f;
+  for (int i = 0; i < count; i += stride) {
+    for (int j = i + stride; j < count; j += stride) {
+      const float ti = fit.direction.dot(points[i].head<2>() - fit.centre);
+      const float tj = fit.direction.dot(points[j].head<2>() - fit.centre);
+      if (!(std::abs(tj - ti) >= 0.1f * kMinSpanMeters)) continue;
+      FloorLine candidate = fit;
+      candidate.slope = (points[j].z() - points[i].z()) / (tj - ti);
+      if (!(std::abs(candidate.slope) <= max_tilt)) continue;
+      candidate.offset = points[i].z() - candidate.slope * ti;
+      int support = 0, below = 0;
+      for (const Eigen::Vector3f& p : points) {
+        const float residual = p.z() - candidate.HeightAt(p.head<2>());
+        support += std::abs(residual) <= kConsensusMeters;
+        below += residual < -2.f * kConsensusMeters;
+      }
+      if (10 * below > support) continue;
+      const float u = std::max({std::abs(candidate.slope), level(points[i]), level(points[j])}) / tilt_sigma;
+      const float score = static_cast<float>(support) * std::exp(-0.5f * u * u);
+      if (score > best_score) {
+        best_score = score;
+        best_support = support;
+        fit.offset = candidate.offset;
+        fit.slope = candidate.slope;
+      }
+    }
+  }
+  if (best_support < kMinPoints) return false;
+  // Then least squares, five rounds, each over the points within 3 RMS (at least 1 cm) of the
+  // previous line: the low obstacles on the floor, all on one side, stay out.
+  float keep_within = kConsensusMeters;
   for (int round = 0; round < 5; ++round) {
     double n = 0, st = 0, sz = 0, stt = 0, stz = 0;
     for (const Eigen::Vector3f& p : points) {
@@ -252,14 +299,9 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line) {
     next.inliers = static_cast<int>(n);
     next.rms = static_cast<float>(std::sqrt(sum_sq / n));
     fit = next;
-    // The next round keeps the points within 3 sigma, sigma from the median absolute residual
-    // of all points (robust: the obstacles among them, all on one side, barely move it).
-    absolute_residuals.clear();
-    for (const Eigen::Vector3f& p : points) absolute_residuals.push_back(std::abs(p.z() - fit.HeightAt(p.head<2>())));
-    std::nth_element(absolute_residuals.begin(), absolute_residuals.begin() + absolute_residuals.size() / 2,
-                     absolute_residuals.end());
-    keep_within = std::max(0.01f, 3.f * 1.4826f * absolute_residuals[absolute_residuals.size() / 2]);
+    keep_within = std::max(kConsensusMeters, 3.f * fit.rms);
   }
+  if (!(std::abs(fit.slope) <= max_tilt)) return false;
   *line = fit;
   return true;
 }
@@ -324,7 +366,7 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
       if (in_floor_band(p)) floor_hits.emplace_back(p.p_robot.x(), p.p_robot.y(), p.z_meters);
     }
     FloorLine line;
-    if (FitFloorLine(floor_hits, &line)) floor_line = line;
+    if (FitFloorLine(floor_hits, floor_slope, &line)) floor_line = line;
   }
   const float above_floor = floor_line.has_value() ? std::max(min_above_floor, 4.f * floor_line->rms) : 0.f;
   for (const ProjectedPoint& p : projected) {

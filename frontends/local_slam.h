@@ -207,13 +207,16 @@ struct FloorLine {
   int inliers = 0;
   float HeightAt(const Eigen::Vector2f& p) const { return offset + slope * direction.dot(p - centre); }
 };
-// Fits `line` to `points` (x, y, z of a scan's floor hits): the direction is the principal axis
-// of their x, y; the heights by least squares, then four more times over the points within
-// 3 sigma (at least 1 cm) of the previous fit, sigma from the median absolute residual, so that
-// the low obstacles among them do not lift it.
-// False, `line` untouched, with fewer than 20 points (or inliers) or when they span less than
-// 0.3 m along the axis.
-bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, FloorLine* line);
+// Fits `line` to `points` (x, y, z of a scan's floor-band hits, robot frame): the direction is
+// the principal axis of their x, y. The heights: a consensus start (the line through two of the
+// points with the most points within 1 cm, weighed by how level it lies, no steeper than
+// `max_tilt`, the tangent of the largest attitude error expected; a line with points well below
+// it is refused: the floor is the lowest surface), then least squares five times over the
+// points within 3 RMS (at least 1 cm) of the previous fit, so that the low obstacles and the low
+// wall hits among them do not lift it.
+// False, `line` untouched, with fewer than 20 points (or inliers), when they span less than
+// 0.3 m along the axis, or when no line within `max_tilt` holds 20 of them.
+bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, double max_tilt, FloorLine* line);
 
 // The laser's height above the floor: its mount turned by the attitude's roll and pitch, plus
 // the body's height (BodyAttitude::base_height_meters).

@@ -824,27 +824,37 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     }
     return false;
   };
-  std::vector<std::pair<Pose2, const std::vector<Eigen::Vector2f>*>> scans;
-  std::vector<Eigen::Vector2d> sensors;
-  for (const Node& node : it->second.nodes) {
-    scans.push_back({NodePoseOf(it->second, node), &node.scan.floor_obstacles()});
-    sensors.push_back(node.scan.sensor_robot);
-  }
+  // Hits only, no rays: a beam that ends on a floor obstacle came down from the laser and
+  // passed over the cells before it higher than that obstacle's top, so it says nothing of a
+  // low obstacle there (paper §III-E: a floor obstacle breaks the 2.5D assumption). Rays cast
+  // as for the structure cleared the front face of a box whose top later beams hit
+  // (humanoid_explore), and in the planner layer they wore down the structure they crossed. A
+  // cell any scan's floor-obstacle point falls in is occupied, in the planner layer too (the
+  // structure saw it free: its beams passed above).
+  std::vector<Eigen::Vector2d> obstacles;
+  auto add = [&](const Pose2& world_T_scan, const std::vector<Eigen::Vector2f>& points) {
+    for (const Eigen::Vector2f& p : points) {
+      const Eigen::Vector2d world = world_T_scan * p.cast<double>();
+      if (world.allFinite() && !near_structure(world)) obstacles.push_back(world);
+    }
+  };
+  for (const Node& node : it->second.nodes) add(NodePoseOf(it->second, node), node.scan.floor_obstacles());
   for (const AnchoredPoints& points : extra) {
     if (points.node.robot != robot_id || points.node.index >= static_cast<int>(it->second.nodes.size())) continue;
-    scans.push_back({NodePose(points.node) * points.node_T_scan, &points.floor_obstacles});
-    sensors.push_back(points.sensor_robot);
+    add(NodePose(points.node) * points.node_T_scan, points.floor_obstacles);
   }
   if (layer == Layer::kPlanner) grid = std::make_unique<OccupancyGrid>(*structure);  // checks stay on the structure
-  for (size_t k = 0; k < scans.size(); ++k) {
-    points_world.clear();
-    for (const Eigen::Vector2f& p : *scans[k].second) {
-      const Eigen::Vector2d world = scans[k].first * p.cast<double>();
-      if (!near_structure(world)) points_world.push_back(world);
-    }
-    if (points_world.empty()) continue;
-    labels.assign(points_world.size(), static_cast<uint8_t>(PointLabel::kFloorObstacle));
-    grid->InsertScan(scans[k].first * sensors[k], points_world, nullptr, &labels);
+  if (obstacles.empty()) return grid;
+  Eigen::Vector2d lo = obstacles.front(), hi = obstacles.front();
+  for (const Eigen::Vector2d& p : obstacles) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  // Grown once; a point the grid cannot hold (a corrupt pose far away) is left out.
+  if (grid->CanContain(lo, hi)) grid->EnsureContains(lo, hi);
+  const float occupied = static_cast<float>(grid_options.max_log_odds - grid_options.min_log_odds);
+  for (const Eigen::Vector2d& p : obstacles) {
+    if (grid->CanContain(p, p)) grid->AddCellObservation(p, occupied);
   }
   return grid;
 }

@@ -532,6 +532,9 @@ TEST(PrepareScanPointsTest, LowObstacleInTheFloorBandStandsAboveTheScansFloorLin
   EXPECT_TRUE(PrepareScanPoints(options, scan, off_by_a_degree).floor_obstacles.empty());
 }
 
+// The default floor_attitude_tolerance_radians (1.5°) as PrepareScanPoints passes it.
+const double kMaxTilt = std::tan(LocalSlamOptions().floor_attitude_tolerance_radians);
+
 TEST(FitFloorLineTest, RecoversATiltedLineDespiteLowObstaclesAndRefusesTooFewOrTooShort) {
   // Floor hits along y at x = 0.6, their heights tilted by 2 cm per metre and lifted 1 cm, with
   // +-2 mm noise; a fifth of them are an obstacle's face 4 to 6 cm higher.
@@ -543,7 +546,7 @@ TEST(FitFloorLineTest, RecoversATiltedLineDespiteLowObstaclesAndRefusesTooFewOrT
     points.emplace_back(0.6f, y, 0.01f + 0.02f * y + noise + lift);
   }
   FloorLine line;
-  ASSERT_TRUE(FitFloorLine(points, &line));
+  ASSERT_TRUE(FitFloorLine(points, kMaxTilt, &line));
   EXPECT_NEAR(0.01, line.HeightAt({0.6f, 0.f}), 0.002);
   EXPECT_NEAR(0.03, line.HeightAt({0.6f, 1.f}), 0.003);
   EXPECT_EQ(80, line.inliers);
@@ -552,10 +555,57 @@ TEST(FitFloorLineTest, RecoversATiltedLineDespiteLowObstaclesAndRefusesTooFewOrT
   FloorLine untouched;
   untouched.offset = 7.f;
   std::vector<Eigen::Vector3f> few(points.begin(), points.begin() + 19);
-  EXPECT_FALSE(FitFloorLine(few, &untouched));
+  EXPECT_FALSE(FitFloorLine(few, kMaxTilt, &untouched));
   std::vector<Eigen::Vector3f> short_span;
   for (int i = 0; i < 30; ++i) short_span.emplace_back(0.6f, 0.005f * i, 0.f);  // 14.5 cm
-  EXPECT_FALSE(FitFloorLine(short_span, &untouched));
+  EXPECT_FALSE(FitFloorLine(short_span, kMaxTilt, &untouched));
+  EXPECT_EQ(7.f, untouched.offset);
+}
+
+// A pitched scan toward a room's far corner (team_three's nao, seed 1, t = 16.3 s): the floor
+// band holds 150 low hits on a wall seen along it, their heights falling from 22 to 2 cm over
+// 6 m, and then 60 floor hits 5 m away, 1.5 cm up (an attitude error of 0.17°). The floor is the
+// 60: a start fitted to every point (or to their median) took the wall's, and the far floor then
+// stood 3 to 5 cm above that line: a row of false floor obstacles along the wall.
+TEST(FitFloorLineTest, FindsTheFloorAmongMoreLowWallHits) {
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 150; ++i) {
+    const float f = i / 149.f;
+    points.emplace_back(1.2f + 3.4f * f, -5.4f + 5.0f * f, 0.22f - 0.20f * f + 0.002f * ((i * 37) % 5 - 2) / 2.f);
+  }
+  for (int i = 0; i < 60; ++i) {
+    const float f = i / 59.f;
+    points.emplace_back(4.7f + 0.55f * f, -0.2f + 1.8f * f, 0.015f + 0.002f * ((i * 37) % 5 - 2) / 2.f);
+  }
+  FloorLine line;
+  ASSERT_TRUE(FitFloorLine(points, kMaxTilt, &line));
+  // The wall's last hits, where it meets the floor at 2 cm, may join the floor's.
+  EXPECT_GE(line.inliers, 55);
+  EXPECT_LE(line.inliers, 75);
+  for (size_t k = 150; k < points.size(); ++k) {
+    EXPECT_NEAR(points[k].z(), line.HeightAt(points[k].head<2>()), 0.01) << "floor point " << k - 150;
+  }
+}
+
+// The floor is the lowest surface the beams reach: 100 hits on a face 3 m ahead at a constant
+// 2.5 cm (level, and more of them) are not the floor the 60 hits 4 m ahead on either side of it
+// lie on; and a line steeper than max_tilt is no floor at all.
+TEST(FitFloorLineTest, ALineWithTheFloorBelowItOrTooSteepIsNotTheFloor) {
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 30; ++i) points.emplace_back(4.f, -3.f + 0.05f * i, 0.f);
+  for (int i = 0; i < 100; ++i) points.emplace_back(3.f, -1.f + 0.02f * i, 0.025f);
+  for (int i = 0; i < 30; ++i) points.emplace_back(4.f, 1.5f + 0.05f * i, 0.f);
+  FloorLine line;
+  ASSERT_TRUE(FitFloorLine(points, kMaxTilt, &line));
+  EXPECT_NEAR(0.0, line.HeightAt({4.f, -2.f}), 0.002);
+  EXPECT_NEAR(0.0, line.HeightAt({4.f, 2.f}), 0.002);
+  EXPECT_EQ(60, line.inliers);
+
+  std::vector<Eigen::Vector3f> steep;
+  for (int i = 0; i < 60; ++i) steep.emplace_back(2.f, -1.f + 0.03f * i, 0.05f * (-1.f + 0.03f * i));  // 2.9°
+  FloorLine untouched;
+  untouched.offset = 7.f;
+  EXPECT_FALSE(FitFloorLine(steep, kMaxTilt, &untouched));
   EXPECT_EQ(7.f, untouched.offset);
 }
 

@@ -216,6 +216,41 @@ TEST(SubmapGraphTest, RenderedMapLeavesOutTheNoiseTailBehindAWall) {
   EXPECT_EQ(CellState::kFree, cleaned->StateAt({1.0, 0.2}));
 }
 
+// Floor obstacles are drawn from their hits alone (paper §III-E): a beam that ends on a box's
+// top passed over its front face higher than the box, so it does not clear it. Four scans from
+// the origin see a wall 3 m ahead; the first also a 10 cm box's front face at x = 2.0 m, the
+// other three the box's top behind it, at x = 2.2 m. The front face stays a floor obstacle
+// (rays cast from the later scans cleared it), and in the planner layer too, where the
+// structure's beams saw its cells free.
+TEST(SubmapGraphTest, FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver) {
+  SubmapGraph graph{SubmapGraphOptions()};
+  for (int i = 0; i < 4; ++i) {
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.local_pose = Pose2::Identity();
+    if (i == 0) result.new_submaps.push_back({0, Pose2::Identity()});
+    result.insertions.push_back({0, result.local_pose});
+    for (int k = -20; k <= 20; ++k) result.points.all.emplace_back(3.02f, 0.02f * k);  // the wall
+    result.points.labels.assign(result.points.all.size(), PointLabel::kStructure);
+    const float x = i == 0 ? 2.02f : 2.22f;
+    for (int k = -2; k <= 2; ++k) result.points.floor_obstacles.emplace_back(x, 0.02f * k);
+    graph.AddNode(0, std::move(result));
+  }
+  const std::unique_ptr<OccupancyGrid> obstacles =
+      graph.RenderMap(0, OccupancyGridOptions(), SubmapGraph::Layer::kFloorObstacles);
+  const std::unique_ptr<OccupancyGrid> planner = graph.RenderMap(0, OccupancyGridOptions(), SubmapGraph::Layer::kPlanner);
+  const std::unique_ptr<OccupancyGrid> structure = graph.RenderMap(0, OccupancyGridOptions());
+  for (const double x : {2.02, 2.22}) {
+    EXPECT_EQ(CellState::kOccupied, obstacles->StateAt({x, 0.0})) << "x = " << x;
+    EXPECT_EQ(CellState::kOccupied, planner->StateAt({x, 0.0})) << "x = " << x;
+    EXPECT_EQ(CellState::kFree, structure->StateAt({x, 0.0})) << "x = " << x;
+  }
+  EXPECT_EQ(CellState::kOccupied, planner->StateAt({3.02, 0.0}));
+  EXPECT_NE(CellState::kOccupied, obstacles->StateAt({1.0, 0.0}));
+  EXPECT_NE(CellState::kOccupied, planner->StateAt({1.0, 0.0}));
+}
+
 // Issue #15, revisits: the share of a finished submap's occupied cells that other finished
 // submaps hold too (within the likelihood field's sigma, 0.1 m), at the graph's poses.
 std::shared_ptr<const LaserMap> FrozenWalls(const std::vector<std::pair<Eigen::Vector2f, Eigen::Vector2f>>& walls) {
