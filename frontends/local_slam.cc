@@ -241,32 +241,36 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, double max_tilt, F
   const float tilt_sigma = 0.5f * static_cast<float>(max_tilt);
   const int count = static_cast<int>(points.size());
   const int stride = std::max(1, count / 32);
+  std::vector<float> t(count), z(count);
+  for (int k = 0; k < count; ++k) {
+    t[k] = fit.direction.dot(points[k].head<2>() - fit.centre);
+    z[k] = points[k].z();
+  }
   auto level = [&](const Eigen::Vector3f& p) { return std::abs(p.z()) / std::max(0.3f, p.head<2>().norm()); };
   int best_support = 0;
   float best_score = 0.f;
   for (int i = 0; i < count; i += stride) {
     for (int j = i + stride; j < count; j += stride) {
-      const float ti = fit.direction.dot(points[i].head<2>() - fit.centre);
-      const float tj = fit.direction.dot(points[j].head<2>() - fit.centre);
-      if (!(std::abs(tj - ti) >= 0.1f * kMinSpanMeters)) continue;
-      FloorLine candidate = fit;
-      candidate.slope = (points[j].z() - points[i].z()) / (tj - ti);
-      if (!(std::abs(candidate.slope) <= max_tilt)) continue;
-      candidate.offset = points[i].z() - candidate.slope * ti;
+      if (!(std::abs(t[j] - t[i]) >= 0.1f * kMinSpanMeters)) continue;
+      const float slope = (z[j] - z[i]) / (t[j] - t[i]);
+      if (!(std::abs(slope) <= max_tilt)) continue;
+      const float u = std::max({std::abs(slope), level(points[i]), level(points[j])}) / tilt_sigma;
+      const float weight = std::exp(-0.5f * u * u);
+      if (static_cast<float>(count) * weight <= best_score) continue;  // cannot win with every point
+      const float offset = z[i] - slope * t[i];
       int support = 0, below = 0;
-      for (const Eigen::Vector3f& p : points) {
-        const float residual = p.z() - candidate.HeightAt(p.head<2>());
+      for (int k = 0; k < count; ++k) {
+        const float residual = z[k] - (offset + slope * t[k]);
         support += std::abs(residual) <= kConsensusMeters;
         below += residual < -2.f * kConsensusMeters;
       }
       if (10 * below > support) continue;
-      const float u = std::max({std::abs(candidate.slope), level(points[i]), level(points[j])}) / tilt_sigma;
-      const float score = static_cast<float>(support) * std::exp(-0.5f * u * u);
+      const float score = static_cast<float>(support) * weight;
       if (score > best_score) {
         best_score = score;
         best_support = support;
-        fit.offset = candidate.offset;
-        fit.slope = candidate.slope;
+        fit.offset = offset;
+        fit.slope = slope;
       }
     }
   }
