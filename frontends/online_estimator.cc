@@ -392,7 +392,7 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
       non_node_poses_.push_back({stamp, last, node_T_scan});
       if (this_scan.has_value() && !this_scan->points.floor_obstacles.empty()) {
         suspended_obstacles_.push_back(
-            {last, node_T_scan, this_scan->points.sensor_robot, std::move(this_scan->points.floor_obstacles)});
+            {last, node_T_scan, std::move(this_scan->points.floor_obstacles)});
       }
     }
   }

@@ -240,8 +240,7 @@ class SubmapGraph {
   struct AnchoredPoints {
     NodeId node;
     Pose2 node_T_scan;
-    Eigen::Vector2d sensor_robot = Eigen::Vector2d::Zero();
-    std::vector<Eigen::Vector2f> floor_obstacles;  // scan frame
+    std::vector<Eigen::Vector2f> floor_obstacles;  // scan frame (drawn from their hits alone: RenderMap)
   };
   enum class Layer {
     kStructure,       // what localisation uses (map.pgm)
