@@ -218,13 +218,15 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, double max_tilt, F
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> axes(scatter);
   fit.centre = centre.cast<float>();
   fit.direction = axes.eigenvectors().col(1).cast<float>();  // the larger eigenvalue's
-  float t_min = std::numeric_limits<float>::infinity(), t_max = -t_min;
-  for (const Eigen::Vector3f& p : points) {
-    const float t = fit.direction.dot(p.head<2>() - fit.centre);
-    t_min = std::min(t_min, t);
-    t_max = std::max(t_max, t);
+  // Each point's position along the line and its height, computed once (HeightAt at point k
+  // is offset + slope * t[k]).
+  const int count = static_cast<int>(points.size());
+  std::vector<float> t(count), z(count);
+  for (int k = 0; k < count; ++k) {
+    t[k] = fit.direction.dot(points[k].head<2>() - fit.centre);
+    z[k] = points[k].z();
   }
-  if (t_max - t_min < kMinSpanMeters) return false;
+  if (*std::max_element(t.begin(), t.end()) - *std::min_element(t.begin(), t.end()) < kMinSpanMeters) return false;
   // The start: among the lines through two of ~32 points spread over the list, no steeper than
   // max_tilt, the one with the most points within 1 cm of it, each count weighed by how level
   // the line lies. A tilted scan also puts low wall hits in the floor band, often more of them
@@ -239,13 +241,7 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, double max_tilt, F
   //   points 2 cm or more below it as within 1 cm of it is a wall's low hits.
   constexpr float kConsensusMeters = 0.01f;
   const float tilt_sigma = 0.5f * static_cast<float>(max_tilt);
-  const int count = static_cast<int>(points.size());
   const int stride = std::max(1, count / 32);
-  std::vector<float> t(count), z(count);
-  for (int k = 0; k < count; ++k) {
-    t[k] = fit.direction.dot(points[k].head<2>() - fit.centre);
-    z[k] = points[k].z();
-  }
   auto level = [&](const Eigen::Vector3f& p) { return std::abs(p.z()) / std::max(0.3f, p.head<2>().norm()); };
   int best_support = 0;
   float best_score = 0.f;
@@ -280,14 +276,14 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, double max_tilt, F
   float keep_within = kConsensusMeters;
   for (int round = 0; round < 5; ++round) {
     double n = 0, st = 0, sz = 0, stt = 0, stz = 0;
-    for (const Eigen::Vector3f& p : points) {
-      if (std::abs(p.z() - fit.HeightAt(p.head<2>())) > keep_within) continue;
-      const double t = fit.direction.dot(p.head<2>() - fit.centre);
+    for (int k = 0; k < count; ++k) {
+      if (std::abs(z[k] - (fit.offset + fit.slope * t[k])) > keep_within) continue;
+      const double tk = t[k];
       n += 1;
-      st += t;
-      sz += p.z();
-      stt += t * t;
-      stz += t * p.z();
+      st += tk;
+      sz += z[k];
+      stt += tk * tk;
+      stz += tk * z[k];
     }
     const double denominator = n * stt - st * st;
     if (n < kMinPoints || denominator <= 0.0) return false;
@@ -295,9 +291,9 @@ bool FitFloorLine(const std::vector<Eigen::Vector3f>& points, double max_tilt, F
     next.slope = static_cast<float>((n * stz - st * sz) / denominator);
     next.offset = static_cast<float>((sz - next.slope * st) / n);
     double sum_sq = 0.0;
-    for (const Eigen::Vector3f& p : points) {
-      if (std::abs(p.z() - fit.HeightAt(p.head<2>())) > keep_within) continue;
-      const double residual = p.z() - next.HeightAt(p.head<2>());
+    for (int k = 0; k < count; ++k) {
+      if (std::abs(z[k] - (fit.offset + fit.slope * t[k])) > keep_within) continue;
+      const double residual = z[k] - (next.offset + next.slope * t[k]);
       sum_sq += residual * residual;
     }
     next.inliers = static_cast<int>(n);
