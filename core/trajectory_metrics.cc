@@ -7,16 +7,21 @@
 namespace hetslam {
 namespace {
 
-// (estimate, truth) pose pairs: each estimate pose with the truth pose nearest in time, when
-// within the tolerance.
-std::vector<std::pair<Pose2, Pose2>> MatchByStamp(const std::vector<StampedPose2>& estimate,
-                                                  const std::vector<StampedPose2>& truth,
-                                                  double match_tolerance_seconds) {
+struct MatchedPose {
+  double stamp_seconds;  // the estimate's
+  Pose2 estimate;
+  Pose2 truth;
+};
+
+// Each estimate pose (in input order) with the truth pose nearest in time, when within the
+// tolerance.
+std::vector<MatchedPose> MatchPosesByStamp(const std::vector<StampedPose2>& estimate,
+                                           const std::vector<StampedPose2>& truth, double match_tolerance_seconds) {
   // Truth sorted by time for nearest-stamp lookups (input order is kept elsewhere).
   std::vector<StampedPose2> sorted_truth = truth;
   std::stable_sort(sorted_truth.begin(), sorted_truth.end(),
                    [](const StampedPose2& a, const StampedPose2& b) { return a.stamp_seconds < b.stamp_seconds; });
-  std::vector<std::pair<Pose2, Pose2>> pairs;
+  std::vector<MatchedPose> pairs;
   for (const StampedPose2& e : estimate) {
     auto it = std::lower_bound(sorted_truth.begin(), sorted_truth.end(), e.stamp_seconds,
                                [](const StampedPose2& a, double t) { return a.stamp_seconds < t; });
@@ -29,8 +34,19 @@ std::vector<std::pair<Pose2, Pose2>> MatchByStamp(const std::vector<StampedPose2
       }
     }
     if (best != nullptr && std::abs(best->stamp_seconds - e.stamp_seconds) <= match_tolerance_seconds) {
-      pairs.emplace_back(e.pose, best->pose);
+      pairs.push_back({e.stamp_seconds, e.pose, best->pose});
     }
+  }
+  return pairs;
+}
+
+// (estimate, truth) pose pairs of MatchPosesByStamp.
+std::vector<std::pair<Pose2, Pose2>> MatchByStamp(const std::vector<StampedPose2>& estimate,
+                                                  const std::vector<StampedPose2>& truth,
+                                                  double match_tolerance_seconds) {
+  std::vector<std::pair<Pose2, Pose2>> pairs;
+  for (const MatchedPose& m : MatchPosesByStamp(estimate, truth, match_tolerance_seconds)) {
+    pairs.emplace_back(m.estimate, m.truth);
   }
   return pairs;
 }
@@ -100,6 +116,35 @@ AbsoluteTrajectoryError ComputeAbsoluteTrajectoryError(const std::vector<Stamped
   ate.translation_mean_meters = sum_t / pairs.size();
   ate.rotation_rmse_degrees = std::sqrt(sum_sq_r / pairs.size());
   return ate;
+}
+
+StartFrameDrift ComputeStartFrameDrift(const std::vector<StampedPose2>& estimate,
+                                       const std::vector<StampedPose2>& truth, double match_tolerance_seconds) {
+  StartFrameDrift drift;
+  std::vector<MatchedPose> pairs = MatchPosesByStamp(estimate, truth, match_tolerance_seconds);
+  drift.matched = static_cast<int>(pairs.size());
+  if (pairs.empty()) return drift;
+  std::stable_sort(pairs.begin(), pairs.end(),
+                   [](const MatchedPose& a, const MatchedPose& b) { return a.stamp_seconds < b.stamp_seconds; });
+  const Pose2 estimate_start_inverse = pairs.front().estimate.inverse();
+  const Pose2 truth_start_inverse = pairs.front().truth.inverse();
+  for (const MatchedPose& m : pairs) {
+    const Pose2 e = estimate_start_inverse * m.estimate;
+    const Pose2 t = truth_start_inverse * m.truth;
+    const double translation = (e.translation() - t.translation()).norm();
+    const double rotation = WrapAngle(e.theta() - t.theta()) * 180.0 / M_PI;
+    if (translation > drift.max_translation_meters) {
+      drift.max_translation_meters = translation;
+      drift.max_translation_stamp_seconds = m.stamp_seconds;
+    }
+    if (std::abs(rotation) > drift.max_rotation_degrees) {
+      drift.max_rotation_degrees = std::abs(rotation);
+      drift.max_rotation_stamp_seconds = m.stamp_seconds;
+    }
+    drift.final_translation_meters = translation;
+    drift.final_rotation_degrees = rotation;
+  }
+  return drift;
 }
 
 }  // namespace hetslam

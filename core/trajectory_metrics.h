@@ -51,6 +51,28 @@ AbsoluteTrajectoryError ComputeAbsoluteTrajectoryError(const std::vector<Stamped
                                                        const std::vector<StampedPose2>& truth,
                                                        double match_tolerance_seconds = 1e-3);
 
+// Drift from the start frame: the estimate and the truth each expressed in the frame of its own
+// first matched pose, with no alignment. A robot's map frame is its first pose, so this is the
+// error a team's relative pose between two robot frames inherits from each robot (issue #14):
+// a heading error the robot picked up early turns its whole map, which the ATE's alignment
+// hides. Poses are matched by nearest stamp as for the ATE; the first matched pose in time is
+// the start (its error is 0).
+struct StartFrameDrift {
+  int matched = 0;
+  // At the last matched pose in time.
+  double final_translation_meters = 0.0;
+  double final_rotation_degrees = 0.0;  // signed: estimate heading minus true heading
+  // The largest over the matched poses, and when.
+  double max_translation_meters = 0.0;
+  double max_translation_stamp_seconds = 0.0;
+  double max_rotation_degrees = 0.0;  // absolute
+  double max_rotation_stamp_seconds = 0.0;
+};
+
+StartFrameDrift ComputeStartFrameDrift(const std::vector<StampedPose2>& estimate,
+                                       const std::vector<StampedPose2>& truth,
+                                       double match_tolerance_seconds = 1e-3);
+
 }  // namespace hetslam
 
 #endif  // HETSLAM_CORE_TRAJECTORY_METRICS_H_

@@ -831,6 +831,13 @@ int Run() {
                   "rotation rmse %.2f deg (max %.2f deg)\n",
                   truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
                   ate.rotation_rmse_degrees, ate.rotation_max_degrees);
+      // What the alignment hides: how far the map's frame turned and moved from the start.
+      const StartFrameDrift drift = ComputeStartFrameDrift(trajectory, truth);
+      std::printf("drift from the start frame vs %s (no alignment; what a teammate's relative pose inherits): "
+                  "at the end %.3f m, %+.2f deg; largest %.3f m (t = %.1f s), %.2f deg (t = %.1f s)\n",
+                  truth_name.c_str(), drift.final_translation_meters, drift.final_rotation_degrees,
+                  drift.max_translation_meters, drift.max_translation_stamp_seconds, drift.max_rotation_degrees,
+                  drift.max_rotation_stamp_seconds);
     }
   }
   std::printf("wrote %s.pgm, %s.yaml, %s.png, %s%s%s\n", base.c_str(), base.c_str(), base.c_str(),

@@ -458,8 +458,13 @@ int Run() {
     for (int r = 0; r < team.num_robots(); ++r) {
       const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(team.estimator(r).Trajectory(), robots[r].log.truth);
       world_T_built[r] = ate.truth_T_estimate;
-      std::printf("truth: %s own map: ATE rmse %.3f m, %.2f deg (after SE(2) alignment)\n", robots[r].name.c_str(),
-                  ate.translation_rmse_meters, ate.rotation_rmse_degrees);
+      // The start-frame drift is what the robot-pair errors above inherit from this robot.
+      const StartFrameDrift drift = ComputeStartFrameDrift(team.estimator(r).Trajectory(), robots[r].log.truth);
+      std::printf("truth: %s own map: ATE rmse %.3f m, %.2f deg (after SE(2) alignment); drift from its start frame "
+                  "(no alignment) at the end %.3f m, %+.2f deg, largest %.3f m (t = %.1f s), %.2f deg (t = %.1f s)\n",
+                  robots[r].name.c_str(), ate.translation_rmse_meters, ate.rotation_rmse_degrees,
+                  drift.final_translation_meters, drift.final_rotation_degrees, drift.max_translation_meters,
+                  drift.max_translation_stamp_seconds, drift.max_rotation_degrees, drift.max_rotation_stamp_seconds);
     }
     for (int i = 0; i < team.num_robots(); ++i) {
       for (int j = i + 1; j < team.num_robots(); ++j) {
