@@ -78,7 +78,7 @@ struct LoopCloserOptions {
 
   // ±2 m / ±45° (paper §III-A), no wider retry.
   static ScanMatcherOptions DefaultMatcherOptions();
-  // The same without motion prior, one level deeper branch and bound.
+  // The same without motion prior, a deeper branch and bound (6).
   static ScanMatcherOptions DefaultWideMatcherOptions();
   bool IsValid(std::string* error) const;
 };

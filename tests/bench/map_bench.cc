@@ -457,7 +457,7 @@ BENCHMARK(BM_SubmapFreeze)->Arg(10)->Arg(40)->Arg(100)->Unit(benchmark::kMillise
 
 //   BM_SubmapLoopMatch/<frozen>/N
 //                        ScanMatcher::MatchWithinWindow with the loop closer's matcher
-//                        (LoopCloserOptions::DefaultMatcherOptions: ±2 m, ±45°, depth 5, Ceres
+//                        (LoopCloserOptions::DefaultMatcherOptions: ±2 m, ±45°, depth 4, Ceres
 //                        refinement) of a voxel-filtered scan 0.3 m / 10° off, against the
 //                        N-scan submap while it is built (frozen = 0) and frozen (frozen = 1):
 //                        what the compact form costs or saves per loop search.
