@@ -162,6 +162,12 @@ DEFINE_double(map_min_hit_share, 0.2, "The written maps (map.pgm, walls.pgm, pla
 DEFINE_double(wall_min_length, 0.25, "walls.pgm keeps only pieces of wall at least this long (metres, the diagonal of "
               "a piece's bounding box; hits two cells apart join one piece): a table leg or a post is hit at several "
               "heights like a wall but is no surface. In [0, 100]; 0 keeps every piece.");
+DEFINE_double(revisit_points_min_travel, 0.5, "With --attach_revisits: a scan attached to a retired submap keeps its "
+              "points for the written maps only when it lies at least this many metres from (or turned "
+              "--revisit_points_min_turn_deg against) the last scan of that submap that kept them; the others keep their "
+              "pose and floor obstacles. Re-driving mapped space then costs a scan's points per so much travel, not per "
+              "scan. 0 with --revisit_points_min_turn_deg=0: every attached scan keeps its points.");
+DEFINE_double(revisit_points_min_turn_deg, 15.0, "See --revisit_points_min_travel (degrees).");
 DEFINE_string(g2o_out, "", "Write the final pose graph (submaps and scans as VERTEX_SE2, constraints as EDGE_SE2) to this "
               "g2o file.");
 DEFINE_double(flaser_fov_deg, 180.0, "Field of view that FLASER beams are spread over, in degrees (FLASER lines do not "
@@ -324,6 +330,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"loop_weak_translation_sigma_meters", "--loop_weak_sigma"},
       {"map_min_hit_share", "--map_min_hit_share"},
       {"wall_min_length_meters", "--wall_min_length"},
+      {"revisit_points_min_travel_meters", "--revisit_points_min_travel, --revisit_points_min_turn_deg"},
       {"degenerate_eigenvalue_ratio", "--degenerate_ratio"},
       {"frontier_margin_meters", "--frontier_margin"},
       {"covariance_sigmas", "--covariance_sigmas"},
@@ -460,6 +467,8 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->graph.loop_weak_translation_sigma_meters = FLAGS_loop_weak_sigma;
   estimator->graph.map_min_hit_share = FLAGS_map_min_hit_share;
   estimator->graph.wall_min_length_meters = FLAGS_wall_min_length;
+  estimator->graph.revisit_points_min_travel_meters = FLAGS_revisit_points_min_travel;
+  estimator->graph.revisit_points_min_turn_radians = FLAGS_revisit_points_min_turn_deg * M_PI / 180.0;
   loop->min_node_separation = FLAGS_loop_min_node_separation;
   loop->search_min_travel_meters = FLAGS_loop_search_min_travel;
   loop->search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;
@@ -602,8 +611,11 @@ std::string Summary(const OnlineEstimator& estimator) {
     if (estimator.options().attach_revisits) {
       std::snprintf(line, sizeof(line),
                     "revisits: %d scans attached to their retired submaps, %d of their loop closures released, %d "
-                    "constraints between submaps in their place (--attach_revisits)\n",
-                    store.nodes_attached, store.closures_released, store.revisit_summaries);
+                    "constraints between submaps in their place (--attach_revisits); %d of them keep no points "
+                    "(%.1f MiB freed: one scan per %g m or %g deg of re-driving keeps them, --revisit_points_min_travel)\n",
+                    store.nodes_attached, store.closures_released, store.revisit_summaries, store.nodes_points_released,
+                    store.points_released_bytes / 1048576.0, FLAGS_revisit_points_min_travel,
+                    FLAGS_revisit_points_min_turn_deg);
       out += line;
     }
   }

@@ -109,6 +109,11 @@ DEFINE_double(retire_revisited_share, 0.9, "Each robot's revisits (see hetslam_r
 DEFINE_bool(attach_revisits, true, "Each robot's retired submaps (see hetslam_run --help): after every solve their "
             "scans leave the graph, riding on their submap, with constraints between submaps in place of theirs; "
             "scans with an inter-robot constraint stay.");
+DEFINE_double(revisit_points_min_travel, 0.5, "Each robot's attached scans (see hetslam_run --help): a scan attached "
+              "to a retired submap keeps its points for the rendered maps only at least this many metres from (or "
+              "--revisit_points_min_turn_deg against) the last scan of that submap that kept them. 0 with "
+              "--revisit_points_min_turn_deg=0: every attached scan keeps its points.");
+DEFINE_double(revisit_points_min_turn_deg, 15.0, "See --revisit_points_min_travel (degrees).");
 DEFINE_double(map_min_hit_share, 0.2, "Every robot's rendered maps (its map.pgm, the merged map, and the maps the "
               "map-overlap checks compare) leave out the noise tail behind walls: an occupied cell hit fewer times than "
               "this share of a neighbour's hits, with never-observed space beyond it (see hetslam_run --help). In "
@@ -156,6 +161,8 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->second_constraint_min_distance_meters = FLAGS_second_constraint_min_distance;
   team->tag_min_separation_meters = FLAGS_tag_min_separation;
   team->graph.map_min_hit_share = FLAGS_map_min_hit_share;
+  team->graph.revisit_points_min_travel_meters = FLAGS_revisit_points_min_travel;
+  team->graph.revisit_points_min_turn_radians = FLAGS_revisit_points_min_turn_deg * kDeg;
   robot->local.motion_filter_distance_meters = FLAGS_motion_filter_distance;
   robot->local.motion_filter_angle_radians = FLAGS_motion_filter_angle_deg * kDeg;
   robot->loop.max_submaps_per_search = FLAGS_loop_max_submaps;
@@ -397,9 +404,11 @@ int Run() {
               FLAGS_retire_revisited_share);
   if (FLAGS_attach_revisits && FLAGS_retire_revisited_share > 0) {
     std::printf("revisits: %d scans attached to their retired submaps, %d of their loop closures released, %d "
-                "constraints between submaps in their place (--attach_revisits)\n",
+                "constraints between submaps in their place (--attach_revisits); %d of them keep no points (%.1f MiB "
+                "freed, --revisit_points_min_travel=%g)\n",
                 team.graph().stats().nodes_attached, team.graph().stats().closures_released,
-                team.graph().stats().revisit_summaries);
+                team.graph().stats().revisit_summaries, team.graph().stats().nodes_points_released,
+                team.graph().stats().points_released_bytes / 1048576.0, FLAGS_revisit_points_min_travel);
   }
   if (FLAGS_max_map_store_mib > 0) {
     std::printf("map store: %d submaps evicted (%.1f MiB) to stay within --max_map_store_mib=%g per robot\n",

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -90,6 +91,9 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
   if (!(map_min_hit_share >= 0 && map_min_hit_share <= 1)) msg << "map_min_hit_share must be in [0, 1]; ";
   if (!(wall_min_length_meters >= 0 && wall_min_length_meters <= 100))
     msg << "wall_min_length_meters must be in [0, 100]; ";
+  if (!(revisit_points_min_travel_meters >= 0 && revisit_points_min_travel_meters <= 1e3 &&
+        revisit_points_min_turn_radians >= 0 && revisit_points_min_turn_radians <= 2 * M_PI))
+    msg << "revisit_points_min_travel_meters must be in [0, 1000] and revisit_points_min_turn_radians in [0, 2 pi]; ";
   if (error != nullptr) *error = msg.str();
   return msg.str().empty();
 }
@@ -107,6 +111,29 @@ const std::vector<float>& SubmapGraph::NodeScan::NoFloats() {
 const std::vector<Eigen::Vector2f>& SubmapGraph::NodeScan::NoPoints() {
   static const auto* none = new std::vector<Eigen::Vector2f>();
   return *none;
+}
+
+size_t SubmapGraph::NodeScan::ReleasePoints() {
+  size_t bytes = packed.capacity() + all.capacity() * sizeof(Eigen::Vector2f) +
+                 matching_mask.capacity() * sizeof(uint64_t);
+  std::vector<uint8_t>().swap(packed);
+  std::vector<Eigen::Vector2f>().swap(all);
+  std::vector<uint64_t>().swap(matching_mask);
+  num_packed = 0;
+  labels_uniform = false;
+  if (rare) {
+    bytes += rare->labels.capacity() * sizeof(PointLabel) + rare->heights_meters.capacity() * sizeof(float) +
+             rare->matching.capacity() * sizeof(Eigen::Vector2f) + rare->matching_weights.capacity() * sizeof(float);
+    std::vector<PointLabel>().swap(rare->labels);
+    std::vector<float>().swap(rare->heights_meters);
+    std::vector<Eigen::Vector2f>().swap(rare->matching);
+    std::vector<float>().swap(rare->matching_weights);
+    if (rare->empty()) {
+      bytes += sizeof(Rare);
+      rare.reset();
+    }
+  }
+  return bytes;
 }
 
 void SubmapGraph::NodeScan::DecodePoints(std::vector<Eigen::Vector2f>* out) const {
@@ -550,6 +577,9 @@ int SubmapGraph::AttachRevisits(int robot_id) {
     // Nothing else would tie the submap to the graph: one node stays as it is.
     const int kept = summaries == 0 && chained == 0 ? members[members.size() / 2] : -1;
     const Pose2 submap_pose = problem_.pose(submap.pose);
+    // The last node of this group that kept its points (see revisit_points_min_travel_meters).
+    std::optional<Pose2> last_with_points;
+    const bool thin = options_.revisit_points_min_travel_meters > 0 || options_.revisit_points_min_turn_radians > 0;
     for (const int index : members) {
       Node& node = robot.nodes[index];
       if (index == kept) {
@@ -571,6 +601,18 @@ int SubmapGraph::AttachRevisits(int robot_id) {
         std::vector<Eigen::Vector2f>().swap(node.scan.rare->matching);
         std::vector<float>().swap(node.scan.rare->matching_weights);
         if (node.scan.rare->empty()) node.scan.rare.reset();
+      }
+      // What it saw stays for the rendered maps once per so much travel in this submap.
+      // (A bound of 0 does not count.)
+      const double travel = options_.revisit_points_min_travel_meters, turn = options_.revisit_points_min_turn_radians;
+      const bool far = !last_with_points.has_value() ||
+                       (travel > 0 && (node.host_T_node.translation() - last_with_points->translation()).norm() >= travel) ||
+                       (turn > 0 && std::abs(WrapAngle(node.host_T_node.theta() - last_with_points->theta())) >= turn);
+      if (!thin || far) {
+        last_with_points = node.host_T_node;
+      } else {
+        stats_.points_released_bytes += node.scan.ReleasePoints();
+        ++stats_.nodes_points_released;
       }
       ++attached;
       ++stats_.nodes_attached;

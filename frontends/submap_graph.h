@@ -80,6 +80,16 @@ struct SubmapGraphOptions {
   // leg or a post is hit at several heights as well (OccupancyGrid::DropSmallOccupiedPieces).
   // 0 keeps every piece. In [0, 100] metres.
   double wall_min_length_meters = 0.25;
+  // What a node attached to a retired submap (AttachRevisits) keeps for the rendered maps: its
+  // points (with their labels and heights) only when it lies at least this far from, or turned
+  // at least this much against, the last node of the same retired submap that kept them (the
+  // group's first keeps them; a bound of 0 does not count); the others keep their pose and
+  // floor obstacles. Re-driving
+  // mapped space then costs a scan's points per so much travel, not per scan (FR079: 1940 of
+  // 4403 scans re-drive, ~800 bytes of points each). Both 0: every attached node keeps its
+  // points. Finite, >= 0.
+  double revisit_points_min_travel_meters = 0.5;
+  double revisit_points_min_turn_radians = 0.26179938779914941;  // 15°
 
   bool IsValid(std::string* error) const;
 };
@@ -138,6 +148,9 @@ struct SubmapGraphStats {
   // By AttachRevisits: nodes taken out of the problem (attached to their submap), the loop
   // closures released with them, and the constraints between submaps added in their place.
   int nodes_attached = 0;
+  int nodes_points_released = 0;  // of those, the nodes whose points were freed (see
+                                  // SubmapGraphOptions::revisit_points_min_travel_meters)
+  size_t points_released_bytes = 0;
   int closures_released = 0;
   int revisit_summaries = 0;
   int solves = 0;            // Ceres solves (a Solve() call may run two)
@@ -305,6 +318,9 @@ class SubmapGraph {
     PointLabel uniform_label = PointLabel::kStructure;
     PointLabel Label(size_t k) const { return labels_uniform ? uniform_label : rare->labels[k]; }
     size_t num_points() const { return num_packed > 0 ? num_packed : all.size(); }
+    // Frees the points with their labels, heights and matching points (the floor obstacles
+    // stay); returns the bytes their buffers held.
+    size_t ReleasePoints();
     // The rare parts (empty when absent).
     const std::vector<float>& heights_meters() const { return rare ? rare->heights_meters : NoFloats(); }
     const std::vector<Eigen::Vector2f>& floor_obstacles() const { return rare ? rare->floor_obstacles : NoPoints(); }

@@ -305,8 +305,8 @@ TEST(SubmapGraphTest, CoveredShareCountsTheStructureOtherSubmapsHold) {
 
 // A straight run of 60 scans, 0.5 m apart, each with three points; a submap starts every 10
 // scans and takes 20 (finished then, with a small frozen map), as the front end does.
-std::unique_ptr<SubmapGraph> FinishedRun() {
-  auto graph = std::make_unique<SubmapGraph>(SubmapGraphOptions());
+std::unique_ptr<SubmapGraph> FinishedRun(const SubmapGraphOptions& options = SubmapGraphOptions()) {
+  auto graph = std::make_unique<SubmapGraph>(options);
   const std::shared_ptr<const LaserMap> map = FrozenWalls({{{2.0f, -1.0f}, {2.0f, 1.0f}}});
   std::vector<Pose2> submap_origins;
   for (int i = 0; i < 60; ++i) {
@@ -404,6 +404,57 @@ TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapWithSummariesInPlaceOfTheirConstr
   // Decided once: a second call changes nothing.
   EXPECT_EQ(0, graph->AttachRevisits(0));
   EXPECT_EQ(10, graph->stats().nodes_attached);
+}
+
+// Issue #15: an attached scan keeps its points for the rendered maps once per so much travel
+// in its retired submap; the others keep their pose.
+TEST(SubmapGraphTest, AttachedScansKeepTheirPointsOncePerSoMuchTravel) {
+  SubmapGraphOptions thinning;
+  thinning.revisit_points_min_travel_meters = 1.2;  // nodes 0.5 m apart: every third keeps them
+  thinning.revisit_points_min_turn_radians = 0.0;   // (straight: the turn never counts)
+  SubmapGraphOptions keep_all = thinning;
+  keep_all.revisit_points_min_travel_meters = 0.0;
+  std::unique_ptr<SubmapGraph> thinned = FinishedRun(thinning);
+  std::unique_ptr<SubmapGraph> full = FinishedRun(keep_all);
+  for (SubmapGraph* graph : {thinned.get(), full.get()}) {
+    ASSERT_TRUE(graph->Solve(20).ok());
+    ASSERT_TRUE(graph->EvictSubmapMap({0, 3}, SubmapGraph::EvictionReason::kRevisited));
+    ASSERT_TRUE(graph->EvictSubmapMap({0, 4}, SubmapGraph::EvictionReason::kRevisited));
+    ASSERT_EQ(10, graph->AttachRevisits(0));  // nodes 40-49, 0.5 m apart in submap 3
+  }
+  EXPECT_EQ(0, full->stats().nodes_points_released);
+  EXPECT_EQ(0u, full->stats().points_released_bytes);
+  // 40 keeps them, then 43 (1.5 m on), 46 and 49: six of the ten released.
+  EXPECT_EQ(6, thinned->stats().nodes_points_released);
+  EXPECT_GE(thinned->stats().points_released_bytes, 6 * 3 * 2u);  // at least 2 bytes a point
+  // Every scan keeps its place in the trajectory.
+  EXPECT_EQ(full->Trajectory(0).size(), thinned->Trajectory(0).size());
+  // The rendered map: every cell the thinned graph marks occupied, the full one does too; the
+  // kept scans' hits are there, the released ones' are not.
+  const OccupancyGridOptions grid_options;
+  const std::unique_ptr<OccupancyGrid> thin_map = thinned->RenderMap(0, grid_options);
+  const std::unique_ptr<OccupancyGrid> full_map = full->RenderMap(0, grid_options);
+  auto occupied_at = [](const OccupancyGrid& grid, const Eigen::Vector2d& world) {
+    const CellIndex c = grid.geometry().WorldToCell(world);
+    return grid.geometry().Contains(c) && grid.IsOccupied(grid.geometry().LinearIndex(c));
+  };
+  int thin_occupied = 0, full_occupied = 0;
+  for (int i = 0; i < full_map->geometry().num_cells(); ++i) full_occupied += full_map->IsOccupied(i);
+  for (int i = 0; i < thin_map->geometry().num_cells(); ++i) {
+    if (!thin_map->IsOccupied(i)) continue;
+    ++thin_occupied;
+    EXPECT_TRUE(occupied_at(*full_map, thin_map->geometry().CellCenter(thin_map->geometry().FromLinearIndex(i))));
+  }
+  EXPECT_LT(thin_occupied, full_occupied);
+  for (const int node : {43, 46}) {  // kept: its points (1, +-0.5) and (1, 0) ahead of it
+    const Eigen::Vector2d ahead = thinned->NodePose({0, node}) * Eigen::Vector2d(1.0, 0.5);
+    EXPECT_TRUE(occupied_at(*thin_map, ahead)) << node;
+  }
+  for (const int node : {44, 45}) {  // released
+    const Eigen::Vector2d ahead = thinned->NodePose({0, node}) * Eigen::Vector2d(1.0, 0.5);
+    EXPECT_FALSE(occupied_at(*thin_map, ahead)) << node;
+    EXPECT_TRUE(occupied_at(*full_map, ahead)) << node;
+  }
 }
 
 }  // namespace
