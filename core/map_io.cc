@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <memory>
 #include <sstream>
 
 #include "core/file_io.h"
@@ -106,15 +107,17 @@ void PutFixedLiteral(int symbol, DeflateBits* bits) {
 // A PNG's raw stream read in place: scanlines of `stride` bytes, each the filter type 0 (None)
 // and then its row of `pixels`. A position is a scanline and a column; Next steps along.
 struct PngRawStream {
-  const uint8_t* pixels;
+  const uint8_t* pixels;  // row `first_row`; the rows after it follow
   size_t row_bytes;
   size_t stride;  // row_bytes + 1
-  size_t size;    // stride * rows
+  size_t size;    // stride * rows (of the whole image)
+  size_t first_row = 0;  // the first row `pixels` holds (PngRowWriter keeps a window of rows)
   struct Position {
     size_t row = 0, column = 0;
   };
   Position At(size_t i) const { return {i / stride, i % stride}; }
-  uint8_t Byte(const Position& p) const { return p.column == 0 ? 0 : pixels[p.row * row_bytes + p.column - 1]; }
+  const uint8_t* Row(size_t row) const { return pixels + (row - first_row) * row_bytes; }
+  uint8_t Byte(const Position& p) const { return p.column == 0 ? 0 : Row(p.row)[p.column - 1]; }
   // How many bytes from index `at` equal those `distance` before them, at most `limit`
   // (distance <= at). Along stretches where both positions are inside a row's pixels the bytes
   // are compared in place, a filter byte (0) at a time elsewhere: the count a byte-by-byte walk
@@ -131,8 +134,8 @@ struct PngRawStream {
         continue;
       }
       const size_t span = std::min({limit - n, stride - p.column, stride - q.column});
-      const uint8_t* a = pixels + p.row * row_bytes + p.column - 1;
-      const uint8_t* b = pixels + q.row * row_bytes + q.column - 1;
+      const uint8_t* a = Row(p.row) + p.column - 1;
+      const uint8_t* b = Row(q.row) + q.column - 1;
       const size_t same = static_cast<size_t>(std::mismatch(a, a + span, b).first - a);
       n += same;
       if (same < span) break;
@@ -156,8 +159,56 @@ struct PngRawStream {
 // scanline back (the row above), when at least 3 long, else a literal. Maps are long runs of one
 // grey and rows like the one above, so they shrink ~100x without a search. (The stream is
 // walked by position, not by index: a division per byte read was ~3% of a short run.)
-void DeflateFixed(const PngRawStream& raw, std::vector<uint8_t>* out) {
-  const size_t size = raw.size, row_distance = raw.stride;
+// Incremental: Encode goes as far as the rows given so far decide (a position's choice reads
+// the scanline before it and up to 258 bytes after it), so an image can be encoded a band of
+// rows at a time with the bytes of encoding it whole.
+class FixedDeflater {
+ public:
+  explicit FixedDeflater(std::vector<uint8_t>* out) : bits_(out) {
+    bits_.Put(1, 1);  // BFINAL
+    bits_.Put(1, 2);  // BTYPE 01: fixed Huffman codes
+  }
+  // Encodes the positions whose bytes (and the 258 after them, or to the end) lie before
+  // `available` (a raw-stream index; `raw` holds the rows from the one before position() on);
+  // at the end of the stream, the end of the block.
+  void Encode(const PngRawStream& raw, size_t available) {
+    const size_t size = raw.size, row_distance = raw.stride;
+    auto match_length = [&](size_t at, size_t distance) {
+      if (distance == 0 || distance > at || distance > kWindow) return size_t{0};
+      return raw.CommonLength(at, distance, std::min(kMaxMatch, size - at));
+    };
+    size_t& at = at_;
+    while (at < size && at + std::min(kMaxMatch, size - at) <= available) {
+      const size_t run = match_length(at, 1);
+      const size_t above = row_distance > 1 ? match_length(at, row_distance) : 0;
+      const size_t length = std::max(run, above);
+      if (length < 3) {
+        PutFixedLiteral(raw.Byte(raw.At(at)), &bits_);
+        ++at;
+        continue;
+      }
+      const size_t distance = above > run ? row_distance : 1;
+      const int l =
+          static_cast<int>(std::upper_bound(kLengthBase, kLengthBase + 29, static_cast<int>(length)) - kLengthBase) - 1;
+      PutFixedLiteral(257 + l, &bits_);
+      bits_.Put(static_cast<uint32_t>(length - kLengthBase[l]), kLengthExtra[l]);
+      const int d = static_cast<int>(std::upper_bound(kDistanceBase, kDistanceBase + 30, static_cast<int>(distance)) -
+                                     kDistanceBase) - 1;
+      bits_.PutCode(static_cast<uint32_t>(d), 5);
+      bits_.Put(static_cast<uint32_t>(distance - kDistanceBase[d]), kDistanceExtra[d]);
+      at += length;
+    }
+    if (at == size && !finished_) {
+      PutFixedLiteral(256, &bits_);  // end of block
+      bits_.Flush();
+      finished_ = true;
+    }
+  }
+  // The first position not encoded yet.
+  size_t position() const { return at_; }
+  bool finished() const { return finished_; }
+
+ private:
   static constexpr int kLengthBase[29] = {3,  4,  5,  6,  7,  8,  9,  10, 11,  13,  15,  17,  19,  23, 27,
                                           31, 35, 43, 51, 59, 67, 83, 99, 115, 131, 163, 195, 227, 258};
   static constexpr int kLengthExtra[29] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2,
@@ -167,38 +218,12 @@ void DeflateFixed(const PngRawStream& raw, std::vector<uint8_t>* out) {
                                             1025, 1537, 2049, 3073, 4097, 6145, 8193, 12289, 16385, 24577};
   static constexpr int kDistanceExtra[30] = {0, 0, 0, 0, 1, 1, 2, 2,  3,  3,  4,  4,  5,  5,  6,
                                              6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13, 13};
-  constexpr size_t kMaxMatch = 258;
-  constexpr size_t kWindow = 32768;
-  DeflateBits bits(out);
-  bits.Put(1, 1);  // BFINAL
-  bits.Put(1, 2);  // BTYPE 01: fixed Huffman codes
-  auto match_length = [&](size_t at, size_t distance) {
-    if (distance == 0 || distance > at || distance > kWindow) return size_t{0};
-    return raw.CommonLength(at, distance, std::min(kMaxMatch, size - at));
-  };
-  size_t at = 0;
-  while (at < size) {
-    const size_t run = match_length(at, 1);
-    const size_t above = row_distance > 1 ? match_length(at, row_distance) : 0;
-    const size_t length = std::max(run, above);
-    if (length < 3) {
-      PutFixedLiteral(raw.Byte(raw.At(at)), &bits);
-      ++at;
-      continue;
-    }
-    const size_t distance = above > run ? row_distance : 1;
-    const int l = static_cast<int>(std::upper_bound(kLengthBase, kLengthBase + 29, static_cast<int>(length)) - kLengthBase) - 1;
-    PutFixedLiteral(257 + l, &bits);
-    bits.Put(static_cast<uint32_t>(length - kLengthBase[l]), kLengthExtra[l]);
-    const int d =
-        static_cast<int>(std::upper_bound(kDistanceBase, kDistanceBase + 30, static_cast<int>(distance)) - kDistanceBase) - 1;
-    bits.PutCode(static_cast<uint32_t>(d), 5);
-    bits.Put(static_cast<uint32_t>(distance - kDistanceBase[d]), kDistanceExtra[d]);
-    at += length;
-  }
-  PutFixedLiteral(256, &bits);  // end of block
-  bits.Flush();
-}
+  static constexpr size_t kMaxMatch = 258;
+  static constexpr size_t kWindow = 32768;
+  DeflateBits bits_;
+  size_t at_ = 0;
+  bool finished_ = false;
+};
 
 // ---- Map rendering shared by the PGM and the PNG. ----
 
@@ -486,31 +511,31 @@ Status WritePng(const std::string& path, int width, int height, int channels,
   return WritePngFromBuffer(path, width, height, channels, pixels.data());
 }
 
-Status WritePngFromBuffer(const std::string& path, int width, int height, int channels, const uint8_t* pixels) {
-  if (width < 1 || height < 1) {
-    return Status::Error("cannot write '" + path + "': image size " + std::to_string(width) +
-                         " x " + std::to_string(height) + " is empty or negative");
-  }
-  if (channels != 1 && channels != 3) {
-    return Status::Error("cannot write '" + path + "': channels must be 1 or 3 (got " +
-                         std::to_string(channels) + ")");
-  }
-  const size_t row_bytes = static_cast<size_t>(width) * channels;
-  // Raw stream: scanlines, each with filter type 0 (None), then its pixels; read in place.
-  const size_t stride = row_bytes + 1;
-  const size_t raw_size = stride * static_cast<size_t>(height);
-  const PngRawStream raw{pixels, row_bytes, stride, raw_size};
-  // zlib stream (RFC 1950): CMF 0x78 (deflate, 32K window), FLG 0x01 (no dictionary; 0x7801 is
-  // a multiple of 31), one deflate block with the fixed Huffman codes (RFC 1951 §3.2.6), then
-  // Adler-32 of the raw stream, big endian.
-  std::vector<uint8_t> zlib = {0x78, 0x01};
-  DeflateFixed(raw, &zlib);
+// The writer's state. The raw stream (RFC 2083: each scanline its filter type 0, None, then its
+// pixels) is read in place from a window of rows: the one before the deflater's position and
+// those after it; the zlib stream (RFC 1950: CMF 0x78, deflate with a 32K window, FLG 0x01, no
+// dictionary, 0x7801 a multiple of 31; then the Adler-32 of the raw stream, big endian) is
+// written in IDAT chunks of 1 MiB as it fills them (the stream may be split anywhere).
+struct PngRowWriter::State {
+  static constexpr size_t kMaxChunk = 1 << 20;
+  std::string path;
+  std::FILE* file = nullptr;
+  int height = 0;
+  size_t row_bytes = 0;
+  size_t stride = 0;
+  size_t size = 0;
+  int rows_added = 0;
+  std::vector<uint8_t> window;  // rows [window_first_row, rows_added)
+  size_t window_first_row = 0;
+  std::vector<uint8_t> zlib = {0x78, 0x01};  // not yet written
+  FixedDeflater deflater{&zlib};
   uint32_t adler_a = 1, adler_b = 0;
-  constexpr uint32_t kAdlerMod = 65521;
-  // 5552: the most bytes for which b cannot overflow 32 bits between two reductions.
-  constexpr size_t kAdlerRun = 5552;
   size_t since_reduction = 0;
-  auto add_bytes = [&](const uint8_t* bytes, size_t n) {
+
+  void AddToAdler(const uint8_t* bytes, size_t n) {
+    constexpr uint32_t kAdlerMod = 65521;
+    // 5552: the most bytes for which b cannot overflow 32 bits between two reductions.
+    constexpr size_t kAdlerRun = 5552;
     while (n > 0) {
       const size_t run = std::min(n, kAdlerRun - since_reduction);
       for (size_t k = 0; k < run; ++k) {
@@ -526,20 +551,53 @@ Status WritePngFromBuffer(const std::string& path, int width, int height, int ch
         since_reduction = 0;
       }
     }
-  };
-  const uint8_t filter_none = 0;
-  for (int y = 0; y < height; ++y) {
-    add_bytes(&filter_none, 1);
-    add_bytes(pixels + static_cast<size_t>(y) * row_bytes, row_bytes);
   }
-  adler_a %= kAdlerMod;
-  adler_b %= kAdlerMod;
-  AppendBigEndian32((adler_b << 16) | adler_a, &zlib);
+  void WriteChunk(const char type[4], const uint8_t* data, size_t n) {
+    std::vector<uint8_t> chunk;
+    chunk.reserve(n + 12);
+    AppendChunk(type, data, n, &chunk);
+    std::fwrite(chunk.data(), 1, chunk.size(), file);
+  }
+  // Writes the zlib bytes that fill whole chunks (all of them when `last`).
+  void WriteFullChunks(bool last) {
+    size_t at = 0;
+    while (zlib.size() - at >= kMaxChunk || (last && at < zlib.size())) {
+      const size_t n = std::min(kMaxChunk, zlib.size() - at);
+      WriteChunk("IDAT", zlib.data() + at, n);
+      at += n;
+    }
+    zlib.erase(zlib.begin(), zlib.begin() + static_cast<std::ptrdiff_t>(at));
+  }
+};
 
-  std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  // IDAT chunks of at most 1 MiB: the zlib stream may be split anywhere.
-  constexpr size_t kMaxChunk = 1 << 20;
-  png.reserve(8 + 25 + zlib.size() + 12 * (zlib.size() / kMaxChunk + 1) + 12);
+PngRowWriter::PngRowWriter() = default;
+
+PngRowWriter::~PngRowWriter() {
+  if (state_ != nullptr && state_->file != nullptr) {
+    std::fclose(state_->file);
+    std::remove(TemporaryPathFor(state_->path).c_str());
+  }
+}
+
+Status PngRowWriter::Open(const std::string& path, int width, int height, int channels) {
+  if (state_ != nullptr) return Status::Error("cannot write '" + path + "': the PNG writer is already in use");
+  if (width < 1 || height < 1) {
+    return Status::Error("cannot write '" + path + "': image size " + std::to_string(width) +
+                         " x " + std::to_string(height) + " is empty or negative");
+  }
+  if (channels != 1 && channels != 3) {
+    return Status::Error("cannot write '" + path + "': channels must be 1 or 3 (got " +
+                         std::to_string(channels) + ")");
+  }
+  auto state = std::make_unique<State>();
+  state->path = path;
+  state->height = height;
+  state->row_bytes = static_cast<size_t>(width) * channels;
+  state->stride = state->row_bytes + 1;
+  state->size = state->stride * static_cast<size_t>(height);
+  HETSLAM_RETURN_IF_ERROR(OpenForWriting(path, "wb", &state->file));
+  static constexpr uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  std::fwrite(kSignature, 1, sizeof(kSignature), state->file);
   std::vector<uint8_t> header;
   AppendBigEndian32(static_cast<uint32_t>(width), &header);
   AppendBigEndian32(static_cast<uint32_t>(height), &header);
@@ -548,12 +606,63 @@ Status WritePngFromBuffer(const std::string& path, int width, int height, int ch
   header.push_back(0);                        // compression: deflate
   header.push_back(0);                        // filter method 0
   header.push_back(0);                        // no interlace
-  AppendChunk("IHDR", header.data(), header.size(), &png);
-  for (size_t at = 0; at < zlib.size(); at += kMaxChunk) {
-    AppendChunk("IDAT", zlib.data() + at, std::min(kMaxChunk, zlib.size() - at), &png);
+  state->WriteChunk("IHDR", header.data(), header.size());
+  state_ = std::move(state);
+  return Status::Ok();
+}
+
+Status PngRowWriter::AddRows(const uint8_t* rows, int count) {
+  if (state_ == nullptr || state_->file == nullptr) return Status::Error("PngRowWriter::AddRows before Open");
+  State& s = *state_;
+  if (count < 0 || count > s.height - s.rows_added) {
+    return Status::Error("cannot write '" + s.path + "': " + std::to_string(count) + " rows given with " +
+                         std::to_string(s.height - s.rows_added) + " of " + std::to_string(s.height) + " left");
   }
-  AppendChunk("IEND", nullptr, 0, &png);
-  return WriteFileBytes(path, png.data(), png.size());
+  // The rows before the one above the deflater's position are read no more.
+  const size_t keep_from = std::max(s.window_first_row, s.deflater.position() / s.stride);
+  const size_t keep = keep_from > 0 ? keep_from - 1 : 0;
+  if (keep > s.window_first_row) {
+    s.window.erase(s.window.begin(),
+                   s.window.begin() + static_cast<std::ptrdiff_t>((keep - s.window_first_row) * s.row_bytes));
+    s.window_first_row = keep;
+  }
+  const uint8_t filter_none = 0;
+  for (int r = 0; r < count; ++r) {
+    const uint8_t* row = rows + static_cast<size_t>(r) * s.row_bytes;
+    s.AddToAdler(&filter_none, 1);
+    s.AddToAdler(row, s.row_bytes);
+  }
+  s.window.insert(s.window.end(), rows, rows + static_cast<size_t>(count) * s.row_bytes);
+  s.rows_added += count;
+  PngRawStream raw{s.window.data(), s.row_bytes, s.stride, s.size};
+  raw.first_row = s.window_first_row;
+  s.deflater.Encode(raw, s.stride * static_cast<size_t>(s.rows_added));
+  s.WriteFullChunks(false);
+  return Status::Ok();
+}
+
+Status PngRowWriter::Finish() {
+  if (state_ == nullptr || state_->file == nullptr) return Status::Error("PngRowWriter::Finish before Open");
+  State& s = *state_;
+  if (s.rows_added != s.height) {
+    return Status::Error("cannot write '" + s.path + "': " + std::to_string(s.rows_added) + " of " +
+                         std::to_string(s.height) + " rows given");
+  }
+  CHECK(s.deflater.finished()) << "every row given but the deflate stream is not finished";
+  constexpr uint32_t kAdlerMod = 65521;
+  AppendBigEndian32(((s.adler_b % kAdlerMod) << 16) | (s.adler_a % kAdlerMod), &s.zlib);
+  s.WriteFullChunks(true);
+  s.WriteChunk("IEND", nullptr, 0);
+  std::FILE* file = s.file;
+  s.file = nullptr;
+  return CommitWrittenFile(file, s.path);
+}
+
+Status WritePngFromBuffer(const std::string& path, int width, int height, int channels, const uint8_t* pixels) {
+  PngRowWriter writer;
+  HETSLAM_RETURN_IF_ERROR(writer.Open(path, width, height, channels));
+  HETSLAM_RETURN_IF_ERROR(writer.AddRows(pixels, height));
+  return writer.Finish();
 }
 
 Status WriteMapPgmYaml(const OccupancyGrid& grid, const std::string& path_without_extension) {

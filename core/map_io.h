@@ -9,6 +9,7 @@
 #define HETSLAM_CORE_MAP_IO_H_
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -74,13 +75,41 @@ Status ReadMapPgmYaml(const std::string& yaml_path, GridLayer* layer);
 
 // Writes an 8-bit PNG, greyscale (channels = 1) or RGB (channels = 3). `pixels` is row-major,
 // row 0 at the top, channels interleaved: size width * height * channels. The image data is
-// stored uncompressed (deflate "stored" blocks) with the zlib Adler-32 and chunk CRC-32 that
-// every decoder checks. Width and height must be in [1, 2^31 - 1].
+// one deflate block with the fixed Huffman codes (runs of a byte and of the row above: maps
+// shrink ~100x) with the zlib Adler-32 and chunk CRC-32 that every decoder checks. Width and
+// height must be in [1, 2^31 - 1].
 Status WritePng(const std::string& path, int width, int height, int channels,
                 const std::vector<uint8_t>& pixels);
 // The same from `pixels` pointing at width * height * channels bytes (an image's own buffer,
 // with no copy into a vector). A separate name: `{0}` would otherwise pick this overload.
 Status WritePngFromBuffer(const std::string& path, int width, int height, int channels, const uint8_t* pixels);
+
+// The same PNG written a band of rows at a time, so that the image need not be in memory whole
+// (the map picture: issue #15): the bytes of WritePngFromBuffer on all the rows, however they
+// are split. The file appears under `path` only when Finish succeeds (until then it is `path` +
+// ".tmp", removed if the writer is destroyed unfinished). Holds the rows it has not encoded yet
+// and the one before them (a position's encoding reads the row above and 258 bytes ahead).
+class PngRowWriter {
+ public:
+  PngRowWriter();
+  ~PngRowWriter();
+  PngRowWriter(const PngRowWriter&) = delete;
+  PngRowWriter& operator=(const PngRowWriter&) = delete;
+
+  // Errors: a size or channel count WritePng refuses, a file that cannot be opened, a second
+  // Open.
+  Status Open(const std::string& path, int width, int height, int channels);
+  // The next `count` rows (each width * channels bytes, one after the other); an error beyond
+  // the image's height.
+  Status AddRows(const uint8_t* rows, int count);
+  // After the last row: writes the end of the stream and moves the file into place; an error
+  // when rows are missing or the file could not be written.
+  Status Finish();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 // Renders the map (occupied black, free white, unknown grey, as in the PGM) and draws each
 // trajectory (world_T_robot poses, in the grid's world frame) as a 1-pixel polyline in its own

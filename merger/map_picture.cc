@@ -53,77 +53,101 @@ struct Point {
 
 // OpenCV's drawing calls (through the plugin) on an RGB picture or a rectangle of one. The
 // picture is held in RGB order, as the PNG stores it (the drawing calls do not care what the
-// channels mean): no conversion, and no second copy of the picture, before writing.
+// channels mean): no conversion before writing. A canvas may hold a band of the picture's rows,
+// from `first_row` on (the picture is drawn and written a band at a time: issue #15, Intel's
+// peak RSS was its picture): every call takes picture coordinates, and drawing clips to the band.
 class Canvas {
  public:
-  Canvas(const MapPicturePluginApi* api, const PictureView& view) : api_(api), view_(view) {}
+  Canvas(const MapPicturePluginApi* api, const PictureView& view, int first_row = 0)
+      : api_(api), view_(view), first_row_(first_row) {}
 
-  // The top-left `width` x `height` pixels, to which drawing then clips.
+  // The picture's top-left `width` x `height` pixels (of those this band holds), to which drawing
+  // then clips.
   Canvas TopLeft(int width, int height) const {
     PictureView view = view_;
-    view.width = width;
-    view.height = height;
-    return Canvas(api_, view);
+    view.width = std::min(width, view_.width);
+    view.height = std::clamp(height - first_row_, 0, view_.height);
+    return Canvas(api_, view, first_row_);
   }
+  // Whether picture row `row` is in this band.
+  bool HasRow(int row) const { return row >= first_row_ && row < first_row_ + view_.height; }
   void FillRow(int row, int begin, int end, const Rgb& color) {
-    uint8_t* pixel = view_.data + row * view_.step + 3 * static_cast<size_t>(begin);
+    if (!HasRow(row)) return;
+    uint8_t* pixel = view_.data + (row - first_row_) * view_.step + 3 * static_cast<size_t>(begin);
     for (int x = begin; x < end; ++x, pixel += 3) std::memcpy(pixel, color.data(), 3);
   }
+  // Row `to` as row `from` over the first `width` pixels (both in this band).
   void CopyRow(int from, int to, int width) {
-    std::memcpy(view_.data + to * view_.step, view_.data + from * view_.step, static_cast<size_t>(width) * 3);
+    std::memcpy(view_.data + (to - first_row_) * view_.step, view_.data + (from - first_row_) * view_.step,
+                static_cast<size_t>(width) * 3);
   }
 
   // Anti-aliased, sub-pixel points; a negative thickness fills.
   void Circle(Point centre, int radius, const Rgb& color, int thickness) {
-    api_->circle(&view_, centre.x, centre.y, radius, color.data(), thickness, PictureStroke::kAntiAliasedSubpixel);
+    if (empty()) return;
+    api_->circle(&view_, centre.x, centre.y - SubpixelRows(), radius, color.data(), thickness,
+                 PictureStroke::kAntiAliasedSubpixel);
   }
   void FillConvexPolygon(const std::vector<Point>& corners, const Rgb& color) {
-    if (corners.empty()) return;
-    const std::vector<int32_t> xy = Flat(corners);
+    if (corners.empty() || empty()) return;
+    const std::vector<int32_t> xy = Flat(corners, SubpixelRows());
     api_->fill_convex_polygon(&view_, xy.data(), static_cast<int>(corners.size()), color.data(),
                               PictureStroke::kAntiAliasedSubpixel);
   }
   void Polyline(const std::vector<Point>& points, bool closed, const Rgb& color, int thickness) {
-    if (points.empty()) return;
-    const std::vector<int32_t> xy = Flat(points);
+    if (points.empty() || empty()) return;
+    const std::vector<int32_t> xy = Flat(points, SubpixelRows());
     api_->polyline(&view_, xy.data(), static_cast<int>(points.size()), closed, color.data(), thickness,
                    PictureStroke::kAntiAliasedSubpixel);
   }
   void Rectangle(Point corner, Point opposite, const Rgb& color, int thickness) {
-    api_->rectangle(&view_, corner.x, corner.y, opposite.x, opposite.y, color.data(), thickness,
-                    PictureStroke::kAntiAliasedSubpixel);
+    if (empty()) return;
+    api_->rectangle(&view_, corner.x, corner.y - SubpixelRows(), opposite.x, opposite.y - SubpixelRows(), color.data(),
+                    thickness, PictureStroke::kAntiAliasedSubpixel);
   }
   void Line(Point from, Point to, const Rgb& color, int thickness) {
-    api_->line(&view_, from.x, from.y, to.x, to.y, color.data(), thickness, PictureStroke::kAntiAliasedSubpixel);
+    if (empty()) return;
+    api_->line(&view_, from.x, from.y - SubpixelRows(), to.x, to.y - SubpixelRows(), color.data(), thickness,
+               PictureStroke::kAntiAliasedSubpixel);
   }
   // Whole pixels, aliased: the `width` x `height` box from (x, y) (nothing when empty), a line.
   void PixelBox(int x, int y, int width, int height, const Rgb& color, int thickness) {
-    if (width <= 0 || height <= 0) return;
-    api_->rectangle(&view_, x, y, x + width - 1, y + height - 1, color.data(), thickness, PictureStroke::kWholePixels);
+    if (width <= 0 || height <= 0 || empty()) return;
+    api_->rectangle(&view_, x, y - first_row_, x + width - 1, y - first_row_ + height - 1, color.data(), thickness,
+                    PictureStroke::kWholePixels);
   }
   void PixelLine(Point from, Point to, const Rgb& color, int thickness) {
-    api_->line(&view_, from.x, from.y, to.x, to.y, color.data(), thickness, PictureStroke::kWholePixels);
+    if (empty()) return;
+    api_->line(&view_, from.x, from.y - first_row_, to.x, to.y - first_row_, color.data(), thickness,
+               PictureStroke::kWholePixels);
   }
   // Anti-aliased text in the Hershey simplex font; `origin` (whole pixels) is the left end of
   // the baseline.
   void Text(const std::string& text, Point origin, double font_scale, const Rgb& color, int thickness) {
-    api_->put_text(&view_, text.c_str(), origin.x, origin.y, font_scale, color.data(), thickness);
+    if (empty()) return;
+    api_->put_text(&view_, text.c_str(), origin.x, origin.y - first_row_, font_scale, color.data(), thickness);
   }
 
  private:
-  // (x, y) pairs, as the plugin takes them.
-  static std::vector<int32_t> Flat(const std::vector<Point>& points) {
+  bool empty() const { return view_.width <= 0 || view_.height <= 0; }
+  int SubpixelRows() const { return first_row_ * (1 << map_picture_plugin::kSubpixelBits); }
+  // (x, y) pairs, as the plugin takes them, `dy` added to every y.
+  static std::vector<int32_t> Flat(const std::vector<Point>& points, int dy) {
     std::vector<int32_t> xy;
     xy.reserve(2 * points.size());
-    for (const Point& p : points) xy.insert(xy.end(), {p.x, p.y});
+    for (const Point& p : points) xy.insert(xy.end(), {p.x, p.y - dy});
     return xy;
   }
 
   const MapPicturePluginApi* api_;
   PictureView view_;
+  int first_row_ = 0;
 };
 
 constexpr int kFilled = -1;
+// The picture is drawn and written in bands of about this many bytes (PngRowWriter).
+constexpr size_t kBandBytes = size_t{512} << 10;
+constexpr int kBandMarginRows = 16;
 
 // Our pixel centres (MapPictureLayout) are at +0.5, the drawing calls' at integer coordinates.
 Point Fixed(const Eigen::Vector2d& pixel) {
@@ -502,126 +526,142 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   const int width = map_width + panel_width;
   const int height = std::max(map_height + strip_height, legend_height);
 
-  // One allocation, white, written by the PNG encoder in place.
-  std::vector<uint8_t> pixels(static_cast<size_t>(width) * height * 3, 255);
-  PictureView view;
-  view.data = pixels.data();
-  view.width = width;
-  view.height = height;
-  view.step = static_cast<size_t>(width) * 3;
-  Canvas picture(api, view);
-  for (int row_cell = 0; row_cell < height_cells; ++row_cell) {
-    const int64_t y = min_y + height_cells - 1 - row_cell;  // row 0 shows the largest y
-    for (int col_cell = 0; col_cell < width_cells; ++col_cell) {
-      picture.FillRow(row_cell * scale, col_cell * scale, (col_cell + 1) * scale, cell_color(min_x + col_cell, y));
-    }
-    for (int r = 1; r < scale; ++r) picture.CopyRow(row_cell * scale, row_cell * scale + r, map_width);
-  }
-  Canvas map = picture.TopLeft(map_width, map_height);  // drawing clips to the map
-  auto to_pixel = [&](const Eigen::Vector2d& p_world) { return geometry.WorldToPixel(p_world); };
-
-  // ---- Overlays, bottom to top: constraint lines, trajectories, their ends, markers, labels. ----
-  for (const MapPictureMarker& marker : markers) {
-    if (marker.line_to_world.has_value()) {
-      DrawDashedLine(map, to_pixel(marker.world), to_pixel(*marker.line_to_world), ui);
-    }
-  }
-  for (size_t t = 0; t < trajectories.size(); ++t) {
-    const std::vector<Pose2>& poses = trajectories[t].poses;
-    if (poses.size() < 2) continue;
-    uint8_t rgb[3];
-    TrajectoryColor(static_cast<int>(t), rgb);
-    std::vector<Point> line;
-    line.reserve(poses.size());
-    for (const Pose2& pose : poses) {
-      const Point p = Fixed(to_pixel(pose.translation()));
-      if (line.empty() || line.back() != p) line.push_back(p);
-    }
-    map.Polyline(line, false, {rgb[0], rgb[1], rgb[2]}, options.trajectory_width_pixels * ui);
-  }
-  for (size_t t = 0; t < trajectories.size(); ++t) {
-    const std::vector<Pose2>& poses = trajectories[t].poses;
-    if (poses.empty()) continue;
-    uint8_t rgb[3];
-    TrajectoryColor(static_cast<int>(t), rgb);
-    const Rgb color = {rgb[0], rgb[1], rgb[2]};
-    DrawStartDisc(map, to_pixel(poses.front().translation()), color, ui);
-    const double theta = poses.back().theta();
-    // Image rows grow downwards: world heading (cos, sin) is picture direction (cos, -sin).
-    DrawArrowHead(map, to_pixel(poses.back().translation()),
-                  Eigen::Vector2d(std::cos(theta), -std::sin(theta)), color, ui);
-  }
-  for (const MapPictureMarker& marker : markers) {
-    DrawMarkerGlyph(map, to_pixel(marker.world), marker.kind, ui);
-  }
-  for (const MapPictureMarker& marker : markers) {
-    if (marker.label.empty()) continue;
-    const Eigen::Vector2d at = to_pixel(marker.world);
-    // Above right of the marker, or on the far side of its line so the text does not sit on it.
-    bool left = false, below = false;
-    if (marker.line_to_world.has_value()) {
-      const Eigen::Vector2d towards = to_pixel(*marker.line_to_world) - at;
-      left = towards.x() > 0.0;
-      below = towards.y() < 0.0;
-    }
-    const int x = static_cast<int>(std::lround(at.x())) +
-                  (left ? -10 * ui - text.Width(marker.label) : 10 * ui);
-    const int y = static_cast<int>(std::lround(at.y())) + (below ? 8 * ui + text.height : -8 * ui);
-    text.DrawHaloed(map, marker.label, {x, y});
-  }
-
-  // ---- Legend panel, right of the map, over the whole height. ----
-  picture.PixelLine({map_width, 0}, {map_width, height - 1}, kPanelLineRgb, 1);
-  for (size_t k = 0; k < legend.size(); ++k) {
-    const LegendEntry& entry = legend[k];
-    const int x0 = map_width + margin;
-    const int centre_y = margin + static_cast<int>(k) * row_height + row_height / 2;
-    const Eigen::Vector2d icon_centre(x0 + icon_width / 2.0, centre_y + 0.5);
-    switch (entry.icon) {
-      case LegendEntry::Icon::kSwatch: {
-        picture.PixelBox(x0, centre_y - swatch / 2, swatch, swatch, entry.color, kFilled);
-        picture.PixelBox(x0, centre_y - swatch / 2, swatch, swatch, kPanelLineRgb, 1);
-        break;
-      }
-      case LegendEntry::Icon::kTrajectory: {
-        const Eigen::Vector2d from(x0 + 0.5, centre_y + 0.5);
-        const Eigen::Vector2d to(x0 + icon_width - 11.0 * ui, centre_y + 0.5);
-        picture.Line(Fixed(from), Fixed(to), entry.color, options.trajectory_width_pixels * ui);
-        DrawArrowHead(picture, to, Eigen::Vector2d(1.0, 0.0), entry.color, ui);
-        break;
-      }
-      case LegendEntry::Icon::kMarker:
-        if (entry.marker == MapPictureMarker::Kind::kConstraint) {
-          DrawDashedLine(picture, Eigen::Vector2d(x0 + 0.5, centre_y + 0.5),
-                         Eigen::Vector2d(x0 + icon_width, centre_y + 0.5), ui);
-        }
-        DrawMarkerGlyph(picture, icon_centre, entry.marker, ui);
-        break;
-    }
-    text.Draw(picture, entry.text, {x0 + icon_width + margin, centre_y + text.height / 2}, kBlack);
-  }
-
-  // ---- Scale bar strip, under the map. ----
-  const int bar_length = static_cast<int>(std::lround(geometry.scale_bar_meters / resolution * scale));
-  const int bar_y = map_height + margin + text.height;
-  const int bar_thickness = 4 * ui;
-  picture.PixelBox(margin, bar_y - bar_thickness / 2, bar_length, bar_thickness, kBlack, kFilled);
-  for (const int x : {margin, margin + bar_length - ui}) {
-    picture.PixelBox(x, bar_y - 3 * bar_thickness / 2, ui, 3 * bar_thickness, kBlack, kFilled);
-  }
-  const std::string bar_text = LengthText(geometry.scale_bar_meters);
-  text.Draw(picture, bar_text, {margin + bar_length + margin, bar_y + text.height / 2}, kBlack);
-  const std::string cell_text = "cells " + LengthText(resolution);
-  text.Draw(picture, cell_text, {margin + bar_length + 3 * margin + text.Width(bar_text), bar_y + text.height / 2},
-            kNoteTextRgb);
-
+  // Drawn and written a band of rows at a time by core's dependency-free PNG encoder
+  // (PngRowWriter; OpenCV's image codecs would load ~130 shared libraries and ~45 MiB into every
+  // program that draws a map): the picture is never in memory whole (Intel's, 1708 x 1672 RGB,
+  // 8.6 MB, was its run's peak RSS). Each band is drawn in full, every overlay clipped to it.
   geometry.width_pixels = width;
   geometry.height_pixels = height;
-  // Written by core's dependency-free PNG encoder (uncompressed): OpenCV's image codecs would
-  // load ~130 shared libraries (GDAL, codecs) and ~45 MiB into every program that draws a map.
-  // In place and straight from the picture's buffer: a copy of the picture each would double
-  // or triple its memory (Intel's peak RSS).
-  HETSLAM_RETURN_IF_ERROR(WritePngFromBuffer(path, width, height, 3, pixels.data()));
+  PngRowWriter png;
+  HETSLAM_RETURN_IF_ERROR(png.Open(path, width, height, 3));
+  const size_t step = static_cast<size_t>(width) * 3;
+  const int band_rows = std::clamp(static_cast<int>(kBandBytes / step), 1, height);
+  std::vector<uint8_t> pixels(step * static_cast<size_t>(band_rows + 2 * kBandMarginRows));
+  for (int first_row = 0; first_row < height; first_row += band_rows) {
+    const int rows = std::min(band_rows, height - first_row);
+    // Drawn with a margin of rows on either side, cut off when written: the anti-aliased
+    // strokes a band's edge clips are a pixel off near it.
+    const int drawn_first = std::max(0, first_row - kBandMarginRows);
+    const int drawn_rows = std::min(height, first_row + rows + kBandMarginRows) - drawn_first;
+    std::fill(pixels.begin(), pixels.begin() + static_cast<std::ptrdiff_t>(step * drawn_rows), uint8_t{255});
+    PictureView view;
+    view.data = pixels.data();
+    view.width = width;
+    view.height = drawn_rows;
+    view.step = step;
+    Canvas picture(api, view, drawn_first);
+    // The map's cells: a pixel row as its cell row, or as the row above it in the band.
+    for (int y = drawn_first; y < std::min(drawn_first + drawn_rows, map_height); ++y) {
+      if (y > drawn_first && y % scale != 0) {
+        picture.CopyRow(y - 1, y, map_width);
+        continue;
+      }
+      const int row_cell = y / scale;
+      const int64_t cell_y = min_y + height_cells - 1 - row_cell;  // row 0 shows the largest y
+      for (int col_cell = 0; col_cell < width_cells; ++col_cell) {
+        picture.FillRow(y, col_cell * scale, (col_cell + 1) * scale, cell_color(min_x + col_cell, cell_y));
+      }
+    }
+    Canvas map = picture.TopLeft(map_width, map_height);  // drawing clips to the map
+    auto to_pixel = [&](const Eigen::Vector2d& p_world) { return geometry.WorldToPixel(p_world); };
+
+    // ---- Overlays, bottom to top: constraint lines, trajectories, their ends, markers, labels. ----
+    for (const MapPictureMarker& marker : markers) {
+      if (marker.line_to_world.has_value()) {
+        DrawDashedLine(map, to_pixel(marker.world), to_pixel(*marker.line_to_world), ui);
+      }
+    }
+    for (size_t t = 0; t < trajectories.size(); ++t) {
+      const std::vector<Pose2>& poses = trajectories[t].poses;
+      if (poses.size() < 2) continue;
+      uint8_t rgb[3];
+      TrajectoryColor(static_cast<int>(t), rgb);
+      std::vector<Point> line;
+      line.reserve(poses.size());
+      for (const Pose2& pose : poses) {
+        const Point p = Fixed(to_pixel(pose.translation()));
+        if (line.empty() || line.back() != p) line.push_back(p);
+      }
+      map.Polyline(line, false, {rgb[0], rgb[1], rgb[2]}, options.trajectory_width_pixels * ui);
+    }
+    for (size_t t = 0; t < trajectories.size(); ++t) {
+      const std::vector<Pose2>& poses = trajectories[t].poses;
+      if (poses.empty()) continue;
+      uint8_t rgb[3];
+      TrajectoryColor(static_cast<int>(t), rgb);
+      const Rgb color = {rgb[0], rgb[1], rgb[2]};
+      DrawStartDisc(map, to_pixel(poses.front().translation()), color, ui);
+      const double theta = poses.back().theta();
+      // Image rows grow downwards: world heading (cos, sin) is picture direction (cos, -sin).
+      DrawArrowHead(map, to_pixel(poses.back().translation()),
+                    Eigen::Vector2d(std::cos(theta), -std::sin(theta)), color, ui);
+    }
+    for (const MapPictureMarker& marker : markers) {
+      DrawMarkerGlyph(map, to_pixel(marker.world), marker.kind, ui);
+    }
+    for (const MapPictureMarker& marker : markers) {
+      if (marker.label.empty()) continue;
+      const Eigen::Vector2d at = to_pixel(marker.world);
+      // Above right of the marker, or on the far side of its line so the text does not sit on it.
+      bool left = false, below = false;
+      if (marker.line_to_world.has_value()) {
+        const Eigen::Vector2d towards = to_pixel(*marker.line_to_world) - at;
+        left = towards.x() > 0.0;
+        below = towards.y() < 0.0;
+      }
+      const int x = static_cast<int>(std::lround(at.x())) +
+                    (left ? -10 * ui - text.Width(marker.label) : 10 * ui);
+      const int y = static_cast<int>(std::lround(at.y())) + (below ? 8 * ui + text.height : -8 * ui);
+      text.DrawHaloed(map, marker.label, {x, y});
+    }
+
+    // ---- Legend panel, right of the map, over the whole height. ----
+    picture.PixelLine({map_width, 0}, {map_width, height - 1}, kPanelLineRgb, 1);
+    for (size_t k = 0; k < legend.size(); ++k) {
+      const LegendEntry& entry = legend[k];
+      const int x0 = map_width + margin;
+      const int centre_y = margin + static_cast<int>(k) * row_height + row_height / 2;
+      const Eigen::Vector2d icon_centre(x0 + icon_width / 2.0, centre_y + 0.5);
+      switch (entry.icon) {
+        case LegendEntry::Icon::kSwatch: {
+          picture.PixelBox(x0, centre_y - swatch / 2, swatch, swatch, entry.color, kFilled);
+          picture.PixelBox(x0, centre_y - swatch / 2, swatch, swatch, kPanelLineRgb, 1);
+          break;
+        }
+        case LegendEntry::Icon::kTrajectory: {
+          const Eigen::Vector2d from(x0 + 0.5, centre_y + 0.5);
+          const Eigen::Vector2d to(x0 + icon_width - 11.0 * ui, centre_y + 0.5);
+          picture.Line(Fixed(from), Fixed(to), entry.color, options.trajectory_width_pixels * ui);
+          DrawArrowHead(picture, to, Eigen::Vector2d(1.0, 0.0), entry.color, ui);
+          break;
+        }
+        case LegendEntry::Icon::kMarker:
+          if (entry.marker == MapPictureMarker::Kind::kConstraint) {
+            DrawDashedLine(picture, Eigen::Vector2d(x0 + 0.5, centre_y + 0.5),
+                           Eigen::Vector2d(x0 + icon_width, centre_y + 0.5), ui);
+          }
+          DrawMarkerGlyph(picture, icon_centre, entry.marker, ui);
+          break;
+      }
+      text.Draw(picture, entry.text, {x0 + icon_width + margin, centre_y + text.height / 2}, kBlack);
+    }
+
+    // ---- Scale bar strip, under the map. ----
+    const int bar_length = static_cast<int>(std::lround(geometry.scale_bar_meters / resolution * scale));
+    const int bar_y = map_height + margin + text.height;
+    const int bar_thickness = 4 * ui;
+    picture.PixelBox(margin, bar_y - bar_thickness / 2, bar_length, bar_thickness, kBlack, kFilled);
+    for (const int x : {margin, margin + bar_length - ui}) {
+      picture.PixelBox(x, bar_y - 3 * bar_thickness / 2, ui, 3 * bar_thickness, kBlack, kFilled);
+    }
+    const std::string bar_text = LengthText(geometry.scale_bar_meters);
+    text.Draw(picture, bar_text, {margin + bar_length + margin, bar_y + text.height / 2}, kBlack);
+    const std::string cell_text = "cells " + LengthText(resolution);
+    text.Draw(picture, cell_text, {margin + bar_length + 3 * margin + text.Width(bar_text), bar_y + text.height / 2},
+              kNoteTextRgb);
+    HETSLAM_RETURN_IF_ERROR(png.AddRows(pixels.data() + step * static_cast<size_t>(first_row - drawn_first), rows));
+  }
+  HETSLAM_RETURN_IF_ERROR(png.Finish());
   if (layout != nullptr) *layout = geometry;
   return Status::Ok();
 }

@@ -234,6 +234,69 @@ TEST(PngTest, RunsAndRepeatedRowsAcrossScanlinesRoundTrip) {
   EXPECT_EQ(1000000, cv::countNonZero(flat == 205));
 }
 
+// Issue #15 (the map picture drawn a band at a time): the row writer gives the bytes of the
+// whole-image writer however the rows are split, narrow images (whose 258-byte matches reach
+// several rows ahead) and a noisy one whose stream fills more than one 1 MiB chunk included.
+TEST(PngTest, RowWriterGivesTheWholeImagesBytesInAnyBands) {
+  std::mt19937 rng(5);
+  const uint8_t greys[] = {0, 0, 255, 205, 128};
+  std::uniform_int_distribution<int> pick(0, 4), byte(0, 255), percent(0, 99);
+  const int sizes[][3] = {{1, 60, 1}, {3, 50, 3}, {40, 30, 1}, {301, 41, 3}, {1200, 1000, 1}};
+  for (const auto& size : sizes) {
+    const int width = size[0], height = size[1], channels = size[2];
+    const size_t row_bytes = static_cast<size_t>(width) * channels;
+    std::vector<uint8_t> pixels(row_bytes * height);
+    const bool noisy = width * height >= 1000000;
+    for (int r = 0; r < height; ++r) {
+      uint8_t* row = pixels.data() + r * row_bytes;
+      const int kind = percent(rng);
+      for (size_t x = 0; x < row_bytes; ++x) row[x] = noisy ? static_cast<uint8_t>(byte(rng)) : greys[pick(rng)];
+      if (!noisy && r > 0 && kind < 50) std::copy(row - row_bytes, row, row);  // as the row above
+    }
+    const std::string whole_path = TempPath("whole.png");
+    ASSERT_TRUE(WritePngFromBuffer(whole_path, width, height, channels, pixels.data()).ok());
+    const std::string whole = ReadFile(whole_path);
+    if (noisy) {
+      // More than one IDAT chunk.
+      const size_t first = whole.find("IDAT");
+      ASSERT_NE(std::string::npos, first);
+      EXPECT_NE(std::string::npos, whole.find("IDAT", first + 4));
+    }
+    for (const int band : {1, 2, 7, 64}) {
+      const std::string path = TempPath("bands.png");
+      std::filesystem::remove(path);
+      PngRowWriter writer;
+      ASSERT_TRUE(writer.Open(path, width, height, channels).ok());
+      for (int r = 0; r < height; r += band) {
+        ASSERT_TRUE(writer.AddRows(pixels.data() + r * row_bytes, std::min(band, height - r)).ok());
+      }
+      EXPECT_FALSE(std::filesystem::exists(path)) << "not before Finish";
+      ASSERT_TRUE(writer.Finish().ok());
+      EXPECT_TRUE(ReadFile(path) == whole) << width << "x" << height << "x" << channels << " in bands of " << band;
+    }
+  }
+}
+
+TEST(PngTest, RowWriterRefusesWrongRowCountsAndLeavesNoFile) {
+  const std::string path = TempPath("rows.png");
+  std::filesystem::remove(path);
+  const std::vector<uint8_t> rows(4 * 3, 128);
+  {
+    PngRowWriter writer;
+    ASSERT_TRUE(writer.Open(path, 4, 3, 1).ok());
+    EXPECT_THAT(writer.Open(path, 4, 3, 1).message(), HasSubstr("already in use"));
+    ASSERT_TRUE(writer.AddRows(rows.data(), 2).ok());
+    EXPECT_THAT(writer.AddRows(rows.data(), 2).message(), HasSubstr("2 rows given with 1 of 3 left"));
+    EXPECT_THAT(writer.Finish().message(), HasSubstr("2 of 3 rows given"));
+  }  // destroyed unfinished: its temporary file goes
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+  PngRowWriter unopened;
+  EXPECT_THAT(unopened.AddRows(rows.data(), 1).message(), HasSubstr("before Open"));
+  EXPECT_THAT(unopened.Finish().message(), HasSubstr("before Open"));
+  EXPECT_THAT(unopened.Open(TempPath("no_such_dir/x.png"), 1, 1, 1).message(), HasSubstr("no_such_dir"));
+}
+
 TEST(PngTest, FileStructureIsValid) {
   const std::string path = TempPath("structure.png");
   ASSERT_TRUE(WritePng(path, 2, 1, 1, {0, 255}).ok());
