@@ -215,6 +215,66 @@ TEST(MapPictureTest, ScaleIsLoweredToStayWithinMaxPixels) {
             options.max_pixels);
 }
 
+// Issue #15: the picture is drawn and written a band of rows at a time. A long straight
+// trajectory across a large room crosses several bands; each row's stroke lies on one line
+// (no jog where a band's edge clipped it: without the bands' margins the stroke moved by a
+// pixel there).
+TEST(MapPictureTest, StrokesCrossTheBandsWithoutASeam) {
+  // A 40 m square room seen from its centre: 800 x 800 cells, drawn at one pixel a cell.
+  OccupancyGrid structure{OccupancyGridOptions()};
+  std::vector<Eigen::Vector2d> walls;
+  for (double s = -19.99; s < 19.99; s += 0.01) {
+    walls.emplace_back(s, 19.995);
+    walls.emplace_back(s, -19.995);
+    walls.emplace_back(19.995, s);
+    walls.emplace_back(-19.995, s);
+  }
+  structure.InsertScan(Eigen::Vector2d(0.01, 0.01), walls, nullptr);
+  const Eigen::Vector2d from(-15.0, -17.0), to(13.0, 16.0);
+  // Many short steps, as a trajectory's poses are.
+  MapPictureTrajectory straight{"straight", {}};
+  for (int k = 0; k <= 400; ++k) straight.poses.emplace_back(from + (to - from) * (k / 400.0), 0.0);
+  const std::string path = TempPath("bands.png");
+  MapPictureLayout layout;
+  ASSERT_TRUE(WriteMapPicture(path, structure, nullptr, {straight}, {}, MapPictureOptions(), &layout).ok());
+  const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  ASSERT_GT(image.rows, 700);  // several bands of ~512 KiB (~170 rows at this width)
+  const Eigen::Vector2d a = layout.WorldToPixel(from), b = layout.WorldToPixel(to);
+  // Each row's darkness-weighted centre of the stroke, away from its ends' glyphs.
+  std::vector<Eigen::Vector2d> centres;
+  for (int row = static_cast<int>(b.y()) + 30; row < static_cast<int>(a.y()) - 30; ++row) {
+    const double expected_x = a.x() + (b.x() - a.x()) * (row + 0.5 - a.y()) / (b.y() - a.y());
+    double weight = 0.0, sum = 0.0;
+    for (int col = static_cast<int>(expected_x) - 8; col <= static_cast<int>(expected_x) + 8; ++col) {
+      const cv::Vec3b bgr = image.at<cv::Vec3b>(row, col);
+      const double dark = 255.0 - std::min({bgr[0], bgr[1], bgr[2]});
+      weight += dark;
+      sum += dark * (col + 0.5);
+    }
+    ASSERT_GT(weight, 0.0) << "row " << row;
+    centres.emplace_back(sum / weight, row + 0.5);
+  }
+  ASSERT_GT(centres.size(), 500u);
+  // Least-squares line x = c0 + c1 y through the centres; no row strays from it.
+  double sy = 0, sx = 0, syy = 0, sxy = 0;
+  for (const Eigen::Vector2d& c : centres) {
+    sx += c.x();
+    sy += c.y();
+    syy += c.y() * c.y();
+    sxy += c.x() * c.y();
+  }
+  const double n = static_cast<double>(centres.size());
+  const double c1 = (n * sxy - sx * sy) / (n * syy - sy * sy), c0 = (sx - c1 * sy) / n;
+  double worst = 0.0;
+  int worst_row = -1;
+  for (const Eigen::Vector2d& c : centres) {
+    const double off = std::abs(c.x() - (c0 + c1 * c.y()));
+    if (off > worst) worst = off, worst_row = static_cast<int>(c.y());
+  }
+  EXPECT_LT(worst, 0.25) << "at row " << worst_row;
+}
+
 TEST(MapPictureTest, ErrorsNameTheFile) {
   const OccupancyGrid structure = StructureGrid();
 
