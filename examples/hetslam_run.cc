@@ -795,8 +795,8 @@ int Run() {
   estimator.reset();  // the picture is drawn without the graph in memory
 #ifdef __GLIBC__
   // ... and without the pages it left in the heap (small blocks: nodes, points, Ceres): glibc
-  // keeps freed memory for reuse, and the picture (8.6 MB for Intel: 1708 x 1670 RGB) would
-  // come on top of it.
+  // keeps freed memory for reuse, and the picture's bands and OpenCV (loaded to draw) would come
+  // on top of it.
   malloc_trim(0);
 #endif
   written.push_back(

@@ -84,10 +84,10 @@ struct SubmapGraphOptions {
   // points (with their labels and heights) only when it lies at least this far from, or turned
   // at least this much against, the last node of the same retired submap that kept them (the
   // group's first keeps them; a bound of 0 does not count); the others keep their pose and
-  // floor obstacles. Re-driving
-  // mapped space then costs a scan's points per so much travel, not per scan (FR079: 1940 of
-  // 4403 scans re-drive, ~800 bytes of points each). Both 0: every attached node keeps its
-  // points. Finite, >= 0.
+  // floor obstacles. Re-driving mapped space then costs a scan's points per so much travel, not
+  // per scan (FR079: 1940 of 4403 scans re-drive, ~800 bytes of points each; 1409 release
+  // them). Both 0: every attached node keeps its points. Travel in [0, 1000] m, turn in
+  // [0, 2 pi].
   double revisit_points_min_travel_meters = 0.5;
   double revisit_points_min_turn_radians = 0.26179938779914941;  // 15°
 

@@ -131,7 +131,7 @@ class Canvas {
  private:
   bool empty() const { return view_.width <= 0 || view_.height <= 0; }
   int SubpixelRows() const { return first_row_ * (1 << map_picture_plugin::kSubpixelBits); }
-  // (x, y) pairs, as the plugin takes them, `dy` added to every y.
+  // (x, y) pairs, as the plugin takes them, `dy` taken from every y.
   static std::vector<int32_t> Flat(const std::vector<Point>& points, int dy) {
     std::vector<int32_t> xy;
     xy.reserve(2 * points.size());
