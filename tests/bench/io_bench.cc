@@ -4,9 +4,14 @@
 //   BM_Strtod               the same numbers through strtod, as before session 20.
 //   BM_ReadCarmenLog        a synthetic CARMEN log of 1000 FLASER lines of 360 ranges (an Intel-sized
 //                           log, written once to a temporary file) read whole by ReadCarmenLog.
+//   BM_WritePng             an Intel-sized map picture (1708 x 1672 RGB: runs of greys, rows like
+//                           the one above, a few strokes) written as a PNG; arg 0: whole
+//                           (WritePngFromBuffer), else in bands of that many rows (PngRowWriter,
+//                           as the map picture is written since session 29: the same bytes).
 // Run: build/tests/bench_io_bench
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +22,7 @@
 
 #include "benchmark/benchmark.h"
 #include "core/carmen_log.h"
+#include "core/map_io.h"
 #include "core/text_fields.h"
 
 namespace hetslam {
@@ -101,6 +107,61 @@ void BM_ReadCarmenLog(benchmark::State& state) {
   std::filesystem::remove(path);
 }
 BENCHMARK(BM_ReadCarmenLog)->Unit(benchmark::kMillisecond);
+
+// A map-like RGB picture: cell runs of a few greys two pixels tall, a diagonal stroke.
+const std::vector<uint8_t>& MapLikePicture(int width, int height) {
+  static const auto* pixels = [width, height] {
+    auto* p = new std::vector<uint8_t>(static_cast<size_t>(width) * height * 3);
+    std::mt19937 rng(3);
+    const uint8_t greys[] = {255, 255, 255, 205, 52};
+    std::uniform_int_distribution<int> pick(0, 4), run(1, 60);
+    for (int y = 0; y < height; y += 2) {
+      uint8_t* row = p->data() + static_cast<size_t>(y) * width * 3;
+      for (int x = 0; x < width;) {
+        const int end = std::min(width, x + 2 * run(rng));
+        const uint8_t grey = greys[pick(rng)];
+        std::fill(row + 3 * x, row + 3 * end, grey);
+        x = end;
+      }
+      if (y + 1 < height) std::copy(row, row + 3 * width, row + 3 * width);
+    }
+    for (int y = 0; y < height; ++y) {
+      const int x = y * (width - 3) / height;
+      uint8_t* pixel = p->data() + (static_cast<size_t>(y) * width + x) * 3;
+      for (int k = 0; k < 3; ++k) pixel[3 * k] = 230, pixel[3 * k + 1] = 20, pixel[3 * k + 2] = 60;
+    }
+    return p;
+  }();
+  return *pixels;
+}
+
+void BM_WritePng(benchmark::State& state) {
+  constexpr int kWidth = 1708, kHeight = 1672;
+  const std::vector<uint8_t>& pixels = MapLikePicture(kWidth, kHeight);
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("hetslam_io_bench_" + std::to_string(::getpid()) + ".png")).string();
+  const int band = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    Status status;
+    if (band == 0) {
+      status = WritePngFromBuffer(path, kWidth, kHeight, 3, pixels.data());
+    } else {
+      PngRowWriter writer;
+      status = writer.Open(path, kWidth, kHeight, 3);
+      for (int y = 0; y < kHeight && status.ok(); y += band) {
+        status = writer.AddRows(pixels.data() + static_cast<size_t>(y) * kWidth * 3, std::min(band, kHeight - y));
+      }
+      if (status.ok()) status = writer.Finish();
+    }
+    if (!status.ok()) {
+      state.SkipWithError(status.message().c_str());
+      break;
+    }
+  }
+  state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(pixels.size()));
+  std::filesystem::remove(path);
+}
+BENCHMARK(BM_WritePng)->Arg(0)->Arg(102)->Arg(16)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace hetslam
