@@ -618,25 +618,39 @@ Status PngRowWriter::AddRows(const uint8_t* rows, int count) {
     return Status::Error("cannot write '" + s.path + "': " + std::to_string(count) + " rows given with " +
                          std::to_string(s.height - s.rows_added) + " of " + std::to_string(s.height) + " left");
   }
-  // The rows before the one above the deflater's position are read no more.
-  const size_t keep_from = std::max(s.window_first_row, s.deflater.position() / s.stride);
-  const size_t keep = keep_from > 0 ? keep_from - 1 : 0;
-  if (keep > s.window_first_row) {
-    s.window.erase(s.window.begin(),
-                   s.window.begin() + static_cast<std::ptrdiff_t>((keep - s.window_first_row) * s.row_bytes));
-    s.window_first_row = keep;
-  }
   const uint8_t filter_none = 0;
   for (int r = 0; r < count; ++r) {
     const uint8_t* row = rows + static_cast<size_t>(r) * s.row_bytes;
     s.AddToAdler(&filter_none, 1);
     s.AddToAdler(row, s.row_bytes);
   }
-  s.window.insert(s.window.end(), rows, rows + static_cast<size_t>(count) * s.row_bytes);
+  const size_t first_new_row = static_cast<size_t>(s.rows_added);
   s.rows_added += count;
-  PngRawStream raw{s.window.data(), s.row_bytes, s.stride, s.size};
-  raw.first_row = s.window_first_row;
-  s.deflater.Encode(raw, s.stride * static_cast<size_t>(s.rows_added));
+  // The row above the deflater's position and those after it: what later positions read.
+  auto needed_from = [&s] {
+    const size_t row = s.deflater.position() / s.stride;
+    return row > 0 ? row - 1 : 0;
+  };
+  if (s.window.empty()) {
+    // No earlier row is kept (the first rows): read in place, so that a whole image given at
+    // once is not copied; then keep the rows later ones need.
+    PngRawStream raw{rows, s.row_bytes, s.stride, s.size};
+    raw.first_row = first_new_row;
+    s.deflater.Encode(raw, s.stride * static_cast<size_t>(s.rows_added));
+    const size_t keep = std::max(first_new_row, needed_from());
+    s.window.assign(rows + (keep - first_new_row) * s.row_bytes, rows + static_cast<size_t>(count) * s.row_bytes);
+    s.window_first_row = keep;
+  } else {
+    // The rows before the one above the deflater's position are read no more.
+    const size_t keep = std::max(s.window_first_row, needed_from());
+    s.window.erase(s.window.begin(),
+                   s.window.begin() + static_cast<std::ptrdiff_t>((keep - s.window_first_row) * s.row_bytes));
+    s.window_first_row = keep;
+    s.window.insert(s.window.end(), rows, rows + static_cast<size_t>(count) * s.row_bytes);
+    PngRawStream raw{s.window.data(), s.row_bytes, s.stride, s.size};
+    raw.first_row = s.window_first_row;
+    s.deflater.Encode(raw, s.stride * static_cast<size_t>(s.rows_added));
+  }
   s.WriteFullChunks(false);
   return Status::Ok();
 }
