@@ -83,6 +83,11 @@ DEFINE_string(refine_interpolation, "distances", "What the front end's Ceres ref
               "between cell centres: distances (each cell centre's distance to the nearest surface, so the kernel "
               "peaks on the wall itself; see factors/scan_cost.h), the default, or values (the likelihood field's "
               "values; a wall is pulled towards the nearest cell centre, by up to half a cell).");
+DEFINE_int32(refine_max_iterations, 20, "Iteration limit of every scan match's Ceres refinement (front end, loop "
+             "search, wide loop search), in [0, 1000]. With --refine_function_tolerance, the stopping rule that "
+             "tests/bench/run_sensitivity.sh varies to show how far the real logs' figures move.");
+DEFINE_double(refine_function_tolerance, 1e-6, "Every scan match's Ceres refinement stops when a step changes its "
+              "cost by less than this fraction (Ceres' function_tolerance), in (0, 1).");
 DEFINE_double(field_max_distance, 0.3, "Likelihood field window radius in metres (beyond it p_hit = 0).");
 DEFINE_double(linear_window, 1.2, "Scan matcher search window, ± metres around the prediction in x and y.");
 DEFINE_double(angular_window_deg, 40.0, "Scan matcher search window, ± degrees around the predicted heading.");
@@ -343,6 +348,8 @@ std::string FlagsNamedIn(const std::string& message) {
       {"second_mode_exclusion_meters", "--second_mode_exclusion"},
       {"second_mode_score_ratio", "--second_mode_score_ratio"},
       {"sideslip_sigma_meters", "--sideslip_sigma"},
+      {"max_ceres_iterations", "--refine_max_iterations"},
+      {"refine_function_tolerance", "--refine_function_tolerance"},
       {"max_submaps_per_search", "--loop_max_submaps"},
       {"motion_filter_distance_meters", "--motion_filter_distance"},
       {"motion_filter_angle_radians", "--motion_filter_angle_deg"},
@@ -474,6 +481,10 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->search_min_turn_radians = FLAGS_loop_search_min_turn_deg * M_PI / 180.0;
   loop->matcher.linear_search_window_meters = FLAGS_loop_linear_window;
   loop->matcher.angular_search_window_radians = FLAGS_loop_angular_window_deg * M_PI / 180.0;
+  for (ScanMatcherOptions* matcher : {&options->matcher, &loop->matcher, &loop->wide_matcher}) {
+    matcher->max_ceres_iterations = FLAGS_refine_max_iterations;
+    matcher->refine_function_tolerance = FLAGS_refine_function_tolerance;
+  }
   estimator->solve_every_n_loop_closures = FLAGS_solve_every_n_loop_closures;
   estimator->solve_min_new_nodes = FLAGS_solve_min_new_nodes;
   estimator->solve_min_new_node_share = FLAGS_solve_min_new_node_share;

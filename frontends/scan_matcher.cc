@@ -737,6 +737,7 @@ ceres::Solver::Options RefinementSolverOptions(const ScanMatcherOptions& options
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations = options.max_ceres_iterations;
+  solver_options.function_tolerance = options.refine_function_tolerance;
   solver_options.num_threads = 1;
   solver_options.minimizer_progress_to_stdout = false;
   solver_options.logging_type = ceres::SILENT;
@@ -813,7 +814,9 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
   if (branch_and_bound_depth < 0 || branch_and_bound_depth > 10)
     msg << "branch_and_bound_depth must be in [0, 10] (got " << branch_and_bound_depth << "); ";
   if (!(min_correlative_score >= 0 && min_correlative_score < 1)) msg << "min_correlative_score must be in [0, 1); ";
-  if (max_ceres_iterations < 0) msg << "max_ceres_iterations must be >= 0; ";
+  if (max_ceres_iterations < 0 || max_ceres_iterations > 1000) msg << "max_ceres_iterations must be in [0, 1000]; ";
+  if (!(refine_function_tolerance > 0 && refine_function_tolerance < 1))
+    msg << "refine_function_tolerance must be in (0, 1) (got " << refine_function_tolerance << "); ";
   if (!(free_space_penalty >= 0)) msg << "free_space_penalty must be >= 0; ";
   if (!(fallback_below_score >= 0 && fallback_linear_search_window_meters >= 0 &&
         fallback_angular_search_window_radians >= 0 && fallback_angular_search_window_radians <= M_PI))

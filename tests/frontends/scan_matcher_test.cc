@@ -1,5 +1,6 @@
 #include "frontends/scan_matcher.h"
 
+#include <cmath>
 #include <random>
 
 #include "core/laser_map.h"
@@ -593,6 +594,34 @@ TEST_F(ScanMatcherTest, WallWeightWithoutAWallFieldChangesNothing) {
   EXPECT_EQ(plain.correlative_score, weighted.correlative_score);
 }
 
+TEST_F(ScanMatcherTest, TheRefinementStopsByItsOwnRule) {
+  // Offset from the truth by less than a cell and an angular step, so that the search's best
+  // candidate is the same for every rule and only the refinement differs.
+  const Pose2 truth(0.41, -0.27, 0.3);
+  std::mt19937 rng(3);
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
+  auto match = [&](int max_iterations, double function_tolerance) {
+    ScanMatcherOptions options;
+    options.max_ceres_iterations = max_iterations;
+    options.refine_function_tolerance = function_tolerance;
+    return ScanMatcher(options).Match(map_, truth, scan);
+  };
+  const ScanMatchResult standard = match(20, 1e-6);
+  ASSERT_TRUE(standard.converged) << standard.message;
+  EXPECT_GE(standard.iterations, 2);
+  EXPECT_LE(standard.iterations, 20);
+  const ScanMatchResult capped = match(1, 1e-6);
+  ASSERT_TRUE(capped.converged);
+  EXPECT_LE(capped.iterations, 1);
+  const ScanMatchResult loose = match(20, 0.5);  // any step that keeps half the cost stops it
+  ASSERT_TRUE(loose.converged);
+  EXPECT_LT(loose.iterations, standard.iterations);
+  for (const ScanMatchResult* result : {&standard, &capped, &loose}) {
+    EXPECT_NEAR(truth.x(), result->pose.x(), 0.03);
+    EXPECT_NEAR(truth.y(), result->pose.y(), 0.03);
+  }
+}
+
 TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   ScanMatcherOptions options;
   std::string error;
@@ -606,6 +635,16 @@ TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   options.wall_weight = 0.5;  // below 1: the wall channel's cost weight sqrt(w - 1) is undefined
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("wall_weight"));
+  for (const double tolerance : {0.0, 1.0, std::nan("")}) {
+    options = ScanMatcherOptions();
+    options.refine_function_tolerance = tolerance;
+    EXPECT_FALSE(options.IsValid(&error)) << tolerance;
+    EXPECT_NE(std::string::npos, error.find("refine_function_tolerance"));
+  }
+  options = ScanMatcherOptions();
+  options.max_ceres_iterations = -1;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("max_ceres_iterations"));
 }
 
 }  // namespace
