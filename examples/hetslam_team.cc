@@ -89,6 +89,11 @@ DEFINE_int32(overlap_confirm_new_nodes, 1, "Query nodes that did not support a h
 DEFINE_string(refine_interpolation, "distances", "What each robot's front end refines its scan matches on between "
               "cell centres: distances (to the nearest surface; the default; see hetslam_run --help and "
               "factors/scan_cost.h) or values (the likelihood field's).");
+DEFINE_int32(refine_max_iterations, 20, "Iteration limit of every scan match's Ceres refinement (each robot's front "
+             "end and loop search, the team's inter-robot and map-overlap matches), in [0, 1000]; see hetslam_run "
+             "--help.");
+DEFINE_double(refine_function_tolerance, 1e-6, "Every scan match's Ceres refinement stops when a step changes its "
+              "cost by less than this fraction (Ceres' function_tolerance), in (0, 1).");
 DEFINE_double(motion_filter_distance, 0.01, "Each robot's motion filter (see hetslam_run --help): a scan that moved "
               "less than this (metres) and turned less than --motion_filter_angle_deg since the robot's last graph "
               "node is matched and mapped but is no node (a standing robot adds nothing); 0 = off.");
@@ -141,6 +146,11 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   if (!ParseScanCostInterpolation(FLAGS_refine_interpolation, &robot->local.matcher.refine_interpolation)) {
     return (*error = "--refine_interpolation must be values or distances (got '" + FLAGS_refine_interpolation + "')"),
            false;
+  }
+  for (ScanMatcherOptions* matcher : {&robot->local.matcher, &robot->loop.matcher, &robot->loop.wide_matcher,
+                                      &team->matcher, &team->overlap_matcher}) {
+    matcher->max_ceres_iterations = FLAGS_refine_max_iterations;
+    matcher->refine_function_tolerance = FLAGS_refine_function_tolerance;
   }
   team->wrong_tag_id_rate = FLAGS_wrong_tag_id_rate;
   team->fault_seed = FLAGS_fault_seed;

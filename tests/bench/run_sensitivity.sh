@@ -4,10 +4,12 @@
 # two cores), so it is run by hand, e.g. before a change that alters results is judged on one
 # run of each log.
 #
-#   tests/bench/run_sensitivity.sh [BUILD_DIR] [-- extra hetslam_run flags...]
+#   tests/bench/run_sensitivity.sh [--logs=NAME,...] [BUILD_DIR] [-- extra hetslam_run flags...]
 #
 #   BUILD_DIR   build folder holding examples/hetslam_run, hetslam_eval, hetslam_compare
 #               (default: <repo>/build).
+#   --logs=...  a comma-separated subset of intel, fr079, aces, mit-csail (default: all four;
+#               aces alone takes ~15 s).
 #   -- ...      everything after `--` is passed to every hetslam_run call (a change under test;
 #               the variants below are added after it).
 #
@@ -40,9 +42,19 @@ usage() { sed -n '2,/^# Exit status/p' "$0" | sed 's/^# \{0,1\}//'; }
 root=$(cd "$(dirname "$0")/../.." && pwd)
 build=""
 extra=()
+logs=(intel fr079 aces mit-csail)
 while [ $# -gt 0 ]; do
   case "$1" in
     -h|--help) usage; exit 0 ;;
+    --logs=*)
+      IFS=, read -r -a logs <<<"${1#--logs=}"
+      for name in "${logs[@]}"; do
+        case $name in
+          intel | fr079 | aces | mit-csail) ;;
+          *) echo "run_sensitivity.sh: unknown log '$name' in $1 (intel, fr079, aces, mit-csail)" >&2; exit 2 ;;
+        esac
+      done
+      [ ${#logs[@]} -gt 0 ] || { echo "run_sensitivity.sh: --logs names no log" >&2; exit 2; } ;;
     --) shift; extra=("$@"); break ;;
     -*) echo "run_sensitivity.sh: unknown option '$1' (hetslam_run flags go after --; see --help)" >&2; exit 2 ;;
     *)
@@ -74,7 +86,6 @@ variants=(default
   refine_max_iterations=15 refine_max_iterations=18 refine_max_iterations=25 refine_max_iterations=30
   refine_function_tolerance=1e-7 refine_function_tolerance=3e-6 refine_function_tolerance=1e-5
   refine_function_tolerance=3e-5 refine_function_tolerance=1e-4)
-logs=(intel fr079 aces mit-csail)
 
 echo "hetslam_run's sensitivity to the refinement's stopping rule: $(lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores"
 echo "build: $build"
