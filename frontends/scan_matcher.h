@@ -103,10 +103,10 @@ struct ScanMatcherOptions {
   bool wall_weight_in_refinement = false;
   double profile_step_meters = 0.1;  // see ScanMatchResult::weak_direction_score_drop
   // The refinement's stopping rule (Ceres' max_num_iterations and function_tolerance: it stops
-  // when a step changes the cost by less than this fraction). A fifth of the refinements run
-  // to the iteration limit and the last steps move the pose by well under a millimetre, yet
-  // the real logs' figures move when these change (README, "How far the real-log figures
-  // move"): they are the knobs of tests/bench/run_sensitivity.sh.
+  // when a step changes the cost by less than this fraction). On Intel a fifth of the
+  // refinements run to the iteration limit, their last steps moving the pose by well under a
+  // millimetre, yet the real logs' figures move when these change (README, "How far the
+  // real-log figures move"): they are the knobs of tests/bench/run_sensitivity.sh.
   int max_ceres_iterations = 20;
   double refine_function_tolerance = 1e-6;
 

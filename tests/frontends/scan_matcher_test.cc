@@ -595,8 +595,8 @@ TEST_F(ScanMatcherTest, WallWeightWithoutAWallFieldChangesNothing) {
 }
 
 TEST_F(ScanMatcherTest, TheRefinementStopsByItsOwnRule) {
-  // Offset from the truth by less than a cell and an angular step, so that the search's best
-  // candidate is the same for every rule and only the refinement differs.
+  // Predicted at the truth: the search's best candidate is the same for every rule, and only
+  // the refinement that follows it differs.
   const Pose2 truth(0.41, -0.27, 0.3);
   std::mt19937 rng(3);
   const std::vector<Eigen::Vector2f> scan = SimulateScan(world_, truth, 0.01, &rng);
@@ -613,7 +613,8 @@ TEST_F(ScanMatcherTest, TheRefinementStopsByItsOwnRule) {
   const ScanMatchResult capped = match(1, 1e-6);
   ASSERT_TRUE(capped.converged);
   EXPECT_LE(capped.iterations, 1);
-  const ScanMatchResult loose = match(20, 0.5);  // any step that keeps half the cost stops it
+  // Stops at the first step that lowers the cost by less than half.
+  const ScanMatchResult loose = match(20, 0.5);
   ASSERT_TRUE(loose.converged);
   EXPECT_LT(loose.iterations, standard.iterations);
   for (const ScanMatchResult* result : {&standard, &capped, &loose}) {
