@@ -608,6 +608,15 @@ std::string Summary(const OnlineEstimator& estimator) {
                 p.max_extra_particle_bytes / 1048576.0, (finished_bytes + active_bytes) / 1048576.0,
                 finished_bytes / 1048576.0, active_bytes / 1048576.0);
   out += line;
+  if (p.unfollowed_modes > 0) {
+    std::snprintf(line, sizeof(line),
+                  "particles: %d scans fit two places alike (a second mode of at least --second_mode_score_ratio "
+                  "of the best, distinct when matched again) that no particle followed: neither slides the robot "
+                  "sideways, which is what the motion model weighs (two places along a corridor's length); each "
+                  "went on at the better-scoring place, a guess where they score alike (t = %.1f to %.1f s)\n",
+                  p.unfollowed_modes, p.first_unfollowed_mode_stamp, p.last_unfollowed_mode_stamp);
+    out += line;
+  }
   const SubmapGraphStats& store = estimator.graph().stats();
   std::snprintf(line, sizeof(line), "map store: %d submaps evicted (%.1f MiB) to stay within --max_map_store_mib=%g\n",
                 store.submaps_evicted, store.evicted_bytes / 1048576.0, FLAGS_max_map_store_mib);

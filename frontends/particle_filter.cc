@@ -214,11 +214,18 @@ bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints
   // and Intel, the particles drifted apart along corridors and the kept one was often wrong
   // (ACES 0.113 -> 8.7 m against GMapping, Intel's relations 0.022 -> 0.14 m).
   const std::vector<StampedPose2>& recent_first = particles_[0].state.recent;
-  if (recent_first.size() < 2 || options_.sideslip_sigma_meters <= 0) return false;
-  const Pose2& previous = recent_first[recent_first.size() - 2].pose;
-  const double sideslip = std::max(SideslipMeters(Between(previous, first.local_pose)),
-                                   SideslipMeters(Between(previous, second.local_pose)));
-  if (sideslip < options_.sideslip_sigma_meters * options_.mode_min_sideslip_sigmas) return false;
+  bool followed = recent_first.size() >= 2 && options_.sideslip_sigma_meters > 0;
+  if (followed) {
+    const Pose2& previous = recent_first[recent_first.size() - 2].pose;
+    const double sideslip = std::max(SideslipMeters(Between(previous, first.local_pose)),
+                                     SideslipMeters(Between(previous, second.local_pose)));
+    followed = sideslip >= options_.sideslip_sigma_meters * options_.mode_min_sideslip_sigmas;
+  }
+  if (!followed) {
+    if (stats_.unfollowed_modes++ == 0) stats_.first_unfollowed_mode_stamp = stamp_seconds;
+    stats_.last_unfollowed_mode_stamp = stamp_seconds;
+    return false;
+  }
   // Two particles from this scan on; its results are deferred like every scan's while several
   // live. Neither is the undisturbed one: the evidence alone picks at the collapse.
   particles_[0].undisturbed = false;

@@ -56,6 +56,7 @@
 #define HETSLAM_FRONTENDS_PARTICLE_FILTER_H_
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <random>
@@ -195,6 +196,14 @@ struct ParticleFilterStats {
   int max_particles = 1;         // largest count seen
   int spawns = 0;
   int mode_spawns = 0;           // of which at a second mode (spawn_on_second_mode)
+  // Scans whose second mode held when matched again (distinct from the best) but no particle
+  // followed it: neither mode slides the robot sideways, so the motion model cannot weigh them
+  // (two places along a corridor's length). The scan went on at the best-scoring mode, a guess
+  // where the two score alike (README, "How far the real-log figures move": ACES's corridor).
+  // Their first and last stamps (NaN when none).
+  int unfollowed_modes = 0;
+  double first_unfollowed_mode_stamp = std::numeric_limits<double>::quiet_NaN();
+  double last_unfollowed_mode_stamp = std::numeric_limits<double>::quiet_NaN();
   int collapses = 0;
   int resamples = 0;
   int global_scorings = 0;       // scans weighted against the graph's finished submaps

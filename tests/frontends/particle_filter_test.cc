@@ -243,6 +243,31 @@ TEST(ParticleLocalSlamTest, SpawnsAtASecondModeAndTheMotionModelSettlesIt) {
   const ModeRun off = RunInBareRoom(options, first, second);
   EXPECT_EQ(0, off.stats.spawns);
   EXPECT_EQ(1, off.steps[1].particles);
+  EXPECT_EQ(0, off.stats.unfollowed_modes);  // not looked for
+  EXPECT_EQ(0, run.stats.unfollowed_modes);  // followed
+}
+
+TEST(ParticleLocalSlamTest, ASecondModeNoParticleFollowsIsCounted) {
+  const Pose2 first(-0.8, 0.6, -1.5);
+  const Pose2 second = first * Pose2(0.4, 0.02, 0.1);
+  ParticleFilterOptions options;
+  options.spawn_on_second_mode = true;
+  // No sideslip is ever enough: the motion model could not weigh the modes (as for two places
+  // along a corridor), so the scan goes on alone at the better-scoring one, and is counted.
+  options.mode_min_sideslip_sigmas = 1e6;
+  const ModeRun run = RunInBareRoom(options, first, second);
+  ASSERT_EQ(2u, run.steps.size());
+  EXPECT_FALSE(run.steps[1].spawned);
+  EXPECT_EQ(1, run.steps[1].particles);
+  EXPECT_EQ(0, run.stats.spawns);
+  EXPECT_EQ(1, run.stats.unfollowed_modes);
+  EXPECT_EQ(1.0, run.stats.first_unfollowed_mode_stamp);  // the second scan's stamp
+  EXPECT_EQ(1.0, run.stats.last_unfollowed_mode_stamp);
+  // Without particles there is nothing to follow a mode with; none is looked for.
+  options.max_particles = 1;
+  const ModeRun single = RunInBareRoom(options, first, second);
+  EXPECT_EQ(0, single.stats.unfollowed_modes);
+  EXPECT_TRUE(std::isnan(single.stats.first_unfollowed_mode_stamp));
 }
 
 // The ring of rooms (tests/frontends/sim_fixtures.h), fed as scans with the true motion as an
