@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # How far the real logs' accuracy figures move when nothing but the scan-match refinement's
-# stopping rule changes. NOT a ctest test: it maps every log ten times (about three minutes on
+# stopping rule changes. NOT a ctest test: it maps every log ten times (about 2.5 minutes on
 # two cores), so it is run by hand, e.g. before a change that alters results is judged on one
 # run of each log.
 #
@@ -16,7 +16,7 @@
 # Why: the simulated scenarios are judged on seeds 1-5; a real log has no seed, and a single
 # run of it is one draw. The refinement's stopping rule (--refine_max_iterations, default 20,
 # and --refine_function_tolerance, default 1e-6) moves a match by well under a millimetre,
-# which is what a different compiler, CPU or Ceres version does as well; the discrete
+# differences of the size a different compiler, CPU or Ceres version can bring; the discrete
 # decisions downstream (a loop closure accepted or not, the position along a featureless
 # corridor) turn that into the spread this script measures.
 #
