@@ -141,11 +141,10 @@ DEFINE_double(narrow_accept_score, 0.4, "Front end narrow first try: minimum sco
 DEFINE_double(loop_search_min_travel, 0.3, "Search for loop closures again only after the robot moved this many metres "
               "(or turned --loop_search_min_turn_deg) since the last search.");
 DEFINE_double(loop_search_min_turn_deg, 20.0, "See --loop_search_min_travel.");
-DEFINE_bool(loop_wide_search, false, "Opt-in: once the drift bound (grown with the travel since the last solve) "
-            "exceeds --loop_linear_window and the standard search finds nothing, also search a wide window (up to "
+DEFINE_bool(loop_wide_search, true, "Once the drift bound (grown with the travel since the last solve) exceeds "
+            "--loop_linear_window and the standard search finds nothing, also search a wide window (up to "
             "--loop_wide_window m), without motion prior; two wide matches of different scans that agree on the "
-            "correction enter the graph. For drift beyond the standard window (long loops on poor odometry); off by "
-            "default: it accepts no closure on the shared real logs and costs up to 15% of a run and 6 MiB.");
+            "correction enter the graph (long corridors).");
 DEFINE_int32(loop_max_submaps, 4, "Loop search budget: match each node against at most this many finished submaps, "
              "those its scan overlaps most at its estimate (then the nearest), so a search costs the same however long "
              "the run; submaps that cannot reach --loop_min_score within the drift bound are never searched. 0 = every "

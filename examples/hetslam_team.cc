@@ -94,7 +94,6 @@ DEFINE_int32(refine_max_iterations, 20, "Iteration limit of every scan match's C
              "--help.");
 DEFINE_double(refine_function_tolerance, 1e-6, "Every scan match's Ceres refinement stops when a step changes its "
               "cost by less than this fraction (Ceres' function_tolerance), in (0, 1).");
-DEFINE_bool(loop_wide_search, false, "Each robot's opt-in wide loop search (see hetslam_run --help).");
 DEFINE_double(motion_filter_distance, 0.01, "Each robot's motion filter (see hetslam_run --help): a scan that moved "
               "less than this (metres) and turned less than --motion_filter_angle_deg since the robot's last graph "
               "node is matched and mapped but is no node (a standing robot adds nothing); 0 = off.");
@@ -177,7 +176,6 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   robot->local.motion_filter_distance_meters = FLAGS_motion_filter_distance;
   robot->local.motion_filter_angle_radians = FLAGS_motion_filter_angle_deg * kDeg;
   robot->loop.max_submaps_per_search = FLAGS_loop_max_submaps;
-  robot->loop.wide_search = FLAGS_loop_wide_search;
   if (!(FLAGS_max_map_store_mib >= 0 && FLAGS_max_map_store_mib <= 1048576)) {
     return (*error = "--max_map_store_mib must be in [0, 1048576] (got " + std::to_string(FLAGS_max_map_store_mib) + ")"),
            false;

@@ -47,12 +47,7 @@ struct LoopCloserOptions {
   double gate_meters_per_meter = 0.1;
   double gate_base_radians = 0.1;
   double gate_radians_per_meter = 0.02;
-  // Off by default since session 30 (opt in for drift beyond the standard window, e.g. long
-  // loops on poor odometry). Measured: with it on, no real log's trajectory changes (Intel,
-  // FR079, ACES, MIT CSAIL byte-identical with it off: it never accepts a closure there), one
-  // of the 55 scenario runs of seeds 1-5 does, by 0.01° rms (team_overlap seed 4's drone); it
-  // costs MIT CSAIL 15% of its run, FR079 7%, and ACES 6 MiB of peak memory (its tables).
-  bool wide_search = false;
+  bool wide_search = true;
   ScanMatcherOptions wide_matcher = DefaultWideMatcherOptions();
   double wide_window_meters = 8.0;
   double wide_angular_window_radians = M_PI;
