@@ -612,7 +612,7 @@ Status PngRowWriter::Open(const std::string& path, int width, int height, int ch
 }
 
 Status PngRowWriter::AddRows(const uint8_t* rows, int count) {
-  if (state_ == nullptr || state_->file == nullptr) return Status::Error("PngRowWriter::AddRows before Open");
+  if (state_ == nullptr || state_->file == nullptr) return Status::Error("PngRowWriter::AddRows before Open or after Finish");
   State& s = *state_;
   if (count < 0 || count > s.height - s.rows_added) {
     return Status::Error("cannot write '" + s.path + "': " + std::to_string(count) + " rows given with " +
@@ -656,7 +656,7 @@ Status PngRowWriter::AddRows(const uint8_t* rows, int count) {
 }
 
 Status PngRowWriter::Finish() {
-  if (state_ == nullptr || state_->file == nullptr) return Status::Error("PngRowWriter::Finish before Open");
+  if (state_ == nullptr || state_->file == nullptr) return Status::Error("PngRowWriter::Finish before Open or after Finish");
   State& s = *state_;
   if (s.rows_added != s.height) {
     return Status::Error("cannot write '" + s.path + "': " + std::to_string(s.rows_added) + " of " +

@@ -536,6 +536,19 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
   HETSLAM_RETURN_IF_ERROR(png.Open(path, width, height, 3));
   const size_t step = static_cast<size_t>(width) * 3;
   const int band_rows = std::clamp(static_cast<int>(kBandBytes / step), 1, height);
+  auto to_pixel = [&](const Eigen::Vector2d& p_world) { return geometry.WorldToPixel(p_world); };
+  // Each trajectory's polyline (its poses' pixels, repeats dropped), once for every band.
+  std::vector<std::vector<Point>> trajectory_lines(trajectories.size());
+  for (size_t t = 0; t < trajectories.size(); ++t) {
+    const std::vector<Pose2>& poses = trajectories[t].poses;
+    if (poses.size() < 2) continue;
+    std::vector<Point>& line = trajectory_lines[t];
+    line.reserve(poses.size());
+    for (const Pose2& pose : poses) {
+      const Point p = Fixed(to_pixel(pose.translation()));
+      if (line.empty() || line.back() != p) line.push_back(p);
+    }
+  }
   std::vector<uint8_t> pixels(step * static_cast<size_t>(band_rows + 2 * kBandMarginRows));
   for (int first_row = 0; first_row < height; first_row += band_rows) {
     const int rows = std::min(band_rows, height - first_row);
@@ -563,7 +576,6 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
       }
     }
     Canvas map = picture.TopLeft(map_width, map_height);  // drawing clips to the map
-    auto to_pixel = [&](const Eigen::Vector2d& p_world) { return geometry.WorldToPixel(p_world); };
 
     // ---- Overlays, bottom to top: constraint lines, trajectories, their ends, markers, labels. ----
     for (const MapPictureMarker& marker : markers) {
@@ -572,17 +584,10 @@ Status WriteMapPicture(const std::string& path, const OccupancyGrid& structure,
       }
     }
     for (size_t t = 0; t < trajectories.size(); ++t) {
-      const std::vector<Pose2>& poses = trajectories[t].poses;
-      if (poses.size() < 2) continue;
+      if (trajectories[t].poses.size() < 2) continue;
       uint8_t rgb[3];
       TrajectoryColor(static_cast<int>(t), rgb);
-      std::vector<Point> line;
-      line.reserve(poses.size());
-      for (const Pose2& pose : poses) {
-        const Point p = Fixed(to_pixel(pose.translation()));
-        if (line.empty() || line.back() != p) line.push_back(p);
-      }
-      map.Polyline(line, false, {rgb[0], rgb[1], rgb[2]}, options.trajectory_width_pixels * ui);
+      map.Polyline(trajectory_lines[t], false, {rgb[0], rgb[1], rgb[2]}, options.trajectory_width_pixels * ui);
     }
     for (size_t t = 0; t < trajectories.size(); ++t) {
       const std::vector<Pose2>& poses = trajectories[t].poses;

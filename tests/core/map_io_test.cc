@@ -295,6 +295,12 @@ TEST(PngTest, RowWriterRefusesWrongRowCountsAndLeavesNoFile) {
   EXPECT_THAT(unopened.AddRows(rows.data(), 1).message(), HasSubstr("before Open"));
   EXPECT_THAT(unopened.Finish().message(), HasSubstr("before Open"));
   EXPECT_THAT(unopened.Open(TempPath("no_such_dir/x.png"), 1, 1, 1).message(), HasSubstr("no_such_dir"));
+  PngRowWriter finished;
+  ASSERT_TRUE(finished.Open(path, 4, 3, 1).ok());
+  ASSERT_TRUE(finished.AddRows(rows.data(), 3).ok());
+  ASSERT_TRUE(finished.Finish().ok());
+  EXPECT_THAT(finished.AddRows(rows.data(), 1).message(), HasSubstr("after Finish"));
+  EXPECT_THAT(finished.Finish().message(), HasSubstr("after Finish"));
 }
 
 TEST(PngTest, FileStructureIsValid) {
