@@ -4,9 +4,10 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <memory>
+#include <mutex>
 
-#include "ceres/autodiff_cost_function.h"
 #include "ceres/cubic_interpolation.h"
 #include "glog/logging.h"
 
@@ -117,50 +118,113 @@ class SquaredDistanceGrid {
 // while the field is built, FrozenFieldGrid over its codes' values or squared distances once
 // frozen; value = value_scale * sample (interpolation is linear in the samples, so scaling the
 // interpolated sample is scaling the samples).
+//
+// The derivatives are written out. Each evaluation reads 16 cells a point (the bicubic
+// interpolation), and Ceres' trust-region loop evaluates each point it accepts twice, its cost
+// and then its Jacobian: the last pose's interpolated samples and their derivatives are kept,
+// and an evaluation at the same pose only redoes the arithmetic after them (issue #15: the
+// refinement was ~17% of an Intel run, half of it these second reads and the automatic
+// differentiation's Jet arithmetic). The arithmetic repeats, operation for operation, what
+// ceres::AutoDiffCostFunction computed over this formula until session 31 (its Jet scalar parts
+// with a Jacobian; plain doubles without one, which differ in a last bit: -d / sigma there
+// against -d * (1 / sigma) in a Jet), so every residual and Jacobian entry is the same double
+// (tests/factors/scan_cost_test.cc checks them against the automatic differentiation).
 template <typename Grid>
-class ScanToLikelihoodFieldFunctor {
+class ScanToLikelihoodFieldCost final : public ceres::CostFunction {
  public:
   // sigma_meters > 0: `grid` serves squared distances (SquaredDistanceGrid), turned into the
   // kernel exp(-d / sigma) after interpolation; else field values times value_scale.
-  ScanToLikelihoodFieldFunctor(const Grid& grid, double value_scale, double sigma_meters, const GridGeometry& geometry,
-                               const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights)
+  ScanToLikelihoodFieldCost(const Grid& grid, double value_scale, double sigma_meters, const GridGeometry& geometry,
+                            const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights)
       : geometry_(geometry),
         value_scale_(value_scale),
         sigma_meters_(sigma_meters),
         grid_(grid),
         interpolator_(grid_),
         points_robot_(points_robot),
-        scaled_weights_(Scale(weights, points_robot.size())) {}
+        scaled_weights_(Scale(weights, points_robot.size())),
+        samples_(points_robot.size()) {
+    set_num_residuals(static_cast<int>(points_robot.size()));
+    mutable_parameter_block_sizes()->push_back(3);
+  }
 
-  template <typename T>
-  bool operator()(const T* const world_T_robot, T* residuals) const {
-    const T c = ceres::cos(world_T_robot[2]);
-    const T s = ceres::sin(world_T_robot[2]);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* pose = parameters[0];
+    // One evaluation at a time: the kept samples are shared (a cost added to several residual
+    // blocks of a problem solved on several threads waits here).
+    std::lock_guard<std::mutex> lock(mutex_);
+    const double c = std::cos(pose[2]);
+    const double s = std::sin(pose[2]);
     const double inv_r = 1.0 / geometry_.resolution_meters();
-    for (size_t i = 0; i < points_robot_.size(); ++i) {
-      const T px = T(double(points_robot_[i].x()));
-      const T py = T(double(points_robot_[i].y()));
-      const T wx = c * px - s * py + world_T_robot[0];
-      const T wy = s * px + c * py + world_T_robot[1];
-      // Samples sit at cell centres: continuous cell coordinate minus 0.5.
-      const T col = (wx - geometry_.origin().x()) * inv_r - 0.5;
-      const T row = (wy - geometry_.origin().y()) * inv_r - 0.5;
-      T sample;
-      interpolator_.Evaluate(row, col, &sample);
-      T likelihood;
-      if (sigma_meters_ > 0) {  // `sample` is d^2 (SquaredDistanceGrid)
-        // 1 mm floor: sqrt's derivative at 0 is infinite.
-        const T d = ceres::sqrt((sample < T(0) ? T(0) : sample) + T(1e-6));
-        likelihood = ceres::exp(-d / sigma_meters_);
-      } else {
-        likelihood = value_scale_ * sample;
+    if (!sampled_ || std::memcmp(sampled_pose_, pose, sizeof(sampled_pose_)) != 0) {
+      for (size_t i = 0; i < points_robot_.size(); ++i) {
+        const double px = double(points_robot_[i].x());
+        const double py = double(points_robot_[i].y());
+        const double wx = c * px - s * py + pose[0];
+        const double wy = s * px + c * py + pose[1];
+        // Samples sit at cell centres: continuous cell coordinate minus 0.5.
+        const double col = (wx - geometry_.origin().x()) * inv_r - 0.5;
+        const double row = (wy - geometry_.origin().y()) * inv_r - 0.5;
+        Sample& sample = samples_[i];
+        interpolator_.Evaluate(row, col, &sample.f, &sample.dfdr, &sample.dfdc);
       }
-      residuals[i] = scaled_weights_[i] * (1.0 - likelihood);
+      std::memcpy(sampled_pose_, pose, sizeof(sampled_pose_));
+      sampled_ = true;
+    }
+    // With `jacobians` (even when its block is constant, jacobians[0] null) the residuals are a
+    // Jet's scalar parts, as the automatic differentiation's were.
+    const bool jet = jacobians != nullptr;
+    double* jacobian = jet ? jacobians[0] : nullptr;
+    const double inv_sigma = sigma_meters_ > 0 ? 1.0 / sigma_meters_ : 0.0;
+    for (size_t i = 0; i < points_robot_.size(); ++i) {
+      const Sample& sample = samples_[i];
+      const double w = scaled_weights_[i];
+      if (!jet) {
+        double likelihood;
+        if (sigma_meters_ > 0) {  // the sample is d^2 (SquaredDistanceGrid)
+          // 1 mm floor: sqrt's derivative at 0 is infinite.
+          const double d = std::sqrt((sample.f < 0.0 ? 0.0 : sample.f) + 1e-6);
+          likelihood = std::exp(-d / sigma_meters_);
+        } else {
+          likelihood = value_scale_ * sample.f;
+        }
+        residuals[i] = w * (1.0 - likelihood);
+        continue;
+      }
+      // d sample / d (x, y, yaw): the chain through the point's world position (as a Jet's
+      // dual parts: d col / dx = 1 / r, d row / dy = 1 / r, the yaw through both).
+      const double px = double(points_robot_[i].x());
+      const double py = double(points_robot_[i].y());
+      const double dwx_dyaw = -s * px - c * py;
+      const double dwy_dyaw = c * px + -s * py;
+      double v[3] = {sample.dfdc * inv_r, sample.dfdr * inv_r,
+                     sample.dfdr * (dwy_dyaw * inv_r) + sample.dfdc * (dwx_dyaw * inv_r)};
+      double likelihood;
+      if (sigma_meters_ > 0) {
+        const bool floored = sample.f < 0.0;
+        const double d = std::sqrt((floored ? 0.0 : sample.f) + 1e-6);
+        const double two_d_inverse = 1.0 / (2.0 * d);
+        likelihood = std::exp(-d * inv_sigma);
+        for (double& vk : v) vk = floored ? 0.0 : likelihood * (-(vk * two_d_inverse) * inv_sigma);
+      } else {
+        likelihood = sample.f * value_scale_;
+        for (double& vk : v) vk = vk * value_scale_;
+      }
+      residuals[i] = (1.0 - likelihood) * w;
+      if (jacobian != nullptr) {
+        for (int k = 0; k < 3; ++k) jacobian[3 * i + k] = -v[k] * w;
+      }
     }
     return true;
   }
 
  private:
+  struct Sample {
+    double f = 0.0;     // the interpolated sample
+    double dfdr = 0.0;  // its derivatives along rows (y) and columns (x), per cell
+    double dfdc = 0.0;
+  };
+
   static std::vector<double> Scale(const std::vector<float>& weights, size_t n) {
     CHECK(weights.empty() || weights.size() == n)
         << "got " << weights.size() << " weights for " << n << " points";
@@ -177,15 +241,17 @@ class ScanToLikelihoodFieldFunctor {
   const ceres::BiCubicInterpolator<Grid> interpolator_;
   const std::vector<Eigen::Vector2f> points_robot_;        // robot frame, metres
   const std::vector<double> scaled_weights_;               // w_i / sqrt(N)
+  // The last pose evaluated (bit for bit) and each point's sample there.
+  mutable std::mutex mutex_;
+  mutable bool sampled_ = false;
+  mutable double sampled_pose_[3] = {0.0, 0.0, 0.0};
+  mutable std::vector<Sample> samples_;
 };
 
 template <typename Grid>
 ceres::CostFunction* MakeCost(const Grid& grid, double value_scale, double sigma_meters, const LikelihoodField& field,
                               const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights) {
-  using Functor = ScanToLikelihoodFieldFunctor<Grid>;
-  return new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, 3>(
-      new Functor(grid, value_scale, sigma_meters, field.geometry(), points_robot, weights),
-      static_cast<int>(points_robot.size()));
+  return new ScanToLikelihoodFieldCost<Grid>(grid, value_scale, sigma_meters, field.geometry(), points_robot, weights);
 }
 
 }  // namespace

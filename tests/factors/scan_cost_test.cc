@@ -7,6 +7,7 @@
 // cell size), so world cell column k covers [k r, (k + 1) r) whatever the grid's origin.
 #include "factors/scan_cost.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "ceres/ceres.h"
+#include "ceres/cubic_interpolation.h"
 #include "ceres/gradient_checker.h"
 #include "core/laser_map.h"
 #include "core/se2.h"
@@ -455,6 +457,114 @@ TEST(ScanCostTest, FrozenFieldGivesTheSameResiduals) {
     for (int r = 0; r < 3; ++r) EXPECT_NEAR(residuals[r], frozen_residuals[r], residual_tolerance) << "pose " << i;
     for (int k = 0; k < 9; ++k) EXPECT_NEAR(jacobian[k], frozen_jacobian[k], 4 * step / kResolutionMeters) << "pose " << i;
   }
+}
+
+// The cost's derivatives are written out (factors/scan_cost.cc); they repeat the arithmetic of
+// automatic differentiation of the header's formula. The reference here is that formula as a
+// Ceres functor over the same samples (the field's values, its squared distances, a frozen
+// field's code table), differentiated by ceres::AutoDiffCostFunction: every residual and
+// Jacobian entry must be the same double, evaluated with and without Jacobians, again at the
+// same pose (the cost keeps the last pose's samples) and after another pose.
+class ReferenceGrid {
+ public:
+  enum { DATA_DIMENSION = 1 };
+  ReferenceGrid(const LikelihoodField& field, ScanCostInterpolation interpolation)
+      : field_(field), distances_(interpolation == ScanCostInterpolation::kDistances) {}
+  void GetValue(int row, int col, double* f) const {
+    const GridGeometry& g = field_.geometry();
+    const int x = std::clamp(col, 0, g.width() - 1), y = std::clamp(row, 0, g.height() - 1);
+    if (field_.frozen()) {
+      const LikelihoodField::FrozenCodes& codes = field_.frozen_codes();
+      f[0] = distances_ ? codes.squared_distance[field_.FrozenCode(x, y)] : codes.value[field_.FrozenCode(x, y)];
+      return;
+    }
+    const double value = field_.values().Get(x, y);
+    if (!distances_) {
+      f[0] = value;
+      return;
+    }
+    const double sigma = field_.options().sigma_meters;
+    const double max_distance = field_.window_radius_cells() * g.resolution_meters();
+    const double d = value > std::exp(-max_distance / sigma) ? -sigma * std::log(value) : max_distance;
+    f[0] = d * d;
+  }
+
+ private:
+  const LikelihoodField& field_;
+  const bool distances_;
+};
+
+struct ReferenceScanCost {
+  template <typename T>
+  bool operator()(const T* const world_T_robot, T* residuals) const {
+    const T c = ceres::cos(world_T_robot[2]);
+    const T s = ceres::sin(world_T_robot[2]);
+    const double inv_r = 1.0 / geometry.resolution_meters();
+    for (size_t i = 0; i < points.size(); ++i) {
+      const T px = T(double(points[i].x()));
+      const T py = T(double(points[i].y()));
+      const T wx = c * px - s * py + world_T_robot[0];
+      const T wy = s * px + c * py + world_T_robot[1];
+      const T col = (wx - geometry.origin().x()) * inv_r - 0.5;
+      const T row = (wy - geometry.origin().y()) * inv_r - 0.5;
+      T sample;
+      interpolator.Evaluate(row, col, &sample);
+      T likelihood;
+      if (sigma_meters > 0) {
+        const T d = ceres::sqrt((sample < T(0) ? T(0) : sample) + T(1e-6));
+        likelihood = ceres::exp(-d / sigma_meters);
+      } else {
+        likelihood = 1.0 * sample;
+      }
+      residuals[i] = weights[i] * (1.0 - likelihood);
+    }
+    return true;
+  }
+  GridGeometry geometry;
+  double sigma_meters;
+  const ceres::BiCubicInterpolator<ReferenceGrid>& interpolator;
+  std::vector<Eigen::Vector2f> points;
+  std::vector<double> weights;  // w_i / sqrt(N)
+};
+
+TEST(ScanCostTest, WrittenOutDerivativesAreTheAutomaticOnesBitForBit) {
+  const LaserMap built = MapFromHits(PostHits());
+  LaserMap frozen = built;
+  frozen.Freeze();
+  const std::vector<Eigen::Vector2f> points_robot = {{0.30f, 0.0f}, {0.32f, 0.05f}, {0.28f, -0.06f}, {0.9f, 0.9f}};
+  const std::vector<float> weights = {1.0f, 0.5f, 2.0f, 1.0f};
+  int compared = 0;
+  for (const LaserMap* map : {&built, static_cast<const LaserMap*>(&frozen)}) {
+    for (const ScanCostInterpolation interpolation : {ScanCostInterpolation::kValues, ScanCostInterpolation::kDistances}) {
+      const ReferenceGrid grid(map->field(), interpolation);
+      const ceres::BiCubicInterpolator<ReferenceGrid> interpolator(grid);
+      std::vector<double> scaled;
+      for (const float w : weights) scaled.push_back(w / std::sqrt(static_cast<double>(weights.size())));
+      const double sigma = interpolation == ScanCostInterpolation::kDistances ? map->field().options().sigma_meters : 0.0;
+      ceres::AutoDiffCostFunction<ReferenceScanCost, ceres::DYNAMIC, 3> reference(
+          new ReferenceScanCost{map->field().geometry(), sigma, interpolator, points_robot, scaled},
+          static_cast<int>(points_robot.size()));
+      std::unique_ptr<ceres::CostFunction> cost(
+          CreateScanToLikelihoodFieldCost(map->field(), points_robot, weights, interpolation));
+      std::mt19937 rng(53);
+      std::uniform_real_distribution<double> xy(-0.1, 0.5), yaw(-M_PI, M_PI);
+      std::vector<Pose2> poses;
+      for (int i = 0; i < 20; ++i) poses.emplace_back(xy(rng), xy(rng), yaw(rng));
+      poses.push_back(poses[3]);  // a pose again after others
+      for (const Pose2& pose : poses) {
+        // Without, with, with and without Jacobians at the same pose.
+        for (const bool with_jacobian : {false, true, true, false}) {
+          std::vector<double> jacobian, expected_jacobian;
+          const std::vector<double> residuals = Residuals(*cost, pose, with_jacobian ? &jacobian : nullptr);
+          const std::vector<double> expected = Residuals(reference, pose, with_jacobian ? &expected_jacobian : nullptr);
+          for (size_t r = 0; r < residuals.size(); ++r) EXPECT_EQ(expected[r], residuals[r]) << "residual " << r;
+          for (size_t k = 0; k < jacobian.size(); ++k) EXPECT_EQ(expected_jacobian[k], jacobian[k]) << "entry " << k;
+          ++compared;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(4 * 21 * 4, compared);
 }
 
 TEST(ScanCostDeathTest, RejectsWeightCountMismatchAndEmptyScan) {
