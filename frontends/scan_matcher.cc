@@ -664,9 +664,19 @@ void BranchAndBound(const SearchContext& context, Candidate* begin, Candidate* e
     return;
   }
   // The top level (thousands of blocks): a heap popped in order, so that the blocks after the
-  // search stops are never sorted (a full stable sort was 4% of an Intel run).
-  std::make_heap(begin, end, worse);
-  for (Candidate* heap_end = end; heap_end > begin; --heap_end) {
+  // search stops are never sorted (a full stable sort was 4% of an Intel run). The first block
+  // in that order is searched before the heap is made: the leaf it leads to is usually near the
+  // best, and every block whose bound is not above it would end the search when popped (best
+  // only grows), so the heap holds only the rest (Intel: the heap operations were 6% of the run,
+  // ~1900 blocks heaped a search of which ~230 popped). The same blocks are visited in the same
+  // order: the heap's order is total (ties in generation order), whatever the blocks' arrangement.
+  Candidate* first = std::max_element(begin, end, worse);
+  std::iter_swap(first, end - 1);
+  if (!visit(*(end - 1))) return;
+  Candidate* const rest_end =
+      std::partition(begin, end - 1, [best](const Candidate& candidate) { return candidate.score > best->score; });
+  std::make_heap(begin, rest_end, worse);
+  for (Candidate* heap_end = rest_end; heap_end > begin; --heap_end) {
     std::pop_heap(begin, heap_end, worse);
     if (!visit(*(heap_end - 1))) break;
   }
