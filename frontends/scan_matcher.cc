@@ -1003,11 +1003,17 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                         options_.angular_search_window_radians);
   if (wider && !points_robot.empty() &&
       (!result.converged || result.score < options_.fallback_below_score || on_border)) {
+    // Its windows hold the full search's, on the same lattice of poses scored alike: its
+    // discrete best either is the full search's best (then the refinements are the same and the
+    // full search's result stays) or scores above it. So it looks only for a pose scoring above
+    // it, and prunes the blocks that cannot (MIT CSAIL: 95 fallbacks were 12% of the run). (A
+    // pose scoring exactly as much as the full search's best, elsewhere, is not taken now.)
     ScanMatchResult fallback =
         MatchOnce(map, predicted, points_robot, weights,
                   std::max(options_.linear_search_window_meters, options_.fallback_linear_search_window_meters),
                   std::max(options_.angular_search_window_radians, options_.fallback_angular_search_window_radians),
-                  exclusion_meters, exclusion_radians, min_ratio);
+                  exclusion_meters, exclusion_radians, min_ratio, 0.0,
+                  result.converged ? result.correlative_score : -std::numeric_limits<double>::infinity());
     fallback.candidates_scored += result.candidates_scored;
     fallback.wide_search = true;
     if (fallback.converged && (!result.converged || fallback.score > result.score)) return fallback;
@@ -1030,7 +1036,7 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
                                        const std::vector<float>& weights, double linear_window_meters,
                                        double angular_window_radians, double second_mode_exclusion_meters,
                                        double second_mode_exclusion_radians, double second_mode_min_score_ratio,
-                                       double min_score) const {
+                                       double min_score, double to_beat) const {
   CHECK(weights.empty() || weights.size() == points_robot.size())
       << weights.size() << " weights for " << points_robot.size() << " points";
   const LikelihoodField& field = map.field();
@@ -1075,12 +1081,16 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   const bool second_mode = second_mode_exclusion_meters > 0 || second_mode_exclusion_radians > 0;
   std::vector<Candidate> top_copy;
   if (second_mode) top_copy = top;
-  Candidate best{-1, 0, 0, static_cast<float>(options_.min_correlative_score)};
+  Candidate best{-1, 0, 0, static_cast<float>(std::max(options_.min_correlative_score, to_beat))};
   BranchAndBound(context, top.data(), top.data() + top.size(), depth, &best, &result.candidates_scored);
   if (best.yaw_index < 0) {
     std::ostringstream msg;
-    msg << "no candidate within ±" << linear_window_meters << " m, ±" << angular_window_radians
-        << " rad scores >= " << options_.min_correlative_score;
+    msg << "no candidate within ±" << linear_window_meters << " m, ±" << angular_window_radians << " rad scores ";
+    if (to_beat > options_.min_correlative_score) {
+      msg << "above " << to_beat << " (the best to beat)";
+    } else {
+      msg << ">= " << options_.min_correlative_score;
+    }
     result.message = msg.str();
     return result;
   }

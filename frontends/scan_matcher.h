@@ -26,6 +26,7 @@
 #ifndef HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 #define HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -225,11 +226,14 @@ class ScanMatcher {
   // maximum yaw steps of its edge): then the best may be the clipped side of a peak outside.
   bool OnWindowBorder(const Pose2& predicted, const Pose2& pose, double linear_window_meters,
                       double angular_window_radians) const;
+  // `to_beat`: only a discrete best scoring above it counts (else the result is not converged):
+  // the fallback search after a converged full search, whose best it must beat to be taken.
   ScanMatchResult MatchOnce(const LaserMap& map, const Pose2& predicted,
                             const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights,
                             double linear_window_meters, double angular_window_radians,
                             double second_mode_exclusion_meters, double second_mode_exclusion_radians,
-                            double second_mode_min_score_ratio = 0.0, double min_score = 0.0) const;
+                            double second_mode_min_score_ratio = 0.0, double min_score = 0.0,
+                            double to_beat = -std::numeric_limits<double>::infinity()) const;
 
   ScanMatcherOptions options_;
 };
