@@ -33,6 +33,12 @@
 //   BM_ScanMatchBruteForce/<window>/<points>
 //                                  ScanMatcher::BruteForceSearch: every discrete candidate of
 //                                  the same window scored, same discretisation and result.
+//   BM_ScanCostEvaluate/<call>     the refinement's cost (factors/scan_cost.h, interpolated
+//                                  distances as the matcher refines) over the voxel-thinned
+//                                  scan at the truth on the same map: residuals alone at a new
+//                                  pose (call 0), residuals and Jacobian at a new pose (1), or
+//                                  both at one pose as Ceres' trust region evaluates an accepted
+//                                  step (2: the second call reuses the first's samples).
 //   BM_DropWeakOccupiedCells/N     the rendered maps' tail rule (see its comment below).
 //   BM_SubmapFreeze/N, BM_SubmapLoopMatch/<frozen>/N
 //                                  the finished-submap store: freezing a submap of N scans,
@@ -62,6 +68,7 @@
 #include "core/likelihood_field.h"
 #include "core/occupancy_grid.h"
 #include "core/se2.h"
+#include "factors/scan_cost.h"
 #include "frontends/loop_closer.h"
 #include "frontends/scan_matcher.h"
 #include "frontends/submap_graph.h"
@@ -403,6 +410,30 @@ BENCHMARK_CAPTURE(BM_ScanMatchBruteForce, window_0.4m_15deg/360_points, 0.4, 15.
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ScanMatchBruteForce, window_1.2m_40deg/360_points, 1.2, 40.0, Points::kAll)
     ->Unit(benchmark::kMillisecond);
+
+void BM_ScanCostEvaluate(benchmark::State& state) {
+  const MatchFixture& f = GetMatchFixture();
+  const std::unique_ptr<ceres::CostFunction> cost(
+      CreateScanToLikelihoodFieldCost(f.map->field(), f.voxel_points, {}, ScanCostInterpolation::kDistances));
+  const int call = static_cast<int>(state.range(0));
+  std::vector<double> residuals(cost->num_residuals()), jacobian(3 * residuals.size());
+  double* jacobians[1] = {jacobian.data()};
+  double pose[3] = {f.truth.x(), f.truth.y(), f.truth.theta()};
+  const double* parameters[1] = {pose};
+  double nudge = 1e-4;
+  for (auto _ : state) {
+    // A new pose every iteration (its samples are not the last call's).
+    pose[0] += nudge;
+    nudge = -nudge;
+    if (call != 1) CHECK(cost->Evaluate(parameters, residuals.data(), nullptr));
+    if (call != 0) CHECK(cost->Evaluate(parameters, residuals.data(), jacobians));
+    benchmark::DoNotOptimize(residuals.data());
+    benchmark::DoNotOptimize(jacobian.data());
+  }
+  state.counters["points"] = static_cast<double>(f.voxel_points.size());
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(f.voxel_points.size()));
+}
+BENCHMARK(BM_ScanCostEvaluate)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 // ---------------------------------------------------------------------------------------
 // Finished submaps: LaserMap::Freeze (crop, 16-bit values, sparse tiles) and loop-closure
