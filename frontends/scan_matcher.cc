@@ -1013,11 +1013,13 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                         options_.angular_search_window_radians);
   if (wider && !points_robot.empty() &&
       (!result.converged || result.score < options_.fallback_below_score || on_border)) {
-    // Its windows hold the full search's, on the same lattice of poses scored alike: its
-    // discrete best either is the full search's best (then the refinements are the same and the
-    // full search's result stays) or scores above it. So it looks only for a pose scoring above
-    // it, and prunes the blocks that cannot (MIT CSAIL: 95 fallbacks were 12% of the run). (A
-    // pose scoring exactly as much as the full search's best, elsewhere, is not taken now.)
+    // Its windows hold the full search's, on the same lattice of poses: its discrete best scores
+    // at least what it scores the full search's best pose, which is the full search's score up
+    // to the points only the wider window keeps (Discretize), each on a cell of value 0 at that
+    // pose, whose code stands for 0 to within half a code step (BuildPyramid). So its branch and
+    // bound starts at the full search's best less one code step: the blocks that cannot score
+    // above that are pruned (MIT CSAIL: 95 fallbacks were 12% of the run), and its best is the
+    // one it finds without.
     ScanMatchResult fallback =
         MatchOnce(map, predicted, points_robot, weights,
                   std::max(options_.linear_search_window_meters, options_.fallback_linear_search_window_meters),
@@ -1091,13 +1093,14 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   const bool second_mode = second_mode_exclusion_meters > 0 || second_mode_exclusion_radians > 0;
   std::vector<Candidate> top_copy;
   if (second_mode) top_copy = top;
-  Candidate best{-1, 0, 0, static_cast<float>(std::max(options_.min_correlative_score, to_beat))};
+  // (to_beat less a code step: see Match's fallback.)
+  Candidate best{-1, 0, 0, static_cast<float>(std::max(options_.min_correlative_score, to_beat - pyramid.step))};
   BranchAndBound(context, top.data(), top.data() + top.size(), depth, &best, &result.candidates_scored);
   if (best.yaw_index < 0) {
     std::ostringstream msg;
     msg << "no candidate within ±" << linear_window_meters << " m, ±" << angular_window_radians << " rad scores ";
-    if (to_beat > options_.min_correlative_score) {
-      msg << "above " << to_beat << " (the best to beat)";
+    if (best.score > options_.min_correlative_score) {
+      msg << "above " << best.score << " (the full search's best less a code step)";
     } else {
       msg << ">= " << options_.min_correlative_score;
     }

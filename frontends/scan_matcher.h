@@ -226,8 +226,9 @@ class ScanMatcher {
   // maximum yaw steps of its edge): then the best may be the clipped side of a peak outside.
   bool OnWindowBorder(const Pose2& predicted, const Pose2& pose, double linear_window_meters,
                       double angular_window_radians) const;
-  // `to_beat`: only a discrete best scoring above it counts (else the result is not converged):
-  // the fallback search after a converged full search, whose best it must beat to be taken.
+  // `to_beat`: only a discrete best scoring above it less one code step of the search tables
+  // counts (else the result is not converged): the fallback search after a converged full
+  // search, whose best no pose scoring less can displace.
   ScanMatchResult MatchOnce(const LaserMap& map, const Pose2& predicted,
                             const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights,
                             double linear_window_meters, double angular_window_radians,
