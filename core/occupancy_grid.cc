@@ -229,7 +229,11 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     }
   }
 
-  // Free space: traverse every cell a ray crosses (Amanatides–Woo), end cell excluded.
+  // Free space: traverse every cell a ray crosses (Amanatides–Woo), end cell excluded. A cell
+  // at the lowest log-odds stays there and changes nothing else (observed, free before and
+  // after, not a changed cell), whether or not a ray of this scan crossed it already: it is
+  // passed over without being marked (FR079: ray casting was a fifth of the run).
+  const float lowest = static_cast<float>(options_.min_log_odds);
   const Eigen::Vector2d start = geometry_.WorldToContinuousCell(sensor_world);
   const CellIndex start_cell = geometry_.WorldToCell(sensor_world);
   for (const Eigen::Vector2d& p : points_world) {
@@ -246,8 +250,10 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     double t_max_y = d.y() != 0 ? ((step_y > 0 ? (c.y + 1 - start.y()) : (start.y() - c.y)) * t_delta_y) : inf;
     const int max_steps = std::abs(end_cell.x - start_cell.x) + std::abs(end_cell.y - start_cell.y);
     for (int n = 0; n < max_steps && !(c == end_cell); ++n) {
-      const int i = geometry_.LinearIndex(c);
-      if (MarkUpdated(i)) UpdateCell(c, i, miss, changed_cells);
+      if (log_odds_.Get(c.x, c.y) != lowest) {
+        const int i = geometry_.LinearIndex(c);
+        if (MarkUpdated(i)) UpdateCell(c, i, miss, changed_cells);
+      }
       if (t_max_x < t_max_y) {
         t_max_x += t_delta_x;
         c.x += step_x;

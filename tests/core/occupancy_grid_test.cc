@@ -129,6 +129,35 @@ TEST(OccupancyGridTest, HitPointRestartsAfterTheCellTurnsFree) {
   EXPECT_NEAR(0.0, (grid.HitPoint(cell) - second).norm(), 1e-6);
 }
 
+// Rays lower a cell once per scan however many of them cross it, down to min_log_odds, where a
+// cell stays (InsertScan passes over such cells without marking them: it must not matter).
+TEST(OccupancyGridTest, RaysLowerEachCellOncePerScanDownToTheLowestLogOdds) {
+  const OccupancyGridOptions options;
+  OccupancyGrid grid{options};
+  auto log_odds_at = [&grid](const Eigen::Vector2d& p) {
+    const CellIndex c = grid.geometry().WorldToCell(p);
+    return grid.log_odds().Get(c.x, c.y);
+  };
+  const Eigen::Vector2d sensor(0.02, 0.02), wall(1.02, 0.02), in_front(0.52, 0.02), behind(1.52, 0.02);
+  for (int i = 0; i < 7; ++i) grid.InsertScan(sensor, {wall}, nullptr);
+  const float lowest = static_cast<float>(options.min_log_odds);
+  ASSERT_EQ(lowest, log_odds_at(in_front));  // 7 misses of -0.4, clamped at -2
+  ASSERT_FLOAT_EQ(options.max_log_odds, log_odds_at(wall));
+  EXPECT_EQ(OccupancyGrid::kUnobserved, log_odds_at(behind));
+  // Two rays along the same line through the wall's cell, both ending in one cell beyond it.
+  const Eigen::Vector2d end(2.02, 0.02), end_too(2.02, 0.021);
+  ASSERT_TRUE(grid.geometry().WorldToCell(end) == grid.geometry().WorldToCell(end_too));
+  std::vector<int> changed;
+  ASSERT_TRUE(grid.InsertScan(sensor, {end, end_too}, &changed));
+  EXPECT_EQ(lowest, log_odds_at(in_front));
+  EXPECT_FLOAT_EQ(options.max_log_odds + options.miss_log_odds, log_odds_at(wall));
+  EXPECT_FLOAT_EQ(options.miss_log_odds, log_odds_at(behind));
+  EXPECT_FLOAT_EQ(options.hit_log_odds, log_odds_at(end));
+  // Changed: the new end cell only (the wall's cell is still occupied).
+  ASSERT_EQ(1u, changed.size());
+  EXPECT_EQ(grid.geometry().LinearIndex(grid.geometry().WorldToCell(end)), changed[0]);
+}
+
 // The noise tail behind a wall: a wall at x = 1.02 m seen 20 times from the origin, plus one stray
 // end point 7 cm behind it. Rays clear what lies in front of the wall, never what lies behind,
 // so the stray cell stays occupied on a single hit; DropWeakOccupiedCells (share 0.2) makes it
