@@ -248,8 +248,10 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     const double t_delta_y = d.y() != 0 ? std::abs(1.0 / d.y()) : inf;
     double t_max_x = d.x() != 0 ? ((step_x > 0 ? (c.x + 1 - start.x()) : (start.x() - c.x)) * t_delta_x) : inf;
     double t_max_y = d.y() != 0 ? ((step_y > 0 ? (c.y + 1 - start.y()) : (start.y() - c.y)) * t_delta_y) : inf;
+    // Each step moves one cell along x or y, so the end cell is max_steps steps away at least:
+    // the traversal stops before it (or, rounding having taken it astray, after as many cells).
     const int max_steps = std::abs(end_cell.x - start_cell.x) + std::abs(end_cell.y - start_cell.y);
-    for (int n = 0; n < max_steps && !(c == end_cell); ++n) {
+    for (int n = 0; n < max_steps; ++n) {
       if (log_odds_.Get(c.x, c.y) != lowest) {
         const int i = geometry_.LinearIndex(c);
         if (MarkUpdated(i)) UpdateCell(c, i, miss, changed_cells);
