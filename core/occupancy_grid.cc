@@ -251,10 +251,25 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     // Each step moves one cell along x or y, so the end cell is max_steps steps away at least:
     // the traversal stops before it (or, rounding having taken it astray, after as many cells).
     const int max_steps = std::abs(end_cell.x - start_cell.x) + std::abs(end_cell.y - start_cell.y);
+    // The cells of the current cell's tile (null: none allocated, all unobserved), looked up
+    // again when the traversal enters another tile or a cell was updated (Ref may allocate a
+    // tile and move them all): one lookup per tile crossed instead of one per cell.
+    constexpr int kBits = TiledGrid<float>::kTileBits, kLast = TiledGrid<float>::kTileSize - 1;
+    int tile_x = std::numeric_limits<int>::min(), tile_y = std::numeric_limits<int>::min();
+    const float* tile = nullptr;
     for (int n = 0; n < max_steps; ++n) {
-      if (log_odds_.Get(c.x, c.y) != lowest) {
+      if ((c.x >> kBits) != tile_x || (c.y >> kBits) != tile_y) {
+        tile_x = c.x >> kBits;
+        tile_y = c.y >> kBits;
+        tile = log_odds_.TileRow(c.x & ~kLast, c.y & ~kLast);
+      }
+      const float log_odds = tile != nullptr ? tile[((c.y & kLast) << kBits) | (c.x & kLast)] : log_odds_.empty();
+      if (log_odds != lowest) {
         const int i = geometry_.LinearIndex(c);
-        if (MarkUpdated(i)) UpdateCell(c, i, miss, changed_cells);
+        if (MarkUpdated(i)) {
+          UpdateCell(c, i, miss, changed_cells);
+          tile_x = std::numeric_limits<int>::min();
+        }
       }
       if (t_max_x < t_max_y) {
         t_max_x += t_delta_x;

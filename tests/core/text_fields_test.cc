@@ -33,8 +33,12 @@ TEST(TextFieldsTest, ParseDoubleGivesStrtodsDouble) {
       ASSERT_EQ(parsed, Strtod(text)) << text;
     }
   }
-  for (const char* text : {"0", "-0", "0.1", "81.91", "1e-320", "2.2250738585072011e-308",
-                           "9007199254740993", "1.7976931348623157e308", "4.9406564584124654e-324"}) {
+  // ... including the plain decimals' fast path and the edges where it hands over to from_chars
+  // (m beyond 2^53, more than 19 digits, more than 22 fraction digits).
+  for (const char* text : {"0", "-0", "-0.000", "0.1", "81.91", "00012.5000", "1e-320", "2.2250738585072011e-308",
+                           "9007199254740992", "9007199254740993", "900719925474099.3", "0.9007199254740993",
+                           "12345678901234567890.5", "0.0000000000000000000001", "0.00000000000000000000001",
+                           "1.7976931348623157e308", "4.9406564584124654e-324"}) {
     double parsed = 0.0;
     ASSERT_TRUE(ParseDouble(text, &parsed)) << text;
     EXPECT_EQ(parsed, Strtod(text)) << text;
@@ -56,7 +60,14 @@ TEST(TextFieldsTest, ParseDoubleKeepsStrtodsSyntax) {
   EXPECT_TRUE(std::isnan(v));
   EXPECT_FALSE(ParseFiniteDouble("nan", &v));
   v = 7.0;
-  for (const char* bad : {"", "1.5x", "x", "1.5 ", "--1", "1e", "."}) {
+  ASSERT_TRUE(ParseDouble("1.", &v));  // strtod's syntax, from_chars' too: not the fast path's
+  EXPECT_EQ(v, 1.0);
+  ASSERT_TRUE(ParseDouble(".5", &v));
+  EXPECT_EQ(v, 0.5);
+  ASSERT_TRUE(ParseDouble("-.5", &v));
+  EXPECT_EQ(v, -0.5);
+  v = 7.0;
+  for (const char* bad : {"", "1.5x", "x", "1.5 ", "--1", "1e", ".", "-", "1..5", "1.5.", "- 1"}) {
     EXPECT_FALSE(ParseDouble(bad, &v)) << "'" << bad << "'";
   }
   EXPECT_EQ(v, 7.0);  // untouched by a refusal
