@@ -6,6 +6,8 @@
 #include <memory>
 #include <mutex>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "glog/logging.h"
 
@@ -312,11 +314,70 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
       }
     }
   }
-  for (int j : stale_cells_) {
-    const CellIndex c = geometry_.FromLinearIndex(j);
-    const float squared_distance = RecomputeSquaredDistance(c);
-    squared_distances_.Ref(c.x, c.y) = squared_distance;
-    values_.Set(c.x, c.y, ValueFromSquaredDistance(squared_distance));
+  RecomputeStaleCells();
+}
+
+void LikelihoodField::RecomputeStaleCells() {
+  const size_t n = stale_cells_.size();
+  if (n == 0) return;
+  // Each stale cell's RecomputeSquaredDistance (the minimum over the same published points:
+  // a minimum does not depend on the order they are visited in), computed tile by tile of the
+  // stale cells: the published points of the tiles a tile's windows reach are listed once for
+  // all its stale cells (Intel: ~640 stale cells a scan, ~8 points in each 13 x 13 window,
+  // every window's 169 cells read cell by cell before). Written in the order the cells went
+  // stale, as before.
+  constexpr int kBits = TiledIndex::kTileBits, kSize = TiledIndex::kTileSize;
+  const int w = geometry_.width(), h = geometry_.height(), radius = radius_cells_;
+  std::vector<std::pair<int64_t, int>> by_tile(n);  // (tile key, position in stale_cells_)
+  for (size_t j = 0; j < n; ++j) {
+    const int x = stale_cells_[j] % w, y = stale_cells_[j] / w;
+    by_tile[j] = {(static_cast<int64_t>(y >> kBits) << 32) | (x >> kBits), static_cast<int>(j)};
+  }
+  std::sort(by_tile.begin(), by_tile.end());
+  struct Nearby {
+    CellIndex cell;
+    int32_t index;
+  };
+  std::vector<Nearby> nearby;
+  std::vector<float> recomputed(n);
+  for (size_t first = 0; first < n;) {
+    size_t last = first;
+    while (last < n && by_tile[last].first == by_tile[first].first) ++last;
+    const int tile_x = static_cast<int>(by_tile[first].first & 0xffffffff);
+    const int tile_y = static_cast<int>(by_tile[first].first >> 32);
+    // The cells within `radius` of the tile's cells, inside the grid.
+    const int x0 = std::max(0, (tile_x << kBits) - radius), x1 = std::min(w - 1, (tile_x << kBits) + kSize - 1 + radius);
+    const int y0 = std::max(0, (tile_y << kBits) - radius), y1 = std::min(h - 1, (tile_y << kBits) + kSize - 1 + radius);
+    nearby.clear();
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1;) {
+        const int end = std::min(x1 + 1, (x | (kSize - 1)) + 1);
+        const int32_t* index = published_index_.TileRow(x, y);
+        if (index != nullptr) {
+          for (int k = 0; k < end - x; ++k) {
+            if (index[k] >= 0) nearby.push_back({{x + k, y}, index[k]});
+          }
+        }
+        x = end;
+      }
+    }
+    for (size_t j = first; j < last; ++j) {
+      const int stale = stale_cells_[by_tile[j].second];
+      const CellIndex c{stale % w, stale / w};
+      float best = kInfinity;
+      for (const Nearby& p : nearby) {
+        if (std::abs(p.cell.x - c.x) <= radius && std::abs(p.cell.y - c.y) <= radius) {
+          best = std::min(best, SquaredDistance(c, p.cell, segments_[p.index]));
+        }
+      }
+      recomputed[by_tile[j].second] = best;
+    }
+    first = last;
+  }
+  for (size_t j = 0; j < n; ++j) {
+    const CellIndex c = geometry_.FromLinearIndex(stale_cells_[j]);
+    squared_distances_.Ref(c.x, c.y) = recomputed[j];
+    values_.Set(c.x, c.y, ValueFromSquaredDistance(recomputed[j]));
   }
 }
 

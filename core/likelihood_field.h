@@ -194,6 +194,8 @@ class LikelihoodField {
   static const FrozenCodes& SharedFrozenCodes(double sigma_meters, double window_meters, double cap_meters);
   // Min d^2 over the published points in c's window (+inf when there is none).
   float RecomputeSquaredDistance(const CellIndex& c) const;
+  // Every cell of stale_cells_ recomputed so (ApplyChanges' last step).
+  void RecomputeStaleCells();
   bool HasPublished(int i) const { return published_index_.GetLinear(i) >= 0; }
   const Segment& Published(int i) const {
     const int32_t index = published_index_.GetLinear(i);
