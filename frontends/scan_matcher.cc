@@ -620,6 +620,34 @@ struct SearchContext {
     return FromSum(sum, level, yaw_index, dx, dy);
   }
 
+  // Without weights: the four blocks of `level` at dx, dx + 2^level, dx + 2 2^level and
+  // dx + 3 2^level along row dy (the top level's neighbours), into `scores` in that order:
+  // Score's value of each (the same integer sums), with the points' offsets read once.
+  void ScoreFourAlongRow(int level, int yaw_index, int dx, int dy, float scores[4]) const {
+    const DiscretizedSearch& s = *search;
+    const int32_t* const offsets = s.offsets.data() + s.begin[yaw_index];
+    const int count = s.begin[yaw_index + 1] - s.begin[yaw_index];
+    const ptrdiff_t base = static_cast<ptrdiff_t>(dy) * s.region_width + dx;
+    const ptrdiff_t size = ptrdiff_t{1} << level;
+    const double step = Step(level);
+    int64_t codes[4] = {0, 0, 0, 0};
+    WithTable(level, [&](const auto* table) {
+      const auto* data = table + base;
+      for (int i = 0; i < count; ++i) {
+        const auto* cell = data + offsets[i];
+        codes[0] += cell[0];
+        codes[1] += cell[size];
+        codes[2] += cell[2 * size];
+        codes[3] += cell[3 * size];
+      }
+      return 0;
+    });
+    for (int c = 0; c < 4; ++c) {
+      const double sum = static_cast<double>(pyramid->lowest) * count + step * codes[c];
+      scores[c] = FromSum(sum, level, yaw_index, dx + c * static_cast<int>(size), dy);
+    }
+  }
+
   // The four blocks of `level` at (dx, dy), (dx + 2^level, dy), (dx, dy + 2^level) and
   // (dx + 2^level, dy + 2^level) (a block's children), into `scores` in that order: Score's
   // value of each, with the points' offsets read once (the same sums: integers, or each
@@ -1187,9 +1215,16 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   top.reserve(s.yaws.size() * blocks_per_side * blocks_per_side);  // one allocation, no regrowth
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
     for (int dy = -s.window_cells; dy <= s.window_cells; dy += block) {
-      for (int dx = -s.window_cells; dx <= s.window_cells; dx += block) {
-        top.push_back({k, dx, dy, context.Score(depth, k, dx, dy)});
+      int dx = -s.window_cells;
+      if (weights.empty()) {
+        // Four neighbours along the row at a time (the top level was 6% of MIT CSAIL's run).
+        for (; dx + 3 * block <= s.window_cells; dx += 4 * block) {
+          float scores[4];
+          context.ScoreFourAlongRow(depth, k, dx, dy, scores);
+          for (int c = 0; c < 4; ++c) top.push_back({k, dx + c * block, dy, scores[c]});
+        }
       }
+      for (; dx <= s.window_cells; dx += block) top.push_back({k, dx, dy, context.Score(depth, k, dx, dy)});
     }
   }
   result.candidates_scored = static_cast<int>(top.size());
