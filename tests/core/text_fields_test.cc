@@ -34,10 +34,10 @@ TEST(TextFieldsTest, ParseDoubleGivesStrtodsDouble) {
     }
   }
   // ... including the plain decimals' fast path and the edges where it hands over to from_chars
-  // (m beyond 2^53, more than 19 digits, more than 22 fraction digits).
+  // (m beyond 2^53, more than 19 digits).
   for (const char* text : {"0", "-0", "-0.000", "0.1", "81.91", "00012.5000", "1e-320", "2.2250738585072011e-308",
                            "9007199254740992", "9007199254740993", "900719925474099.3", "0.9007199254740993",
-                           "12345678901234567890.5", "0.0000000000000000000001", "0.00000000000000000000001",
+                           "1234567890123456789", "12345678901234567890.5", "0.000000000000000001", "0.0000000000000000001",
                            "1.7976931348623157e308", "4.9406564584124654e-324"}) {
     double parsed = 0.0;
     ASSERT_TRUE(ParseDouble(text, &parsed)) << text;
