@@ -701,6 +701,14 @@ struct Exclusion {
     return around != nullptr && std::abs(c.dx - around->dx) <= cells && std::abs(c.dy - around->dy) <= cells &&
            std::abs(WrapAngle(s.yaws[c.yaw_index] - s.yaws[around->yaw_index])) <= radians;
   }
+  // Every leaf of the block of `size` x `size` offsets from c (those inside the window) is
+  // excluded: its offsets' range lies within the exclusion's on both axes, and its yaw does.
+  bool ExcludesBlock(const DiscretizedSearch& s, const Candidate& c, int size) const {
+    if (around == nullptr) return false;
+    const int last_dx = std::min(c.dx + size - 1, s.window_cells), last_dy = std::min(c.dy + size - 1, s.window_cells);
+    return c.dx >= around->dx - cells && last_dx <= around->dx + cells && c.dy >= around->dy - cells &&
+           last_dy <= around->dy + cells && std::abs(WrapAngle(s.yaws[c.yaw_index] - s.yaws[around->yaw_index])) <= radians;
+  }
 };
 
 // Depth-first branch and bound (children visited best-bound first); `best` holds the best
@@ -718,6 +726,9 @@ void BranchAndBound(const SearchContext& context, Candidate* begin, Candidate* e
       if (!exclusion.Excludes(*context.search, candidate)) *best = candidate;
       return true;
     }
+    // A block whose leaves are all passed over holds nothing to find (its bound is the first
+    // mode's, the highest: the second-mode search descended there first).
+    if (exclusion.ExcludesBlock(*context.search, candidate, 1 << level)) return true;
     const int half = 1 << (level - 1);
     Candidate children[4];
     int num_children = 0;
