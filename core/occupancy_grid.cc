@@ -126,8 +126,12 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   geometry_ = g;
   log_odds_ = std::move(log_odds);
   hit_index_ = std::move(hit_index);
-  // No cell is marked between scans: the marks start clear at the new size.
-  std::vector<uint64_t>((static_cast<size_t>(n) + 63) / 64, 0).swap(updated_this_scan_);
+  // Between scans: rays pass over the cells at the lowest log-odds (see pass_over_).
+  std::vector<uint64_t>((static_cast<size_t>(n) + 63) / 64, 0).swap(pass_over_);
+  const float lowest = static_cast<float>(options_.min_log_odds);
+  log_odds_.ForEach([&](int x, int y, float value) {
+    if (value == lowest) SetPassOver(geometry_.LinearIndex({x, y}), true);
+  });
   labels_ = std::move(labels);
   height_min_ = std::move(height_min);
   height_max_ = std::move(height_max);
@@ -205,7 +209,13 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
       high = std::max(high, h);
       if (high - low >= wall_span_steps) labels_.Ref(c.x, c.y) |= 1u << kWallLabelBit;
     }
-    if (MarkUpdated(i)) UpdateCell(c, i, hit, changed_cells);
+    // Not updated this scan yet: rays do not pass over it, or they do because it is at the
+    // lowest log-odds (a hit would have raised it: hit_log_odds > 0).
+    if (!PassOver(i) || log_odds_.Get(c.x, c.y) == static_cast<float>(options_.min_log_odds)) {
+      UpdateCell(c, i, hit, changed_cells);
+      SetPassOver(i, true);
+      updated_cells_.push_back(i);
+    }
     if (log_odds_.Get(c.x, c.y) > static_cast<float>(options_.occupied_threshold_log_odds)) {
       int32_t& hit_index = hit_index_.Ref(c.x, c.y);
       if (hit_index < 0) {
@@ -229,11 +239,9 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     }
   }
 
-  // Free space: traverse every cell a ray crosses (Amanatides–Woo), end cell excluded. A cell
-  // at the lowest log-odds stays there and changes nothing else (observed, free before and
-  // after, not a changed cell), whether or not a ray of this scan crossed it already: it is
-  // passed over without being marked (FR079: ray casting was a fifth of the run).
-  const float lowest = static_cast<float>(options_.min_log_odds);
+  // Free space: traverse every cell a ray crosses (Amanatides–Woo), end cell excluded; cells
+  // at the lowest log-odds and those this scan updated are passed over (pass_over_).
+  const int width = geometry_.width();
   const Eigen::Vector2d start = geometry_.WorldToContinuousCell(sensor_world);
   const CellIndex start_cell = geometry_.WorldToCell(sensor_world);
   for (const Eigen::Vector2d& p : points_world) {
@@ -251,36 +259,25 @@ bool OccupancyGrid::InsertScan(const Eigen::Vector2d& sensor_world,
     // Each step moves one cell along x or y, so the end cell is max_steps steps away at least:
     // the traversal stops before it (or, rounding having taken it astray, after as many cells).
     const int max_steps = std::abs(end_cell.x - start_cell.x) + std::abs(end_cell.y - start_cell.y);
-    // The cells of the current cell's tile (null: none allocated, all unobserved), looked up
-    // again when the traversal enters another tile or a cell was updated (Ref may allocate a
-    // tile and move them all): one lookup per tile crossed instead of one per cell.
-    constexpr int kBits = TiledGrid<float>::kTileBits, kLast = TiledGrid<float>::kTileSize - 1;
-    int tile_x = std::numeric_limits<int>::min(), tile_y = std::numeric_limits<int>::min();
-    const float* tile = nullptr;
+    int i = geometry_.LinearIndex(c);  // c's, kept along
     for (int n = 0; n < max_steps; ++n) {
-      if ((c.x >> kBits) != tile_x || (c.y >> kBits) != tile_y) {
-        tile_x = c.x >> kBits;
-        tile_y = c.y >> kBits;
-        tile = log_odds_.TileRow(c.x & ~kLast, c.y & ~kLast);
-      }
-      const float log_odds = tile != nullptr ? tile[((c.y & kLast) << kBits) | (c.x & kLast)] : log_odds_.empty();
-      if (log_odds != lowest) {
-        const int i = geometry_.LinearIndex(c);
-        if (MarkUpdated(i)) {
-          UpdateCell(c, i, miss, changed_cells);
-          tile_x = std::numeric_limits<int>::min();
-        }
+      if (!PassOver(i)) {
+        UpdateCell(c, i, miss, changed_cells);
+        SetPassOver(i, true);
+        updated_cells_.push_back(i);
       }
       if (t_max_x < t_max_y) {
         t_max_x += t_delta_x;
         c.x += step_x;
+        i += step_x;
       } else {
         t_max_y += t_delta_y;
         c.y += step_y;
+        i += step_y * width;
       }
     }
   }
-  for (const int i : updated_cells_) updated_this_scan_[static_cast<size_t>(i) >> 6] = 0;
+  for (const int i : updated_cells_) SetPassOver(i, AtLowest(geometry_.FromLinearIndex(i)));
   updated_cells_.clear();
   return true;
 }
@@ -291,7 +288,9 @@ void OccupancyGrid::AddCellObservation(const Eigen::Vector2d& p_world, float del
   CHECK(std::isfinite(delta_log_odds)) << "AddCellObservation with a non-finite log-odds change";
   EnsureContains(p_world, p_world);
   const CellIndex c = geometry_.WorldToCell(p_world);
-  UpdateCell(c, geometry_.LinearIndex(c), delta_log_odds, nullptr);
+  const int i = geometry_.LinearIndex(c);
+  UpdateCell(c, i, delta_log_odds, nullptr);
+  SetPassOver(i, AtLowest(c));
 }
 
 void OccupancyGrid::Freeze(int margin_cells) {
@@ -330,7 +329,7 @@ void OccupancyGrid::Freeze(int margin_cells) {
   hit_index_ = TiledIndex();
   std::vector<HitAccumulator>().swap(hits_);
   std::vector<int32_t>().swap(free_hits_);
-  std::vector<uint64_t>().swap(updated_this_scan_);
+  std::vector<uint64_t>().swap(pass_over_);
   std::vector<int>().swap(updated_cells_);
   height_min_ = TiledGrid<uint8_t>(0, 0, 255);
   height_max_ = TiledGrid<uint8_t>(0, 0, 0);
@@ -339,7 +338,7 @@ void OccupancyGrid::Freeze(int margin_cells) {
 size_t OccupancyGrid::MemoryBytes() const {
   return log_odds_.MemoryBytes() + hit_index_.MemoryBytes() +
          hits_.capacity() * sizeof(HitAccumulator) + free_hits_.capacity() * sizeof(int32_t) +
-         updated_this_scan_.capacity() * sizeof(uint64_t) + updated_cells_.capacity() * sizeof(int) +
+         pass_over_.capacity() * sizeof(uint64_t) + updated_cells_.capacity() * sizeof(int) +
          labels_.MemoryBytes() + height_min_.MemoryBytes() + height_max_.MemoryBytes() + frozen_states_.MemoryBytes() +
          frozen_labels_.MemoryBytes();
 }
@@ -437,6 +436,7 @@ void OccupancyGrid::ForgetCell(const CellIndex& c) {
     hit_index_.Ref(c.x, c.y) = -1;
   }
   log_odds_.Set(c.x, c.y, kUnobserved);
+  if (!frozen_) SetPassOver(geometry_.LinearIndex(c), false);  // unobserved: not at the lowest
   if (has_label_layer_) labels_.Set(c.x, c.y, 0);
   if (height_min_.width() > 0) height_min_.Set(c.x, c.y, 255);
   if (height_max_.width() > 0) height_max_.Set(c.x, c.y, 0);

@@ -248,18 +248,27 @@ class OccupancyGrid {
   std::vector<HitAccumulator> hits_;
   std::vector<int32_t> free_hits_;      // released entries of hits_, reused first
   bool has_lines_ = false;              // an insertion with lines happened
-  // A cell is updated at most once per scan: InsertScan marks the cells it updates (one bit a
-  // cell) and clears the marks of the cells it listed when it is done.
-  bool MarkUpdated(int i) {
-    uint64_t& word = updated_this_scan_[static_cast<size_t>(i) >> 6];
+  // One bit a cell (linear index): rays pass over the cell. Between scans it is set where the
+  // log-odds are min_log_odds, free space that another miss leaves as it is (observed, free
+  // before and after, not a changed cell); within a scan also on every cell the scan updated,
+  // which is updated once per scan (InsertScan: end points first, so that a ray never clears a
+  // cell the same scan hits). Rays read this bit instead of the log-odds' tiles (ray casting is
+  // bound by those reads: a fifth of FR079's run), and it takes the place of the per-scan marks
+  // it replaced, so it costs no memory. Kept by every write of the log-odds: InsertScan (its
+  // updated cells, updated_cells_, set back to the rule when it is done), AddCellObservation,
+  // ForgetCell; rebuilt by Resize, freed by Freeze.
+  bool PassOver(int i) const { return (pass_over_[static_cast<size_t>(i) >> 6] >> (i & 63)) & 1u; }
+  void SetPassOver(int i, bool pass_over) {
+    uint64_t& word = pass_over_[static_cast<size_t>(i) >> 6];
     const uint64_t bit = uint64_t{1} << (i & 63);
-    if (word & bit) return false;
-    word |= bit;
-    updated_cells_.push_back(i);
-    return true;
+    word = pass_over ? (word | bit) : (word & ~bit);
   }
-  std::vector<uint64_t> updated_this_scan_;
-  std::vector<int> updated_cells_;
+  // The rule between scans for cell i (c).
+  bool AtLowest(const CellIndex& c) const {
+    return log_odds_.Get(c.x, c.y) == static_cast<float>(options_.min_log_odds);
+  }
+  std::vector<uint64_t> pass_over_;
+  std::vector<int> updated_cells_;  // the cells InsertScan updated, this scan
   // Label layer (0: no label); sized at the first labelled insertion. Only hit cells carry
   // labels and heights, so their tiles follow the surfaces.
   TiledGrid<uint8_t> labels_{0, 0, 0};
