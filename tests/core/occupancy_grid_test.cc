@@ -156,6 +156,18 @@ TEST(OccupancyGridTest, RaysLowerEachCellOncePerScanDownToTheLowestLogOdds) {
   // Changed: the new end cell only (the wall's cell is still occupied).
   ASSERT_EQ(1u, changed.size());
   EXPECT_EQ(grid.geometry().LinearIndex(grid.geometry().WorldToCell(end)), changed[0]);
+  // A cell raised off the lowest log-odds from outside the laser model (a teammate's map) is
+  // lowered by the next ray again; one taken down to the lowest stays there.
+  grid.AddCellObservation(in_front, 1.f);
+  EXPECT_FLOAT_EQ(options.min_log_odds + 1.0, log_odds_at(in_front));
+  grid.AddCellObservation(behind, -10.f);
+  ASSERT_EQ(lowest, log_odds_at(behind));
+  grid.InsertScan(sensor, {end}, nullptr);
+  EXPECT_FLOAT_EQ(options.min_log_odds + 1.0 + options.miss_log_odds, log_odds_at(in_front));
+  EXPECT_EQ(lowest, log_odds_at(behind));
+  // A cell at the lowest log-odds that a scan hits is raised by the hit, once.
+  ASSERT_TRUE(grid.InsertScan(sensor, {behind, behind + Eigen::Vector2d(0.001, 0.0)}, nullptr));
+  EXPECT_FLOAT_EQ(options.min_log_odds + options.hit_log_odds, log_odds_at(behind));
 }
 
 // The noise tail behind a wall: a wall at x = 1.02 m seen 20 times from the origin, plus one stray
