@@ -15,6 +15,12 @@ bool OccupancyGridOptions::IsValid(std::string* error) const {
   if (!(resolution_meters >= 0.005 && resolution_meters <= 10.0))
     msg << "resolution_meters must be in [0.005, 10] (got " << resolution_meters << "); ";
   if (!(hit_log_odds > 0.0)) msg << "hit_log_odds must be > 0 (got " << hit_log_odds << "); ";
+  // A hit must lift a cell off min_log_odds in the grid's float log-odds (InsertScan tells a
+  // cell hit this scan from one at the lowest by it).
+  if (hit_log_odds > 0.0 &&
+      !(static_cast<float>(min_log_odds) + static_cast<float>(hit_log_odds) > static_cast<float>(min_log_odds)))
+    msg << "hit_log_odds " << hit_log_odds << " is too small to change min_log_odds " << min_log_odds
+        << " in float precision; ";
   if (!(miss_log_odds < 0.0)) msg << "miss_log_odds must be < 0 (got " << miss_log_odds << "); ";
   if (!(min_log_odds < occupied_threshold_log_odds && occupied_threshold_log_odds < max_log_odds))
     msg << "need min_log_odds < occupied_threshold_log_odds < max_log_odds; ";

@@ -1,6 +1,7 @@
 #include "core/occupancy_grid.h"
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "gtest/gtest.h"
@@ -168,6 +169,12 @@ TEST(OccupancyGridTest, RaysLowerEachCellOncePerScanDownToTheLowestLogOdds) {
   // A cell at the lowest log-odds that a scan hits is raised by the hit, once.
   ASSERT_TRUE(grid.InsertScan(sensor, {behind, behind + Eigen::Vector2d(0.001, 0.0)}, nullptr));
   EXPECT_FLOAT_EQ(options.min_log_odds + options.hit_log_odds, log_odds_at(behind));
+  // ... which needs a hit that changes the lowest log-odds in float precision.
+  OccupancyGridOptions tiny_hit;
+  tiny_hit.hit_log_odds = 1e-9;
+  std::string error;
+  EXPECT_FALSE(tiny_hit.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("too small")) << error;
 }
 
 // The noise tail behind a wall: a wall at x = 1.02 m seen 20 times from the origin, plus one stray
