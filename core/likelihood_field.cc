@@ -228,19 +228,9 @@ float LikelihoodField::RecomputeSquaredDistance(const CellIndex& c) const {
   float best = kInfinity;
   const int x0 = std::max(0, c.x - radius_cells_), x1 = std::min(geometry_.width() - 1, c.x + radius_cells_);
   const int y0 = std::max(0, c.y - radius_cells_), y1 = std::min(geometry_.height() - 1, c.y + radius_cells_);
-  for (int y = y0; y <= y1; ++y) {
-    // Tile by tile: a tile without published points is skipped whole.
-    for (int x = x0; x <= x1;) {
-      const int end = std::min(x1 + 1, (x | (TiledIndex::kTileSize - 1)) + 1);
-      const int32_t* index = published_index_.TileRow(x, y);
-      if (index != nullptr) {
-        for (int k = 0; k < end - x; ++k) {
-          if (index[k] >= 0) best = std::min(best, SquaredDistance(c, {x + k, y}, segments_[index[k]]));
-        }
-      }
-      x = end;
-    }
-  }
+  ForEachPublished(x0, x1, y0, y1, [&](const CellIndex& o, int32_t index) {
+    best = std::min(best, SquaredDistance(c, o, segments_[index]));
+  });
   return best;
 }
 
@@ -349,18 +339,7 @@ void LikelihoodField::RecomputeStaleCells() {
     const int x0 = std::max(0, (tile_x << kBits) - radius), x1 = std::min(w - 1, (tile_x << kBits) + kSize - 1 + radius);
     const int y0 = std::max(0, (tile_y << kBits) - radius), y1 = std::min(h - 1, (tile_y << kBits) + kSize - 1 + radius);
     nearby.clear();
-    for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1;) {
-        const int end = std::min(x1 + 1, (x | (kSize - 1)) + 1);
-        const int32_t* index = published_index_.TileRow(x, y);
-        if (index != nullptr) {
-          for (int k = 0; k < end - x; ++k) {
-            if (index[k] >= 0) nearby.push_back({{x + k, y}, index[k]});
-          }
-        }
-        x = end;
-      }
-    }
+    ForEachPublished(x0, x1, y0, y1, [&nearby](const CellIndex& o, int32_t index) { nearby.push_back({o, index}); });
     for (size_t j = first; j < last; ++j) {
       const int stale = stale_cells_[by_tile[j].second];
       const CellIndex c{stale % w, stale / w};

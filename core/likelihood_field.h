@@ -192,6 +192,23 @@ class LikelihoodField {
   // exp(-d / sigma) for a squared distance d^2 (0 for d^2 = +inf: nothing in the window).
   float ValueFromSquaredDistance(float squared_distance) const;
   static const FrozenCodes& SharedFrozenCodes(double sigma_meters, double window_meters, double cap_meters);
+  // f(cell, segment index) for every published cell of [x0, x1] x [y0, y1] (inside the grid),
+  // row by row, tile by tile: a tile without published points is skipped whole.
+  template <typename F>
+  void ForEachPublished(int x0, int x1, int y0, int y1, F f) const {
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1;) {
+        const int end = std::min(x1 + 1, (x | (TiledIndex::kTileSize - 1)) + 1);
+        const int32_t* index = published_index_.TileRow(x, y);
+        if (index != nullptr) {
+          for (int k = 0; k < end - x; ++k) {
+            if (index[k] >= 0) f(CellIndex{x + k, y}, index[k]);
+          }
+        }
+        x = end;
+      }
+    }
+  }
   // Min d^2 over the published points in c's window (+inf when there is none).
   float RecomputeSquaredDistance(const CellIndex& c) const;
   // Every cell of stale_cells_ recomputed so (ApplyChanges' last step).

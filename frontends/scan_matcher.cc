@@ -620,45 +620,18 @@ struct SearchContext {
     return FromSum(sum, level, yaw_index, dx, dy);
   }
 
-  // Without weights: the four blocks of `level` at dx, dx + 2^level, dx + 2 2^level and
-  // dx + 3 2^level along row dy (the top level's neighbours), into `scores` in that order:
-  // Score's value of each (the same integer sums), with the points' offsets read once.
-  void ScoreFourAlongRow(int level, int yaw_index, int dx, int dy, float scores[4]) const {
-    const DiscretizedSearch& s = *search;
-    const int32_t* const offsets = s.offsets.data() + s.begin[yaw_index];
-    const int count = s.begin[yaw_index + 1] - s.begin[yaw_index];
-    const ptrdiff_t base = static_cast<ptrdiff_t>(dy) * s.region_width + dx;
-    const ptrdiff_t size = ptrdiff_t{1} << level;
-    const double step = Step(level);
-    int64_t codes[4] = {0, 0, 0, 0};
-    WithTable(level, [&](const auto* table) {
-      const auto* data = table + base;
-      for (int i = 0; i < count; ++i) {
-        const auto* cell = data + offsets[i];
-        codes[0] += cell[0];
-        codes[1] += cell[size];
-        codes[2] += cell[2 * size];
-        codes[3] += cell[3 * size];
-      }
-      return 0;
-    });
-    for (int c = 0; c < 4; ++c) {
-      const double sum = static_cast<double>(pyramid->lowest) * count + step * codes[c];
-      scores[c] = FromSum(sum, level, yaw_index, dx + c * static_cast<int>(size), dy);
-    }
-  }
-
-  // The four blocks of `level` at (dx, dy), (dx + 2^level, dy), (dx, dy + 2^level) and
-  // (dx + 2^level, dy + 2^level) (a block's children), into `scores` in that order: Score's
-  // value of each, with the points' offsets read once (the same sums: integers, or each
-  // block's weighted sum in the points' order). Four Score calls a block were 7% of an Intel run.
-  void ScoreFour(int level, int yaw_index, int dx, int dy, float scores[4]) const {
+  // The four blocks of `level` at (dx[c], dy[c]), into `scores`: Score's value of each, with
+  // the points' offsets read once (the same sums: integers, or each block's weighted sum in the
+  // points' order). Used for a block's four children (four Score calls a block were 7% of an
+  // Intel run) and for four neighbours along a row of the top level (8% of MIT CSAIL's run).
+  void ScoreFour(int level, int yaw_index, const int dx[4], const int dy[4], float scores[4]) const {
     const DiscretizedSearch& s = *search;
     const int32_t* const offsets = s.offsets.data() + s.begin[yaw_index];
     const int count = s.begin[yaw_index + 1] - s.begin[yaw_index];
     const float* const cell_weights = s.cell_weights.empty() ? nullptr : s.cell_weights.data() + s.begin[yaw_index];
-    const ptrdiff_t base = static_cast<ptrdiff_t>(dy) * s.region_width + dx;
-    const ptrdiff_t right = ptrdiff_t{1} << level, down = right * s.region_width;
+    const ptrdiff_t base = static_cast<ptrdiff_t>(dy[0]) * s.region_width + dx[0];
+    ptrdiff_t shift[4];  // of block c from block 0
+    for (int c = 0; c < 4; ++c) shift[c] = static_cast<ptrdiff_t>(dy[c] - dy[0]) * s.region_width + (dx[c] - dx[0]);
     const double step = Step(level);
     double sums[4];
     WithTable(level, [&](const auto* table) {
@@ -668,9 +641,9 @@ struct SearchContext {
         for (int i = 0; i < count; ++i) {
           const auto* cell = data + offsets[i];
           codes[0] += cell[0];
-          codes[1] += cell[right];
-          codes[2] += cell[down];
-          codes[3] += cell[down + right];
+          codes[1] += cell[shift[1]];
+          codes[2] += cell[shift[2]];
+          codes[3] += cell[shift[3]];
         }
         for (int c = 0; c < 4; ++c) sums[c] = static_cast<double>(pyramid->lowest) * count + step * codes[c];
         return 0;
@@ -680,15 +653,14 @@ struct SearchContext {
         const auto* cell = data + offsets[i];
         weight_sum += cell_weights[i];
         weighted_codes[0] += cell_weights[i] * cell[0];
-        weighted_codes[1] += cell_weights[i] * cell[right];
-        weighted_codes[2] += cell_weights[i] * cell[down];
-        weighted_codes[3] += cell_weights[i] * cell[down + right];
+        weighted_codes[1] += cell_weights[i] * cell[shift[1]];
+        weighted_codes[2] += cell_weights[i] * cell[shift[2]];
+        weighted_codes[3] += cell_weights[i] * cell[shift[3]];
       }
       for (int c = 0; c < 4; ++c) sums[c] = pyramid->lowest * weight_sum + step * weighted_codes[c];
       return 0;
     });
-    const int size = 1 << level;
-    for (int c = 0; c < 4; ++c) scores[c] = FromSum(sums[c], level, yaw_index, dx + (c & 1) * size, dy + (c >> 1) * size);
+    for (int c = 0; c < 4; ++c) scores[c] = FromSum(sums[c], level, yaw_index, dx[c], dy[c]);
   }
 };
 
@@ -733,11 +705,12 @@ void BranchAndBound(const SearchContext& context, Candidate* begin, Candidate* e
     Candidate children[4];
     int num_children = 0;
     if (candidate.dx + half <= window && candidate.dy + half <= window) {
+      // (dx, dy), (dx + half, dy), (dx, dy + half), (dx + half, dy + half): generation order.
+      const int dx[4] = {candidate.dx, candidate.dx + half, candidate.dx, candidate.dx + half};
+      const int dy[4] = {candidate.dy, candidate.dy, candidate.dy + half, candidate.dy + half};
       float scores[4];
-      context.ScoreFour(level - 1, candidate.yaw_index, candidate.dx, candidate.dy, scores);
-      for (int c = 0; c < 4; ++c) {
-        children[c] = {candidate.yaw_index, candidate.dx + (c & 1) * half, candidate.dy + (c >> 1) * half, scores[c]};
-      }
+      context.ScoreFour(level - 1, candidate.yaw_index, dx, dy, scores);
+      for (int c = 0; c < 4; ++c) children[c] = {candidate.yaw_index, dx[c], dy[c], scores[c]};
       num_children = 4;
       *scored += 4;
     } else {
@@ -1227,14 +1200,14 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
   top.reserve(s.yaws.size() * blocks_per_side * blocks_per_side);  // one allocation, no regrowth
   for (int k = 0; k < static_cast<int>(s.yaws.size()); ++k) {
     for (int dy = -s.window_cells; dy <= s.window_cells; dy += block) {
+      // Four neighbours along the row at a time, then the rest one by one.
       int dx = -s.window_cells;
-      if (weights.empty()) {
-        // Four neighbours along the row at a time (the top level was 8% of MIT CSAIL's run).
-        for (; dx + 3 * block <= s.window_cells; dx += 4 * block) {
-          float scores[4];
-          context.ScoreFourAlongRow(depth, k, dx, dy, scores);
-          for (int c = 0; c < 4; ++c) top.push_back({k, dx + c * block, dy, scores[c]});
-        }
+      for (; dx + 3 * block <= s.window_cells; dx += 4 * block) {
+        const int dxs[4] = {dx, dx + block, dx + 2 * block, dx + 3 * block};
+        const int dys[4] = {dy, dy, dy, dy};
+        float scores[4];
+        context.ScoreFour(depth, k, dxs, dys, scores);
+        for (int c = 0; c < 4; ++c) top.push_back({k, dxs[c], dy, scores[c]});
       }
       for (; dx <= s.window_cells; dx += block) top.push_back({k, dx, dy, context.Score(depth, k, dx, dy)});
     }
