@@ -5,7 +5,7 @@
 // world_T_robot = [x, y, yaw] (metres, metres, radians):
 //   r_i = w_i / sqrt(N) * (1 - L(R(yaw) p_i + [x y]^T)),
 // where L is the likelihood field (core/likelihood_field.h) interpolated bicubically between
-// cell centres (ceres::BiCubicInterpolator: Catmull-Rom, C1, exact at cell centres). Outside
+// cell centres (Catmull-Rom, C1, exact at cell centres: ceres::BiCubicInterpolator's arithmetic). Outside
 // the grid L takes the nearest border cell's value, which is 0 on a LaserMap's grid (its border
 // margin exceeds the likelihood window). Maximising the summed likelihood (eq. 1) is
 // minimising sum r_i^2. The 1/sqrt(N) keeps a scan's pull independent of its beam count. A

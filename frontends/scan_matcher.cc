@@ -1257,8 +1257,10 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     double pose[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};
     ceres::Problem::Options problem_options;
     ceres::Problem problem(problem_options);
-    problem.AddResidualBlock(
-        CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation), nullptr, pose);
+    std::vector<ceres::CostFunction*> refinement_costs;  // owned by `problem`
+    refinement_costs.push_back(
+        CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation));
+    problem.AddResidualBlock(refinement_costs.back(), nullptr, pose);
     // Paper §III-E: the wall channel as a second cost over the same points, each residual
     // weighted sqrt(wall_weight - 1): summed, (1 - L)^2 + (wall_weight - 1)(1 - L_wall)^2 per
     // point, wall_weight (1 - L)^2 on a wall (where L_wall = L), (1 - L)^2 away from walls
@@ -1266,9 +1268,9 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     std::vector<float> wall_weights;
     if (wall_field != nullptr) {
       wall_weights = WallResidualWeights(weights, points_robot.size(), wall_weight);
-      problem.AddResidualBlock(
-          CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, options_.refine_interpolation), nullptr,
-          pose);
+      refinement_costs.push_back(
+          CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, options_.refine_interpolation));
+      problem.AddResidualBlock(refinement_costs.back(), nullptr, pose);
     }
     ceres::Solver::Summary summary;
     ceres::Solve(RefinementSolverOptions(options_), &problem, &summary);
@@ -1293,25 +1295,33 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     // degeneracy tests and closure weights downstream are calibrated on.
     double p[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};
     std::copy(p, p + 3, pose);
-    std::optional<ceres::Problem> values_problem;  // only when the refinement's cost is another
+    // Each cost evaluated once at the pose, its rows in order: the Jacobian a ceres::Problem of
+    // them would give (Problem::Evaluate), without building one.
+    std::vector<std::unique_ptr<ceres::CostFunction>> values_costs;  // only when the refinement's cost is another
+    std::vector<ceres::CostFunction*> information_costs = refinement_costs;
     if (options_.refine_interpolation != ScanCostInterpolation::kValues) {
-      values_problem.emplace(problem_options);
-      values_problem->AddResidualBlock(
-          CreateScanToLikelihoodFieldCost(field, points_robot, weights, ScanCostInterpolation::kValues), nullptr, pose);
+      values_costs.emplace_back(
+          CreateScanToLikelihoodFieldCost(field, points_robot, weights, ScanCostInterpolation::kValues));
       if (wall_field != nullptr) {
-        values_problem->AddResidualBlock(
-            CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, ScanCostInterpolation::kValues),
-            nullptr, pose);
+        values_costs.emplace_back(
+            CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, ScanCostInterpolation::kValues));
       }
+      information_costs.clear();
+      for (const auto& cost : values_costs) information_costs.push_back(cost.get());
     }
-    ceres::CRSMatrix jacobian;
-    (values_problem.has_value() ? *values_problem : problem)
-        .Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &jacobian);
     Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
-    for (int row = 0; row < jacobian.num_rows; ++row) {
-      Eigen::Vector3d j = Eigen::Vector3d::Zero();
-      for (int k = jacobian.rows[row]; k < jacobian.rows[row + 1]; ++k) j[jacobian.cols[k]] = jacobian.values[k];
-      jtj += j * j.transpose();
+    std::vector<double> residuals, jacobian;
+    for (ceres::CostFunction* cost : information_costs) {
+      const int rows = cost->num_residuals();
+      residuals.resize(rows);
+      jacobian.resize(3 * static_cast<size_t>(rows));
+      const double* parameters[1] = {pose};
+      double* jacobians[1] = {jacobian.data()};
+      if (!cost->Evaluate(parameters, residuals.data(), jacobians)) continue;  // (a scan cost does not fail)
+      for (int row = 0; row < rows; ++row) {
+        const Eigen::Vector3d j(jacobian[3 * row], jacobian[3 * row + 1], jacobian[3 * row + 2]);
+        jtj += j * j.transpose();
+      }
     }
     result.information = jtj;
     // The score's profile in kDirections directions over a half turn: the flattest is the weak
