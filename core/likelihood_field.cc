@@ -209,10 +209,9 @@ void LikelihoodField::Resize(const GridGeometry& g) {
     const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
     const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / r));
     // Only the cells that differ from the default move (the grids hold nothing else).
-    values_.ForEach([&](int x, int y, float value) { values.Ref(x + dx, y + dy) = value; });
-    squared_distances_.ForEach(
-        [&](int x, int y, float squared_distance) { squared_distances.Ref(x + dx, y + dy) = squared_distance; });
-    published_index_.ForEach([&](int x, int y, int32_t index) { published_index.Ref(x + dx, y + dy) = index; });
+    values_.MoveInto(dx, dy, &values);
+    squared_distances_.MoveInto(dx, dy, &squared_distances);
+    published_index_.MoveInto(dx, dy, &published_index);
   }
   geometry_ = g;
   values_ = std::move(values);

@@ -117,14 +117,14 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / g.resolution_meters()));
   auto moved = [&](const auto& old_layer) {
     std::decay_t<decltype(old_layer)> layer(g.width(), g.height(), old_layer.empty());
-    old_layer.ForEach([&](int x, int y, auto value) { layer.Ref(x + dx, y + dy) = value; });
+    old_layer.MoveInto(dx, dy, &layer);
     return layer;
   };
   TiledGrid<float> log_odds = moved(log_odds_);
   TiledGrid<uint8_t> labels = moved(labels_);
   TiledGrid<uint8_t> height_min = moved(height_min_), height_max = moved(height_max_);
   TiledIndex hit_index(g.width(), g.height());
-  hit_index_.ForEach([&](int x, int y, int32_t value) { hit_index.Ref(x + dx, y + dy) = value; });
+  hit_index_.MoveInto(dx, dy, &hit_index);
   if (observed_max_.x >= observed_min_.x) {
     observed_min_ = {observed_min_.x + dx, observed_min_.y + dy};
     observed_max_ = {observed_max_.x + dx, observed_max_.y + dy};

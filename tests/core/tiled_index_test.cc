@@ -123,5 +123,36 @@ TEST(TiledGridTest, ReadersAgreeWithADenseReferenceAndEmptyWritesAllocateNothing
   EXPECT_EQ(2.f, far.Get(999, 999));
 }
 
+TEST(TiledGridTest, MoveIntoWritesWhatRefCellByCellWouldInTheSameTileOrder) {
+  constexpr float kEmpty = 0.f;
+  const int width = 29, height = 19;  // partial tiles on the right and top edges
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> x_of(0, width - 1), y_of(0, height - 1);
+  std::uniform_real_distribution<float> value_of(0.5f, 1.f);
+  TiledGrid<float> grid(width, height, kEmpty);
+  for (int k = 0; k < 120; ++k) grid.Set(x_of(rng), y_of(rng), k % 7 == 0 ? kEmpty : value_of(rng));
+  // Shifts within a tile, across tile edges and by whole tiles, into grids with room to spare.
+  for (const auto& [dx, dy] : std::vector<std::pair<int, int>>{{0, 0}, {1, 0}, {0, 5}, {7, 3}, {8, 8}, {13, 21}, {40, 9}}) {
+    TiledGrid<float> expected(width + dx + 9, height + dy + 4, kEmpty);
+    std::vector<std::pair<int, int>> expected_first_writes;  // tiles in the order Ref allocates them
+    grid.ForEach([&](int x, int y, float v) {
+      if (!expected.TileStored((x + dx) >> 3, (y + dy) >> 3)) expected_first_writes.push_back({(x + dx) >> 3, (y + dy) >> 3});
+      expected.Ref(x + dx, y + dy) = v;
+    });
+    TiledGrid<float> moved(width + dx + 9, height + dy + 4, kEmpty);
+    grid.MoveInto(dx, dy, &moved);
+    EXPECT_EQ(expected.Dense(), moved.Dense()) << dx << ", " << dy;
+    ASSERT_EQ(expected.num_allocated_tiles(), moved.num_allocated_tiles()) << dx << ", " << dy;
+    // The same allocation order: the k-th tile allocated holds the same cells in both (a
+    // tile's row read through TileRow points into its block; blocks are in allocation order).
+    const float* expected_base = expected.TileRow(expected_first_writes[0].first << 3, expected_first_writes[0].second << 3);
+    const float* moved_base = moved.TileRow(expected_first_writes[0].first << 3, expected_first_writes[0].second << 3);
+    for (const auto& [tx, ty] : expected_first_writes) {
+      EXPECT_EQ(expected.TileRow(tx << 3, ty << 3) - expected_base, moved.TileRow(tx << 3, ty << 3) - moved_base)
+          << "tile " << tx << ", " << ty << " moved by " << dx << ", " << dy;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hetslam
