@@ -83,7 +83,8 @@ bool LaserMap::InsertScan(const Pose2& world_T_robot, const Eigen::Vector2d& sen
                           const std::vector<float>* heights, bool update_field) {
   points_world_.clear();
   points_world_.reserve(points_robot.size());
-  for (const Eigen::Vector2f& p : points_robot) points_world_.push_back(world_T_robot * p.cast<double>());
+  const Pose2::PointTransform to_world(world_T_robot);
+  for (const Eigen::Vector2f& p : points_robot) points_world_.push_back(to_world(p.cast<double>()));
   changed_cells_.clear();
   if (labels != nullptr) {
     labels_.clear();

@@ -61,6 +61,20 @@ class Pose2 {
     return Eigen::Vector2d(x() + c * p.x() - s * p.y(), y() + s * p.x() + c * p.y());
   }
 
+  // operator*(p) for many points: the cosine and sine taken once, the same doubles. (They are
+  // libm calls that a loop does not hoist: one per point was 2–3% of a FR079 run.)
+  class PointTransform {
+   public:
+    explicit PointTransform(const Pose2& pose)
+        : x_(pose.x()), y_(pose.y()), c_(std::cos(pose.theta())), s_(std::sin(pose.theta())) {}
+    Eigen::Vector2d operator()(const Eigen::Vector2d& p) const {
+      return Eigen::Vector2d(x_ + c_ * p.x() - s_ * p.y(), y_ + s_ * p.x() + c_ * p.y());
+    }
+
+   private:
+    double x_, y_, c_, s_;
+  };
+
   Eigen::Vector3d ToVector() const { return Eigen::Vector3d(x(), y(), theta_); }
   static Pose2 FromVector(const Eigen::Vector3d& v) { return Pose2(v.x(), v.y(), v.z()); }
 

@@ -946,7 +946,7 @@ double ReachableScoreBound(const LaserMap& map, const Pose2& pose, const std::ve
   double best = 0.0;
   for (int k = 0; k < sectors; ++k) {
     const double yaw = -rotation + (2 * k + 1) * half_width;
-    const Pose2 sector_pose = pose * Pose2(0.0, 0.0, yaw);
+    const Pose2::PointTransform sector_pose(pose * Pose2(0.0, 0.0, yaw));
     double reachable = 0.0;
     for (size_t i = 0; i < points_robot.size(); ++i) {
       const Eigen::Vector2d p = points_robot[i].cast<double>();
@@ -954,7 +954,7 @@ double ReachableScoreBound(const LaserMap& map, const Pose2& pose, const std::ve
       // The bilinear lookup reads the cells within one of the point's cell; one more for rounding.
       const double reach_cells = std::ceil(reach_meters / cell) + 2.0;
       if (!(reach_cells < 1e6) ||
-          field.MayBeNonZeroNear(g.WorldToCell(sector_pose * p), static_cast<int>(reach_cells))) {
+          field.MayBeNonZeroNear(g.WorldToCell(sector_pose(p)), static_cast<int>(reach_cells))) {
         reachable += weights.empty() ? 1.0 : weights[i];
       }
     }

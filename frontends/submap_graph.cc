@@ -715,11 +715,11 @@ double SubmapGraph::CoveredShare(const SubmapId& id, const std::vector<SubmapId>
   };
   const Eigen::AlignedBox2d box = box_of(*map, id);
   // The other maps, with the transform carrying the submap's cells into each.
-  std::vector<std::pair<const LikelihoodField*, Pose2>> covering;
+  std::vector<std::pair<const LikelihoodField*, Pose2::PointTransform>> covering;
   for (const SubmapId& other : others) {
     const LaserMap* other_map = FinishedSubmapMap(other);
     if (other_map == nullptr || other == id || !box_of(*other_map, other).intersects(box)) continue;
-    covering.push_back({&other_map->field(), SubmapPose(other).inverse() * robot_T_a});
+    covering.push_back({&other_map->field(), Pose2::PointTransform(SubmapPose(other).inverse() * robot_T_a)});
   }
   constexpr float kCovered = 0.36787944f;  // exp(-1): within one sigma of a hit
   const SparseTiles<uint8_t>& tiles = map->field().frozen_tiles();
@@ -735,7 +735,7 @@ double SubmapGraph::CoveredShare(const SubmapId& id, const std::vector<SubmapId>
           ++occupied;
           const Eigen::Vector2d centre = g.CellCenter({x, y});
           for (const auto& [other, b_T_a] : covering) {
-            if (other->Value(other->geometry().WorldToCell(b_T_a * centre)) >= kCovered) {
+            if (other->Value(other->geometry().WorldToCell(b_T_a(centre))) >= kCovered) {
               ++covered;
               break;
             }
@@ -799,8 +799,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       const Pose2 world_T_node = NodePoseOf(it->second, node);
       walls.clear();
       scan.DecodePoints(&points_robot);
+      const Pose2::PointTransform to_world(world_T_node);
       for (const Eigen::Vector2f& p : points_robot) {
-        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+        const Eigen::Vector2d world = to_world(p.cast<double>());
         const int cell = all->geometry().LinearIndex(all->geometry().WorldToCell(world));
         if (all->IsOccupied(cell) && (all->LabelMask(cell) & (1u << OccupancyGrid::kWallLabelBit))) walls.push_back(world);
       }
@@ -825,8 +826,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       lo = lo.cwiseMin(sensor);
       hi = hi.cwiseMax(sensor);
       scan.DecodePoints(&points_robot);
+      const Pose2::PointTransform to_world(world_T_node);
       for (const Eigen::Vector2f& p : points_robot) {
-        const Eigen::Vector2d world = world_T_node * p.cast<double>();
+        const Eigen::Vector2d world = to_world(p.cast<double>());
         lo = lo.cwiseMin(world);
         hi = hi.cwiseMax(world);
       }
@@ -841,8 +843,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       points_world.clear();
       labels.clear();
       scan.DecodePoints(&points_robot);
+      const Pose2::PointTransform to_world(world_T_node);
       for (size_t k = 0; k < points_robot.size(); ++k) {
-        points_world.push_back(world_T_node * points_robot[k].cast<double>());
+        points_world.push_back(to_world(points_robot[k].cast<double>()));
         labels.push_back(static_cast<uint8_t>(scan.Label(k)));
       }
       grid->InsertScan(world_T_node * scan.sensor_robot, points_world, nullptr, &labels,
@@ -875,8 +878,9 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   // structure saw it free: its beams passed above).
   std::vector<Eigen::Vector2d> obstacles;
   auto add = [&](const Pose2& world_T_scan, const std::vector<Eigen::Vector2f>& points) {
+    const Pose2::PointTransform to_world(world_T_scan);
     for (const Eigen::Vector2f& p : points) {
-      const Eigen::Vector2d world = world_T_scan * p.cast<double>();
+      const Eigen::Vector2d world = to_world(p.cast<double>());
       if (world.allFinite() && !near_structure(world)) obstacles.push_back(world);
     }
   };
