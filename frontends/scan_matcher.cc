@@ -9,7 +9,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <optional>
 #include <sstream>
 #include <tuple>
 #include <type_traits>
