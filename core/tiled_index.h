@@ -134,40 +134,26 @@ class TiledGrid {
   }
   // Writes every cell holding a value other than empty() into `out`, moved by (dx, dy) (each
   // must land inside `out`): the writes of ForEach with out->Ref(x + dx, y + dy) = value, in
-  // the same order, so `out` allocates its tiles in the same order; but one tile lookup per
-  // run of a tile row's cells that land in one tile of `out`, not one per cell (a grid's
-  // growth, OccupancyGrid::Resize and LikelihoodField::Resize, was ~6% of an Intel run's first
-  // 300 scans, most of it these lookups).
+  // the same order, so `out` allocates its tiles in the same order; but the destination tile
+  // row is looked up once per run of cells that land in it, not once per cell (the two Resizes
+  // of a grid's growth, OccupancyGrid's and LikelihoodField's, were ~6% of an Intel run's first
+  // 300 scans, callgrind).
   void MoveInto(int dx, int dy, TiledGrid* out) const {
     constexpr int kLast = kTileSize - 1;
-    const int tiles_y = (height_ + kTileSize - 1) >> kTileBits;
-    for (int ty = 0; ty < tiles_y; ++ty) {
-      for (int tx = 0; tx < tiles_x_; ++tx) {
-        const int32_t tile = tile_of_[static_cast<size_t>(ty) * tiles_x_ + tx];
-        if (tile < 0) continue;
-        for (int row = 0; row < kTileSize; ++row) {
-          const int y = (ty << kTileBits) + row;
-          if (y >= height_) break;
-          const T* source = cells_.data() + static_cast<size_t>(tile) * kTileCells + (row << kTileBits);
-          // The current destination tile's row (its first cell), valid until out allocates the
-          // next tile: a row's cells go to one tile, then the next, never back.
-          T* destination = nullptr;
-          int destination_tile_x = -1;
-          for (int k = 0; k < kTileSize; ++k) {
-            const T value = source[k];
-            if (value == empty_) continue;
-            const int x = (tx << kTileBits) + k;
-            if (x >= width_) break;
-            const int nx = x + dx;
-            if ((nx >> kTileBits) != destination_tile_x) {
-              destination = &out->Ref(nx, y + dy) - (nx & kLast);
-              destination_tile_x = nx >> kTileBits;
-            }
-            destination[nx & kLast] = value;
-          }
-        }
+    // The destination row's first cell, for the tile column and row it was looked up for; valid
+    // while `out` allocates no tile (an allocation may move every tile).
+    T* destination = nullptr;
+    int destination_tile_x = -1, destination_y = -1, allocated = -1;
+    ForEach([&](int x, int y, T value) {
+      const int nx = x + dx, ny = y + dy;
+      if ((nx >> kTileBits) != destination_tile_x || ny != destination_y || out->num_allocated_tiles() != allocated) {
+        destination = &out->Ref(nx, ny) - (nx & kLast);
+        destination_tile_x = nx >> kTileBits;
+        destination_y = ny;
+        allocated = out->num_allocated_tiles();
       }
-    }
+      destination[nx & kLast] = value;
+    });
   }
   // Every cell, row-major (linear index y * width + x): for tests and comparisons.
   std::vector<T> Dense() const {
