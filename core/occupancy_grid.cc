@@ -313,12 +313,13 @@ void OccupancyGrid::Freeze(int margin_cells) {
   const int width = x1 - x0 + 1, height = y1 - y0 + 1;
   std::vector<uint8_t> states(static_cast<size_t>(width) * height);
   std::vector<uint8_t> labels(has_label_layer_ ? states.size() : 0);
+  // Row by row (a tile lookup per tile row, not per cell).
+  std::vector<float> log_odds(static_cast<size_t>(std::max(width, 0)));
   for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const int to = y * width + x;
-      states[to] = static_cast<uint8_t>(State(CellIndex{x + x0, y + y0}));
-      if (!labels.empty()) labels[to] = labels_.Get(x + x0, y + y0);
-    }
+    log_odds_.GetRow(x0, y + y0, width, log_odds.data());
+    uint8_t* to = states.data() + static_cast<size_t>(y) * width;
+    for (int x = 0; x < width; ++x) to[x] = static_cast<uint8_t>(StateOfLogOdds(log_odds[x]));
+    if (!labels.empty()) labels_.GetRow(x0, y + y0, width, labels.data() + static_cast<size_t>(y) * width);
   }
   frozen_states_ = SparseTiles2Bit(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
   frozen_labels_ = labels.empty() ? SparseTiles<uint8_t>() : SparseTiles<uint8_t>(labels, width, height, 0);

@@ -164,6 +164,9 @@ class OccupancyGrid {
   const uint8_t* FrozenStatesTileRow(int x, int y, uint8_t* buffer) const {
     return frozen_states_.TileRow(x, y, buffer);
   }
+  // The same row undecoded (SparseTiles2Bit::TileRowBits: the state of cell x' of the tile in
+  // bits 2x' and 2x' + 1); false: all unknown.
+  bool FrozenStatesTileRowBits(int x, int y, uint16_t* row) const { return frozen_states_.TileRowBits(x, y, row); }
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.
   Eigen::Vector2d HitPoint(int linear_index) const;

@@ -39,8 +39,11 @@ class SparseTiles : private TiledGrid<T> {
           for (int x = x0; x < x1; ++x) all_empty = all_empty && dense[static_cast<size_t>(y) * width + x] == empty;
         }
         if (all_empty) continue;
+        // The tile allocated once, then its rows copied.
+        this->Ref(x0, y0);
         for (int y = y0; y < y1; ++y) {
-          for (int x = x0; x < x1; ++x) this->Ref(x, y) = dense[static_cast<size_t>(y) * width + x];
+          std::copy(dense.begin() + static_cast<ptrdiff_t>(y) * width + x0,
+                    dense.begin() + static_cast<ptrdiff_t>(y) * width + x1, this->MutableTileRow(x0, y));
         }
       }
     }
@@ -125,6 +128,15 @@ class SparseTiles2Bit {
       buffer[i] = static_cast<uint8_t>((row >> (2 * k)) & 3u);
     }
     return buffer;
+  }
+  // Row y of the tile holding (x, y) as stored (cell x' of the tile in bits 2x' and 2x' + 1,
+  // x' = x % kTileSize for (x, y) itself) into `row`; false when the tile is not stored (every
+  // cell holds the empty value). TileRow without decoding: for readers that decode as they go.
+  bool TileRowBits(int x, int y, uint16_t* row) const {
+    const int32_t tile = index_[static_cast<size_t>(y >> kTileBits) * tiles_x_ + (x >> kTileBits)];
+    if (tile < 0) return false;
+    *row = rows_[static_cast<size_t>(tile) * kTileSize + (y & (kTileSize - 1))];
+    return true;
   }
   int num_stored_tiles() const { return static_cast<int>(rows_.size() / kTileSize); }
   // Bytes held (capacity).

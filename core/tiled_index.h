@@ -134,26 +134,43 @@ class TiledGrid {
   }
   // Writes every cell holding a value other than empty() into `out`, moved by (dx, dy) (each
   // must land inside `out`): the writes of ForEach with out->Ref(x + dx, y + dy) = value, in
-  // the same order, so `out` allocates its tiles in the same order; but the destination tile
-  // row is looked up once per run of cells that land in it, not once per cell (the two Resizes
-  // of a grid's growth, OccupancyGrid's and LikelihoodField's, were ~6% of an Intel run's first
-  // 300 scans, callgrind).
+  // the same order, so `out` allocates its tiles in the same order. A tile row's cells are
+  // taken a run at a time, each run the cells that land in one destination tile row: one
+  // destination lookup and one pass of comparisons and copies a run, not a lookup and a call a
+  // cell (the two Resizes of a grid's growth, OccupancyGrid's and LikelihoodField's, were ~6%
+  // of an Intel run's first 300 scans, callgrind, with a lookup a cell; ~4.5% with the
+  // destination looked up a run of cells at a time through ForEach).
   void MoveInto(int dx, int dy, TiledGrid* out) const {
     constexpr int kLast = kTileSize - 1;
-    // The destination row's first cell, for the tile column and row it was looked up for; valid
-    // while `out` allocates no tile (an allocation may move every tile).
-    T* destination = nullptr;
-    int destination_tile_x = -1, destination_y = -1, allocated = -1;
-    ForEach([&](int x, int y, T value) {
-      const int nx = x + dx, ny = y + dy;
-      if ((nx >> kTileBits) != destination_tile_x || ny != destination_y || out->num_allocated_tiles() != allocated) {
-        destination = &out->Ref(nx, ny) - (nx & kLast);
-        destination_tile_x = nx >> kTileBits;
-        destination_y = ny;
-        allocated = out->num_allocated_tiles();
+    const int tiles_y = (height_ + kTileSize - 1) >> kTileBits;
+    for (int ty = 0; ty < tiles_y; ++ty) {
+      for (int tx = 0; tx < tiles_x_; ++tx) {
+        const int32_t tile = tile_of_[static_cast<size_t>(ty) * tiles_x_ + tx];
+        if (tile < 0) continue;
+        const int x0 = tx << kTileBits, y0 = ty << kTileBits;
+        // The tile's cells inside the grid (an edge tile's others hold empty(): never written).
+        const int columns = std::min(kTileSize, width_ - x0), rows = std::min(kTileSize, height_ - y0);
+        for (int k = 0; k < rows; ++k) {
+          const T* row = cells_.data() + static_cast<size_t>(tile) * kTileCells + (k << kTileBits);
+          const int ny = y0 + k + dy;
+          for (int i = 0; i < columns;) {
+            const int nx = x0 + i + dx;
+            const int run = std::min(columns - i, kTileSize - (nx & kLast));
+            // The destination tile is allocated (Ref) at the run's first value other than
+            // empty(), as ForEach's writes would; a run of empty() values writes nothing.
+            int first = i;
+            while (first < i + run && row[first] == empty_) ++first;
+            if (first < i + run) {
+              T* destination = &out->Ref(nx + (first - i), ny) - (first - i);
+              for (int j = first; j < i + run; ++j) {
+                if (row[j] != empty_) destination[j - i] = row[j];
+              }
+            }
+            i += run;
+          }
+        }
       }
-      destination[nx & kLast] = value;
-    });
+    }
   }
   // Every cell, row-major (linear index y * width + x): for tests and comparisons.
   std::vector<T> Dense() const {

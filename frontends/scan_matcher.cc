@@ -139,16 +139,30 @@ void Discretize(const ScanMatcherOptions& options, const LaserMap& map, const Po
     const size_t first = cells.size();
     cells.resize(first + n);
     CellsOfPoints(points.data(), n, cos_yaw, sin_yaw, tx, ty, ox, oy, r, cells.data() + first);
-    size_t kept = first;
-    for (size_t i = 0; i < n; ++i) {
-      const CellIndex c = cells[first + i];
-      if (c.x < keep_min.x || c.y < keep_min.y || c.x > keep_max.x || c.y > keep_max.y) continue;
-      cells[kept++] = c;
-      if (!weights.empty()) search.cell_weights.push_back(weights[i]);
-      lo = {std::min(lo.x, c.x), std::min(lo.y, c.y)};
-      hi = {std::max(hi.x, c.x), std::max(hi.y, c.y)};
+    // Usually every cell is kept: then the box of this yaw's cells is all the loop below would
+    // find (one pass of minima and maxima, which vectorises, instead of a branch a cell).
+    CellIndex yaw_lo{INT32_MAX, INT32_MAX}, yaw_hi{INT32_MIN, INT32_MIN};
+    for (size_t i = first; i < first + n; ++i) {
+      yaw_lo = {std::min(yaw_lo.x, cells[i].x), std::min(yaw_lo.y, cells[i].y)};
+      yaw_hi = {std::max(yaw_hi.x, cells[i].x), std::max(yaw_hi.y, cells[i].y)};
     }
-    cells.resize(kept);
+    if (n > 0 && yaw_lo.x >= keep_min.x && yaw_lo.y >= keep_min.y && yaw_hi.x <= keep_max.x &&
+        yaw_hi.y <= keep_max.y) {
+      if (!weights.empty()) search.cell_weights.insert(search.cell_weights.end(), weights.begin(), weights.end());
+      lo = {std::min(lo.x, yaw_lo.x), std::min(lo.y, yaw_lo.y)};
+      hi = {std::max(hi.x, yaw_hi.x), std::max(hi.y, yaw_hi.y)};
+    } else {
+      size_t kept = first;
+      for (size_t i = 0; i < n; ++i) {
+        const CellIndex c = cells[first + i];
+        if (c.x < keep_min.x || c.y < keep_min.y || c.x > keep_max.x || c.y > keep_max.y) continue;
+        cells[kept++] = c;
+        if (!weights.empty()) search.cell_weights.push_back(weights[i]);
+        lo = {std::min(lo.x, c.x), std::min(lo.y, c.y)};
+        hi = {std::max(hi.x, c.x), std::max(hi.y, c.y)};
+      }
+      cells.resize(kept);
+    }
     search.yaws.push_back(yaw);
     search.yaw_offsets.push_back(k * step);
   }
@@ -403,14 +417,56 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   // A frozen field's distance codes as values and as level-0 codes (the same arithmetic as
   // coding each cell's value: the same codes).
   std::array<uint16_t, 256> frozen_code{};
+  // And a frozen cell's level-0 code from its state and distance code at once,
+  // frozen_state_code[state << 8 | q] (the free-space penalty where q is 0 and the cell free),
+  // and from its state alone where its codes' tile is not stored (null_q_code[state]: 0 or the
+  // penalty). The states come undecoded, two bits a cell (OccupancyGrid::FrozenStatesTileRowBits).
+  std::array<uint16_t, 4 * 256> frozen_state_code{};
+  std::array<uint16_t, 4> null_q_code{};
   if (frozen_field) {
     for (int q = 0; q < 256; ++q) frozen_code[q] = to_code(code_value[q]);
+    const bool penalised = free_space_penalty != 0.f;
+    for (int state = 0; state < 4; ++state) {
+      const bool free_cell = penalised && state == kFree;
+      for (int q = 0; q < 256; ++q) {
+        frozen_state_code[state << 8 | q] = free_cell && q == 0 ? to_code(-free_space_penalty) : frozen_code[q];
+      }
+      null_q_code[state] = free_cell ? to_code(-free_space_penalty) : to_code(0.f);
+    }
   }
   // The n cells from (gx0, gy) of the field (inside it) into `out`, as `convert` turns a value
   // (to_value or to_code; `frozen_out` is the frozen field's codes turned so).
   auto field_cells = [&](int gx0, int gy, int n, auto* out, const auto* frozen_out, auto convert) {
     using Out = std::remove_pointer_t<decltype(out)>;
     const Out zero = convert(0.f), penalty = convert(-free_space_penalty);
+    if constexpr (std::is_same_v<Out, uint16_t>) {
+      if (frozen_field) {
+        // Level-0 codes (convert is to_code): each cell looked up by its state and code at once.
+        for (int x = 0; x < n;) {
+          const int gx = gx0 + x;
+          const int first = gx & (SparseTiles<uint8_t>::kTileSize - 1);
+          const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - first);
+          const uint8_t* q = field.FrozenCodesTileRow(gx, gy);
+          uint16_t bits = 0;
+          const bool states = grid.FrozenStatesTileRowBits(gx, gy, &bits);
+          bits = static_cast<uint16_t>(bits >> (2 * first));
+          Out* o = out + x;
+          if (!states) {
+            if (q == nullptr) {
+              std::fill(o, o + chunk, zero);
+            } else {
+              for (int k = 0; k < chunk; ++k) o[k] = frozen_code[q[k]];
+            }
+          } else if (q == nullptr) {
+            for (int k = 0; k < chunk; ++k) o[k] = null_q_code[(bits >> (2 * k)) & 3u];
+          } else {
+            for (int k = 0; k < chunk; ++k) o[k] = frozen_state_code[((bits >> (2 * k)) & 3u) << 8 | q[k]];
+          }
+          x += chunk;
+        }
+        return;
+      }
+    }
     if (frozen_field) {
       // Tile by tile: a tile without values is 0 or, where free, the penalty; a tile without
       // states is unknown, so just its values.

@@ -86,6 +86,16 @@ TEST(SparseTiles2BitTest, AnswersLikeTheDenseArrayInAQuarterOfTheBytes) {
             ASSERT_EQ(dense[static_cast<size_t>(y) * width + x + k], row == nullptr ? empty : row[k])
                 << x << ", " << y << " + " << k;
           }
+          // The undecoded row: stored exactly where TileRow decodes one; cell x' of the tile
+          // in bits 2x' and 2x' + 1.
+          uint16_t bits = 0;
+          ASSERT_EQ(row != nullptr, tiles.TileRowBits(x, y, &bits)) << x << ", " << y;
+          if (row != nullptr) {
+            const int first = x & (SparseTiles2Bit::kTileSize - 1);
+            for (int k = 0; k < end - x; ++k) {
+              ASSERT_EQ(row[k], (bits >> (2 * (first + k))) & 3u) << x << ", " << y << " + " << k;
+            }
+          }
         }
       }
       const SparseTiles<uint8_t> bytes(dense, width, height, empty);
