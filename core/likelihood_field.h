@@ -159,6 +159,36 @@ class LikelihoodField {
     v[2] = Value(CellIndex{x, y + 1});
     v[3] = Value(CellIndex{x + 1, y + 1});
   }
+  // Values of the w × h cells from (x0, y0) into out[(y - y0) * w + (x - x0)] (0 outside the
+  // grid): Value of each, read a tile row at a time (a block around a point that is scored at
+  // many nearby positions, ScanMatcher's score profile).
+  void ValuesBlock(int x0, int y0, int w, int h, float* out) const {
+    const int x_begin = std::clamp(x0, 0, geometry_.width()), x_end = std::clamp(x0 + w, 0, geometry_.width());
+    for (int y = y0; y < y0 + h; ++y) {
+      float* row = out + static_cast<size_t>(y - y0) * w;
+      if (y < 0 || y >= geometry_.height() || x_begin >= x_end) {
+        std::fill(row, row + w, 0.f);
+        continue;
+      }
+      std::fill(row, row + (x_begin - x0), 0.f);
+      std::fill(row + (x_end - x0), row + w, 0.f);
+      if (!frozen_) {
+        values_.GetRow(x_begin, y, x_end - x_begin, row + (x_begin - x0));
+        continue;
+      }
+      for (int x = x_begin; x < x_end;) {
+        const int end = std::min(x_end, (x | (SparseTiles<uint8_t>::kTileSize - 1)) + 1);
+        const uint8_t* q = frozen_codes_.TileRow(x, y);
+        float* o = row + (x - x0);
+        if (q == nullptr) {
+          std::fill(o, o + (end - x), codes_->value[0]);
+        } else {
+          for (int k = 0; k < end - x; ++k) o[k] = codes_->value[q[k]];
+        }
+        x = end;
+      }
+    }
+  }
   // The values before Freeze, in 8 × 8 tiles that exist only where some cell of theirs is not
   // 0 (within the window radius of a surface; empty, every cell 0, after Freeze). Readers walk
   // rows tile by tile (TiledGrid::TileRow) or read cells (Get, Get2x2).

@@ -1,5 +1,6 @@
 #include "core/likelihood_field.h"
 
+#include <array>
 #include <random>
 
 #include "core/laser_map.h"
@@ -259,6 +260,38 @@ TEST(LikelihoodFieldTest, FreezeKeepsStatesAndValues) {
   EXPECT_EQ(after.num_cells(), map.grid().geometry().num_cells());
   EXPECT_DEATH(map.InsertScan(Pose2(), Eigen::Vector2d::Zero(), wall), "frozen");
   EXPECT_DEATH(map.grid().LogOdds(0), "frozen");
+}
+
+// ValuesBlock gives Value of every cell of the block, before and after Freeze, for blocks
+// inside the grid, across its edges and wholly outside it (0 there), of widths that start and
+// end inside tiles and across them.
+TEST(LikelihoodFieldTest, ValuesBlockIsTheValueOfEachCell) {
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  std::vector<Eigen::Vector2f> wall;
+  for (int i = -20; i <= 20; ++i) wall.emplace_back(1.0f, i * 0.05f);
+  map.InsertScan(Pose2(0.1, 0.2, 0.3), Eigen::Vector2d::Zero(), wall);
+  for (const bool frozen : {false, true}) {
+    if (frozen) map.Freeze();
+    const LikelihoodField& field = map.field();
+    const int width = field.geometry().width(), height = field.geometry().height();
+    int nonzero = 0;
+    for (const auto& [x0, y0, w, h] : {std::array<int, 4>{0, 0, width, height}, std::array<int, 4>{-5, -3, 14, 14},
+                                      std::array<int, 4>{width - 9, height / 2 - 7, 14, 14},
+                                      std::array<int, 4>{width / 2 - 7, height / 2 - 7, 15, 13},
+                                      std::array<int, 4>{width / 2 + 3, height / 2 + 1, 1, 1},
+                                      std::array<int, 4>{width + 4, -20, 6, 5}}) {
+      std::vector<float> block(static_cast<size_t>(w) * h, -1.f);
+      field.ValuesBlock(x0, y0, w, h, block.data());
+      for (int y = y0; y < y0 + h; ++y) {
+        for (int x = x0; x < x0 + w; ++x) {
+          const float value = block[static_cast<size_t>(y - y0) * w + (x - x0)];
+          ASSERT_EQ(field.Value(CellIndex{x, y}), value) << (frozen ? "frozen " : "") << x << ", " << y;
+          nonzero += value != 0.f;
+        }
+      }
+    }
+    EXPECT_GT(nonzero, 100) << "the blocks must see the wall";
+  }
 }
 
 // MayBeNonZeroNear (issue #15: loop searches that cannot reach a score are skipped) is sound:
