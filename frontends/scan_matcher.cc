@@ -966,8 +966,15 @@ void BilinearScoresAt(const LikelihoodField& field, const double* xs, const doub
   const size_t n = rotated.size();
   std::vector<double> sums(m, 0.0), fraction_x(m), fraction_y(m);
   std::vector<int32_t> cell_x(m), cell_y(m);
-  std::vector<float> block, wall_block;
   if (m == 0) return;
+  // A point's block is at most the positions' extent in cells plus 3 on each axis (the cells
+  // of two positions d apart differ by at most ceil(d / r), and a bilinear read takes one
+  // more): allocated once.
+  const auto [xs_min, xs_max] = std::minmax_element(xs, xs + m);
+  const auto [ys_min, ys_max] = std::minmax_element(ys, ys + m);
+  const size_t most = static_cast<size_t>(std::ceil((*xs_max - *xs_min) / r) + 3) *
+                      static_cast<size_t>(std::ceil((*ys_max - *ys_min) / r) + 3);
+  std::vector<float> block(most), wall_block(wall_field != nullptr ? most : 0);
   for (size_t i = 0; i < n; ++i) {
     CellCoordinatesOfPositions(m, xs, ys, rotated.c_px[i], rotated.s_py[i], rotated.s_px[i], rotated.c_py[i], ox, oy, r,
                                cell_x.data(), cell_y.data(), fraction_x.data(), fraction_y.data());
@@ -975,12 +982,9 @@ void BilinearScoresAt(const LikelihoodField& field, const double* xs, const doub
     const auto [y_min_it, y_max_it] = std::minmax_element(cell_y.begin(), cell_y.end());
     const int x_min = *x_min_it, x_max = *x_max_it, y_min = *y_min_it, y_max = *y_max_it;
     const int w = x_max - x_min + 2, h = y_max - y_min + 2;
-    block.resize(static_cast<size_t>(w) * h);
+    CHECK_LE(static_cast<size_t>(w) * h, block.size()) << "a point's block exceeds its bound";
     field.ValuesBlock(x_min, y_min, w, h, block.data());
-    if (wall_field != nullptr) {
-      wall_block.resize(block.size());
-      wall_field->ValuesBlock(x_min, y_min, w, h, wall_block.data());
-    }
+    if (wall_field != nullptr) wall_field->ValuesBlock(x_min, y_min, w, h, wall_block.data());
     const double weight = weights.empty() ? 1.0 : weights[i];
     for (int s = 0; s < m; ++s) {
       const size_t at = static_cast<size_t>(cell_y[s] - y_min) * w + (cell_x[s] - x_min);
