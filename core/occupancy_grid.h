@@ -155,17 +155,12 @@ class OccupancyGrid {
   // The log-odds of a grid that is not frozen, in 8 × 8 tiles that exist only where some cell
   // was observed; a cell never observed holds kUnobserved (below every log-odds, so not
   // occupied; not free either: see StateOfLogOdds). For readers that walk rows tile by tile.
-  // Empty once frozen; read State or FrozenStatesTileRow then.
+  // Empty once frozen; read State or FrozenStatesTileRowBits then.
   static constexpr float kUnobserved = -std::numeric_limits<float>::max();
   const TiledGrid<float>& log_odds() const { return log_odds_; }
   // A frozen grid's cell states (CellState values) of row y of the 8 × 8 tile holding (x, y),
-  // from x to the tile's right edge, decoded into `buffer` (room for 8; they are stored in two
-  // bits a cell, SparseTiles2Bit) and returned; null: all unknown to the tile's right edge.
-  const uint8_t* FrozenStatesTileRow(int x, int y, uint8_t* buffer) const {
-    return frozen_states_.TileRow(x, y, buffer);
-  }
-  // The same row undecoded (SparseTiles2Bit::TileRowBits: the state of cell x' of the tile in
-  // bits 2x' and 2x' + 1); false: all unknown.
+  // as stored, two bits a cell (SparseTiles2Bit::TileRowBits: the state of cell x' of the tile
+  // in bits 2x' and 2x' + 1) into `row`; false when the tile is not stored (all unknown).
   bool FrozenStatesTileRowBits(int x, int y, uint16_t* row) const { return frozen_states_.TileRowBits(x, y, row); }
   float occupied_threshold_log_odds() const { return options_.occupied_threshold_log_odds; }
   // Mean hit point (world frame) of an occupied cell; the cell centre if it has no hits.

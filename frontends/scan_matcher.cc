@@ -417,74 +417,75 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   // A frozen field's distance codes as values and as level-0 codes (the same arithmetic as
   // coding each cell's value: the same codes).
   std::array<uint16_t, 256> frozen_code{};
-  // And a frozen cell's level-0 code from its state and distance code at once,
-  // frozen_state_code[state << 8 | q] (the free-space penalty where q is 0 and the cell free),
-  // and from its state alone where its codes' tile is not stored (null_q_code[state]: 0 or the
-  // penalty). The states come undecoded, two bits a cell (OccupancyGrid::FrozenStatesTileRowBits).
-  std::array<uint16_t, 4 * 256> frozen_state_code{};
-  std::array<uint16_t, 4> null_q_code{};
   if (frozen_field) {
     for (int q = 0; q < 256; ++q) frozen_code[q] = to_code(code_value[q]);
-    const bool penalised = free_space_penalty != 0.f;
+  }
+  // A frozen cell's entry (level-0 code, or value before the wall channel is added) from its
+  // state and distance code at once: by_state_code[state << 8 | q] (the free-space penalty where
+  // q is 0 and the cell free, else the code's entry), and by_state[state] where the codes' tile
+  // is not stored (0 or the penalty). A tile without states is all unknown: state 0.
+  static_assert(static_cast<int>(CellState::kUnknown) == 0, "an unstored state tile reads as state 0");
+  struct FrozenTable {
+    std::array<float, 4 * 256> by_state_code_value;
+    std::array<uint16_t, 4 * 256> by_state_code;
+    std::array<float, 4> by_state_value;
+    std::array<uint16_t, 4> by_state;
+  };
+  FrozenTable frozen_table;
+  if (frozen_field) {
+    // (The values only with a wall channel: the tables are built for every search.)
+    const bool penalised = free_space_penalty != 0.f, values = wall_field != nullptr;
+    const uint16_t penalty_code = to_code(-free_space_penalty), code_of_zero = to_code(0.f);
     for (int state = 0; state < 4; ++state) {
       const bool free_cell = penalised && state == kFree;
-      for (int q = 0; q < 256; ++q) {
-        frozen_state_code[state << 8 | q] = free_cell && q == 0 ? to_code(-free_space_penalty) : frozen_code[q];
+      std::copy(frozen_code.begin(), frozen_code.end(), frozen_table.by_state_code.begin() + (state << 8));
+      if (values) std::copy(code_value, code_value + 256, frozen_table.by_state_code_value.begin() + (state << 8));
+      if (free_cell) {
+        frozen_table.by_state_code[state << 8] = penalty_code;
+        frozen_table.by_state_code_value[state << 8] = -free_space_penalty;
       }
-      null_q_code[state] = free_cell ? to_code(-free_space_penalty) : to_code(0.f);
+      frozen_table.by_state[state] = free_cell ? penalty_code : code_of_zero;
+      frozen_table.by_state_value[state] = free_cell ? -free_space_penalty : 0.f;
     }
   }
-  // The n cells from (gx0, gy) of the field (inside it) into `out`, as `convert` turns a value
-  // (to_value or to_code; `frozen_out` is the frozen field's codes turned so).
-  auto field_cells = [&](int gx0, int gy, int n, auto* out, const auto* frozen_out, auto convert) {
+  // The n cells from (gx0, gy) of the field (inside it) into `out`: level-0 codes (uint16_t)
+  // or values (float, to add the wall channel to), as `convert` (to_code or to_value) turns a
+  // value.
+  auto field_cells = [&](int gx0, int gy, int n, auto* out, auto convert) {
     using Out = std::remove_pointer_t<decltype(out)>;
     const Out zero = convert(0.f), penalty = convert(-free_space_penalty);
-    if constexpr (std::is_same_v<Out, uint16_t>) {
-      if (frozen_field) {
-        // Level-0 codes (convert is to_code): each cell looked up by its state and code at once.
-        for (int x = 0; x < n;) {
-          const int gx = gx0 + x;
-          const int first = gx & (SparseTiles<uint8_t>::kTileSize - 1);
-          const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - first);
-          const uint8_t* q = field.FrozenCodesTileRow(gx, gy);
-          uint16_t bits = 0;
-          const bool states = grid.FrozenStatesTileRowBits(gx, gy, &bits);
-          bits = static_cast<uint16_t>(bits >> (2 * first));
-          Out* o = out + x;
-          if (!states) {
-            if (q == nullptr) {
-              std::fill(o, o + chunk, zero);
-            } else {
-              for (int k = 0; k < chunk; ++k) o[k] = frozen_code[q[k]];
-            }
-          } else if (q == nullptr) {
-            for (int k = 0; k < chunk; ++k) o[k] = null_q_code[(bits >> (2 * k)) & 3u];
-          } else {
-            for (int k = 0; k < chunk; ++k) o[k] = frozen_state_code[((bits >> (2 * k)) & 3u) << 8 | q[k]];
-          }
-          x += chunk;
-        }
-        return;
-      }
-    }
     if (frozen_field) {
-      // Tile by tile: a tile without values is 0 or, where free, the penalty; a tile without
-      // states is unknown, so just its values.
+      // Tile by tile, each cell looked up by its state (two bits a cell, read undecoded:
+      // OccupancyGrid::FrozenStatesTileRowBits) and its distance code at once.
+      const Out* by_state_code;
+      const Out* by_state;
+      if constexpr (std::is_same_v<Out, uint16_t>) {
+        by_state_code = frozen_table.by_state_code.data();
+        by_state = frozen_table.by_state.data();
+      } else {
+        by_state_code = frozen_table.by_state_code_value.data();
+        by_state = frozen_table.by_state_value.data();
+      }
       for (int x = 0; x < n;) {
         const int gx = gx0 + x;
-        const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - (gx & (SparseTiles<uint8_t>::kTileSize - 1)));
+        const int first = gx & (SparseTiles<uint8_t>::kTileSize - 1);
+        const int chunk = std::min(n - x, SparseTiles<uint8_t>::kTileSize - first);
         const uint8_t* q = field.FrozenCodesTileRow(gx, gy);
-        uint8_t state_buffer[SparseTiles2Bit::kTileSize];
-        const uint8_t* state = grid.FrozenStatesTileRow(gx, gy, state_buffer);
+        uint16_t bits = 0;
+        const bool states = grid.FrozenStatesTileRowBits(gx, gy, &bits);
+        bits = static_cast<uint16_t>(bits >> (2 * first));
         Out* o = out + x;
-        if (q == nullptr && (state == nullptr || free_space_penalty == 0.f)) {
-          std::fill(o, o + chunk, zero);
+        if (!states) {
+          // All unknown (state 0): the codes' entries, or 0 without them.
+          if (q == nullptr) {
+            std::fill(o, o + chunk, by_state[0]);
+          } else {
+            for (int k = 0; k < chunk; ++k) o[k] = by_state_code[q[k]];
+          }
         } else if (q == nullptr) {
-          for (int k = 0; k < chunk; ++k) o[k] = state[k] == kFree ? penalty : zero;
-        } else if (state == nullptr || free_space_penalty == 0.f) {
-          for (int k = 0; k < chunk; ++k) o[k] = frozen_out[q[k]];
+          for (int k = 0; k < chunk; ++k) o[k] = by_state[(bits >> (2 * k)) & 3u];
         } else {
-          for (int k = 0; k < chunk; ++k) o[k] = (q[k] == 0) & (state[k] == kFree) ? penalty : frozen_out[q[k]];
+          for (int k = 0; k < chunk; ++k) o[k] = by_state_code[((bits >> (2 * k)) & 3u) << 8 | q[k]];
         }
         x += chunk;
       }
@@ -557,11 +558,11 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
     std::fill(codes + x_end, codes + span_end, zero_code);
     const int gx0 = s.region_min.x + x_begin, n = x_end - x_begin;
     if (wall_field == nullptr) {
-      field_cells(gx0, gy, n, codes + x_begin, frozen_code.data(), to_code);
+      field_cells(gx0, gy, n, codes + x_begin, to_code);
       return;
     }
     float* values_row = pyramid->row.data();
-    field_cells(gx0, gy, n, values_row, code_value, to_value);
+    field_cells(gx0, gy, n, values_row, to_value);
     add_walls(gx0, gy, n, values_row);
     for (int x = 0; x < n; ++x) codes[x_begin + x] = to_code(values_row[x]);
   });
@@ -926,6 +927,13 @@ HETSLAM_CLONES void CellCoordinates(size_t n, double x, double y, const double* 
   }
 }
 
+// Bilinear interpolation of the cells (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)
+// holding c00, c10, c01, c11 at the fractions (fx, fy) above (x0, y0): one expression for every
+// scorer, so that they give the same doubles.
+inline double Bilinear(double fx, double fy, float c00, float c10, float c01, float c11) {
+  return (1 - fx) * (1 - fy) * c00 + fx * (1 - fy) * c10 + (1 - fx) * fy * c01 + fx * fy * c11;
+}
+
 // The weighted mean over the points, placed at (x, y) with the rotation of `rotated`, of L
 // (bilinear); with a wall field, of L + (wall_weight - 1) L_wall, both read at the same
 // position (paper §III-E).
@@ -942,11 +950,10 @@ double BilinearScoreAt(const LikelihoodField& field, double x, double y, const R
     const double fx = rotated.fraction_x[i], fy = rotated.fraction_y[i];
     float c[4];
     field.Values2x2(x0, y0, c);
-    double v = (1 - fx) * (1 - fy) * c[0] + fx * (1 - fy) * c[1] + (1 - fx) * fy * c[2] + fx * fy * c[3];
+    double v = Bilinear(fx, fy, c[0], c[1], c[2], c[3]);
     if (wall_field != nullptr) {
       wall_field->Values2x2(x0, y0, c);
-      v += (wall_weight - 1.0) *
-           ((1 - fx) * (1 - fy) * c[0] + fx * (1 - fy) * c[1] + (1 - fx) * fy * c[2] + fx * fy * c[3]);
+      v += (wall_weight - 1.0) * Bilinear(fx, fy, c[0], c[1], c[2], c[3]);
     }
     sum += (weights.empty() ? 1.0 : weights[i]) * v;
   }
@@ -963,10 +970,10 @@ void BilinearScoresAt(const LikelihoodField& field, const double* xs, const doub
                       const LikelihoodField* wall_field, double wall_weight, double* scores) {
   const GridGeometry& g = field.geometry();
   const double ox = g.origin().x(), oy = g.origin().y(), r = g.resolution_meters();
+  if (m == 0) return;
   const size_t n = rotated.size();
   std::vector<double> sums(m, 0.0), fraction_x(m), fraction_y(m);
   std::vector<int32_t> cell_x(m), cell_y(m);
-  if (m == 0) return;
   // A point's block is at most the positions' extent in cells plus 3 on each axis (the cells
   // of two positions d apart differ by at most ceil(d / r), and a bilinear read takes one
   // more): allocated once.
@@ -990,11 +997,10 @@ void BilinearScoresAt(const LikelihoodField& field, const double* xs, const doub
       const size_t at = static_cast<size_t>(cell_y[s] - y_min) * w + (cell_x[s] - x_min);
       const double fx = fraction_x[s], fy = fraction_y[s];
       const float* c = block.data() + at;
-      double v = (1 - fx) * (1 - fy) * c[0] + fx * (1 - fy) * c[1] + (1 - fx) * fy * c[w] + fx * fy * c[w + 1];
+      double v = Bilinear(fx, fy, c[0], c[1], c[w], c[w + 1]);
       if (wall_field != nullptr) {
         const float* cw = wall_block.data() + at;
-        v += (wall_weight - 1.0) *
-             ((1 - fx) * (1 - fy) * cw[0] + fx * (1 - fy) * cw[1] + (1 - fx) * fy * cw[w] + fx * fy * cw[w + 1]);
+        v += (wall_weight - 1.0) * Bilinear(fx, fy, cw[0], cw[1], cw[w], cw[w + 1]);
       }
       sums[s] += weight * v;
     }
