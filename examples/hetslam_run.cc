@@ -121,6 +121,10 @@ DEFINE_double(retire_revisited_share, 0.9, "Revisits attach to the map they revi
               "its scans could find) adds nothing new; its map is freed at once (no longer searched for loop closures; "
               "the trajectory and the rendered maps keep it) and counted in the summary. In [0, 1]; 0 = off (every "
               "submap kept).");
+DEFINE_bool(rematch_first_node, true, "The frame is the body at the first scan: when the first submap is finished, "
+            "the first scan is refined against it and the map turned around the first pose to the heading the finished "
+            "map gives it (the next few scans' matches can turn a young submap's map against the first scan; 0.4-0.6 "
+            "deg on a simulated UAV). --norematch_first_node keeps the first scan's heading as inserted.");
 DEFINE_bool(attach_revisits, true, "With --retire_revisited_share: after every solve the scans of retired submaps "
             "leave the pose graph and ride on their submap at their solved pose there (in the trajectory as before); "
             "in place of their constraints and loop closures come a few between submaps that sum up what those said. "
@@ -496,6 +500,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->max_map_store_bytes = static_cast<size_t>(FLAGS_max_map_store_mib * 1048576.0);
   estimator->retire_revisited_share = FLAGS_retire_revisited_share;
   estimator->attach_revisits = FLAGS_attach_revisits;
+  estimator->rematch_first_node = FLAGS_rematch_first_node;
   if (!(FLAGS_command_response <= 60)) return (*error = "--command_response must be at most 60 seconds"), false;
   if (FLAGS_max_scans < 0) return (*error = "--max_scans must be >= 0"), false;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;

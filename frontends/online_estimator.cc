@@ -429,6 +429,7 @@ void OnlineEstimator::AddNode(LocalResult result) {
   const bool finishes_a_submap = result.finished.has_value();
   const int finished_index = finishes_a_submap ? result.finished->index : -1;
   const NodeId node = graph_->AddNode(options_.robot, std::move(result));
+  if (finishes_a_submap && finished_index == 0 && options_.rematch_first_node) RematchFirstNode();
   if (finishes_a_submap && options_.loop_closure && options_.retire_revisited_share > 0.0) {
     RetireIfRevisited(finished_index, /*recheck_after_solve=*/true);
   }
@@ -450,6 +451,27 @@ void OnlineEstimator::AddNode(LocalResult result) {
   if (loop_closures_since_solve_ >= options_.solve_every_n_loop_closures && nodes_since_solve_ >= min_new_nodes) {
     Solve(options_.max_iterations_per_solve);
   }
+}
+
+void OnlineEstimator::RematchFirstNode() {
+  const NodeId first{options_.robot, 0};
+  const SubmapId submap{options_.robot, 0};
+  const LaserMap* map = graph_->FinishedSubmapMap(submap);
+  Pose2 inserted;
+  if (map == nullptr || !graph_->IntraSubmapPose(first, submap, &inserted)) return;
+  const SubmapGraph::MatchingPoints matching = graph_->NodeMatchingPoints(first);
+  const ScanMatcher matcher(options_.loop.matcher);
+  const std::optional<Pose2> refined =
+      matcher.Refine(*map, inserted, matching.points, matching.weights, options_.loop.matcher.max_angular_step_radians * 4);
+  if (!refined.has_value()) return;
+  // The heading alone: a heading error is what grows with distance (0.5° is 9 cm at 10 m),
+  // while a single scan's position in a submap can be flat along a corridor (the refinement
+  // then slides along it by centimetres).
+  const Pose2 revised(inserted.translation(), refined->theta());
+  VLOG(1) << "first node rematched in its finished submap: " << Between(inserted, revised).theta() * 180 / M_PI
+          << " deg (the refinement's shift, not taken: " << Between(inserted, *refined).translation().transpose()
+          << " m)";
+  graph_->ReviseFirstNodeInFirstSubmap(options_.robot, revised);
 }
 
 void OnlineEstimator::EnforceMapStoreBound() {

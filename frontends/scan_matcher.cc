@@ -1184,6 +1184,28 @@ Pose2 ScanMatcher::RefineHoldingDirection(const LaserMap& map, const Pose2& star
              : start;
 }
 
+std::optional<Pose2> ScanMatcher::Refine(const LaserMap& map, const Pose2& start,
+                                         const std::vector<Eigen::Vector2f>& points_robot,
+                                         const std::vector<float>& weights, double max_rotation_radians) const {
+  CHECK(weights.empty() || weights.size() == points_robot.size())
+      << weights.size() << " weights for " << points_robot.size() << " points";
+  const LikelihoodField& field = map.field();
+  if (points_robot.empty() || field.geometry().num_cells() == 0) return std::nullopt;
+  double pose[3] = {start.x(), start.y(), start.theta()};
+  ceres::Problem problem;
+  problem.AddResidualBlock(CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation),
+                           nullptr, pose);
+  ceres::Solver::Summary summary;
+  ceres::Solve(RefinementSolverOptions(options_), &problem, &summary);
+  const Pose2 refined(pose[0], pose[1], pose[2]);
+  const double r = field.geometry().resolution_meters();
+  if (!summary.IsSolutionUsable() || !((refined.translation() - start.translation()).norm() < 4 * r) ||
+      !(std::abs(Between(start, refined).theta()) < max_rotation_radians)) {
+    return std::nullopt;
+  }
+  return refined;
+}
+
 ScanMatchResult ScanMatcher::BruteForceSearch(const LaserMap& map, const Pose2& predicted,
                                               const std::vector<Eigen::Vector2f>& points_robot,
                                               const std::vector<float>& weights) const {

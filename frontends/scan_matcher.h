@@ -27,6 +27,7 @@
 #define HETSLAM_FRONTENDS_SCAN_MATCHER_H_
 
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -198,6 +199,12 @@ class ScanMatcher {
   Pose2 RefineHoldingDirection(const LaserMap& map, const Pose2& start, const Eigen::Vector2d& held_direction,
                                const std::vector<Eigen::Vector2f>& points_robot,
                                const std::vector<float>& weights = {}) const;
+
+  // Refines `start` (world_T_robot) by the likelihood field's cost (L alone) with no
+  // acceptance test: the refined pose when Ceres' solution is usable and moved less than four
+  // cells and `max_rotation_radians` from `start`; nullopt otherwise (no points, no field).
+  std::optional<Pose2> Refine(const LaserMap& map, const Pose2& start, const std::vector<Eigen::Vector2f>& points_robot,
+                              const std::vector<float>& weights, double max_rotation_radians) const;
 
   // Exhaustive evaluation of every discrete candidate (for tests of the branch and bound);
   // returns the best as `pose` with its correlative score.

@@ -170,6 +170,17 @@ class SubmapGraph {
   // Adds a loop closure (same robot) or an inter-robot constraint (different robots). Returns
   // false and adds nothing for an unknown submap or node.
   bool AddConstraint(const ConstraintCandidate& candidate);
+  // The node's intra-submap constraint into `submap` (its pose there as the front end inserted
+  // it): false when the node did not enter that submap.
+  bool IntraSubmapPose(const NodeId& node, const SubmapId& submap, Pose2* submap_T_node) const;
+  // The robot's frame is its first node's (its body at its first scan). Replaces the first
+  // node's constraint into the robot's first submap by `submap_T_node` (e.g. its scan matched
+  // against the finished submap) and moves everything else of the robot rigidly (submaps,
+  // nodes, the local -> robot correction) so that the first node keeps its pose: the map turns
+  // around the first scan instead of the first scan within the map. Only before the robot's
+  // first inter-robot constraint (its anchor would have to move too); false, changing nothing,
+  // then, or when the robot has no such node or constraint.
+  bool ReviseFirstNodeInFirstSubmap(int robot, const Pose2& submap_T_node);
   // Removes the inter-robot constraint between `submap` and `node` (a link found wrong later,
   // e.g. by a teammate's contradicting landmark); it is then reported removed by LoopClosures().
   // False when the graph holds no such constraint (or it was removed already).

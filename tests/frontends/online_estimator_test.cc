@@ -110,6 +110,42 @@ TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
   EXPECT_GE(static_cast<double>(precise) / kept, 0.95);
 }
 
+// The robot's frame is its body at its first scan (OnlineEstimatorOptions::rematch_first_node):
+// once the first submap is finished, the first node's heading in it is the refinement of its
+// scan against that map (its position stays where the front end inserted it, the identity),
+// and the robot's map was turned around it, so the trajectory still starts at the identity.
+// Without the rematch the first node keeps the identity in the first submap.
+TEST(OnlineEstimatorTest, TheFirstNodeSitsWhereTheFinishedFirstSubmapPutsIt) {
+  const sim::SimulationResult simulation = Simulate(3);
+  for (const bool rematch : {false, true}) {
+    OnlineEstimatorOptions options = TestOptions();
+    options.rematch_first_node = rematch;
+    OnlineEstimator estimator(options);
+    Feed(simulation, &estimator);
+    estimator.Finish();
+    const SubmapGraph& graph = estimator.graph();
+    ASSERT_TRUE(graph.SubmapFinished({0, 0}));
+    Pose2 first;
+    ASSERT_TRUE(graph.IntraSubmapPose({0, 0}, {0, 0}, &first));
+    const std::vector<StampedPose2> trajectory = estimator.Trajectory();
+    ASSERT_FALSE(trajectory.empty());
+    EXPECT_NEAR(0.0, trajectory.front().pose.translation().norm(), 1e-6) << "rematch " << rematch;
+    EXPECT_NEAR(0.0, trajectory.front().pose.theta(), 1e-7) << "rematch " << rematch;
+    if (!rematch) {
+      EXPECT_EQ(Pose2::Identity().ToVector(), first.ToVector());
+      continue;
+    }
+    EXPECT_NE(0.0, first.theta()) << "the finished map turns the first scan a little";
+    EXPECT_EQ(0.0, first.translation().norm());
+    const SubmapGraph::MatchingPoints points = graph.NodeMatchingPoints({0, 0});
+    const std::optional<Pose2> refined = ScanMatcher(options.loop.matcher)
+                                             .Refine(*graph.FinishedSubmapMap({0, 0}), Pose2::Identity(), points.points,
+                                                     points.weights, 4 * options.loop.matcher.max_angular_step_radians);
+    ASSERT_TRUE(refined.has_value());
+    EXPECT_EQ(refined->theta(), first.theta());
+  }
+}
+
 // Issue #15: loop search within a budget. With at most two submaps per search (those the scan
 // overlaps most), the ring still closes with the same accuracy bound, with fewer matches.
 TEST(OnlineEstimatorTest, LoopSearchBudgetMatchesTheMostOverlappingSubmapsOnly) {

@@ -104,6 +104,52 @@ TEST(SubmapGraphTest, WeakInformationFractionScalesThePull) {
   EXPECT_GT(previous_pull, 0.02);
 }
 
+// The robot's frame is its first node: revising that node's place in the first submap turns
+// and shifts the rest of the robot around it, rigidly, and a solve keeps it so.
+TEST(SubmapGraphTest, RevisingTheFirstNodeMovesTheRobotAroundIt) {
+  const std::unique_ptr<SubmapGraph> graph = StraightRun(30);
+  ASSERT_TRUE(graph->Solve(50).ok());
+  Pose2 inserted;
+  ASSERT_TRUE(graph->IntraSubmapPose({0, 0}, {0, 0}, &inserted));
+  EXPECT_NEAR(0.0, inserted.translation().norm(), 1e-12);
+  EXPECT_FALSE(graph->IntraSubmapPose({0, 0}, {0, 1}, &inserted)) << "node 0 never entered submap 1";
+  const std::vector<StampedPose2> before = graph->Trajectory(0);
+  const Pose2 local_before = graph->LocalToRobot(0);
+
+  // The finished submap puts the first scan 0.5 degrees and 2 cm off where it was inserted.
+  const Pose2 revised(0.01, -0.02, 0.5 * M_PI / 180);
+  ASSERT_TRUE(graph->ReviseFirstNodeInFirstSubmap(0, revised));
+  ASSERT_TRUE(graph->IntraSubmapPose({0, 0}, {0, 0}, &inserted));
+  EXPECT_NEAR(0.0, (inserted.ToVector() - revised.ToVector()).norm(), 1e-12);
+  // Everything but the first node moved by the one rigid motion that keeps the first node's
+  // pose with the submap where the revised constraint puts it.
+  const Pose2 moved = before[0].pose * revised.inverse();  // the first submap, was the identity
+  for (const Pose2& p : {graph->NodePose({0, 0}), before[0].pose}) EXPECT_NEAR(0.0, p.translation().norm(), 1e-9);
+  EXPECT_NEAR(0.0, (graph->SubmapPose({0, 0}).ToVector() - moved.ToVector()).norm(), 1e-9);
+  for (int k = 1; k < 30; ++k) {
+    const Pose2 expected = moved * before[k].pose;
+    EXPECT_NEAR(0.0, (graph->NodePose({0, k}).ToVector() - expected.ToVector()).norm(), 1e-9) << "node " << k;
+  }
+  EXPECT_NEAR(0.0, (graph->LocalToRobot(0).ToVector() - (moved * local_before).ToVector()).norm(), 1e-9);
+  // Every constraint holds as before: a solve leaves the poses where they are.
+  ASSERT_TRUE(graph->Solve(50).ok());
+  EXPECT_NEAR(0.0, graph->NodePose({0, 0}).translation().norm(), 1e-6);
+  EXPECT_NEAR(0.0, graph->NodePose({0, 0}).theta(), 1e-7);
+  EXPECT_NEAR(0.0, (graph->NodePose({0, 29}).ToVector() - (moved * before[29].pose).ToVector()).norm(), 1e-6);
+
+  EXPECT_FALSE(graph->ReviseFirstNodeInFirstSubmap(1, revised)) << "an unknown robot";
+  // Once a robot has an anchor (a teammate's constraint reached it), its frame stays.
+  LocalResult first;
+  first.inserted = true;
+  first.new_submaps.push_back({0, Pose2::Identity()});
+  first.insertions.push_back({0, Pose2::Identity()});
+  graph->AddNode(1, first);
+  ASSERT_TRUE(graph->SetAnchorEstimate(1, Pose2(1.0, 0.0, 0.0)));
+  EXPECT_FALSE(graph->ReviseFirstNodeInFirstSubmap(1, revised));
+  ASSERT_TRUE(graph->IntraSubmapPose({1, 0}, {1, 0}, &inserted));
+  EXPECT_NEAR(0.0, inserted.ToVector().norm(), 1e-12);
+}
+
 // The graph keeps a node's matching points as indices into its points when they are points of
 // them in order (the voxel filter's output), and as they are otherwise; either way
 // NodeMatchingPoints gives back exactly what the LocalResult held, weights included.
