@@ -590,6 +590,13 @@ std::string Summary(const OnlineEstimator& estimator) {
                   s.floor_points, s.floor_obstacle_points, s.suspended_scans);
     out += line;
   }
+  if (s.first_node_rematch_radians.has_value()) {
+    std::snprintf(line, sizeof(line),
+                  "frame: the first scan refined in the finished first submap: heading %+.3f deg there, the map turned "
+                  "around the first pose to match (--rematch_first_node)\n",
+                  *s.first_node_rematch_radians * 180.0 / M_PI);
+    out += line;
+  }
   if (s.marg_samples > 0) {
     std::snprintf(line, sizeof(line), "MARG: %d samples (%d refused), EKF: %d updates refused, %lld replayed\n",
                   s.marg_samples, s.marg_errors, s.ekf_errors, static_cast<long long>(estimator.ekf().num_replayed()));

@@ -441,6 +441,12 @@ int Run() {
                     stats.floor_tilt_updates, stats.floor_tilt_radians.x() / kDeg, stats.floor_tilt_radians.y() / kDeg);
       tilt = text;
     }
+    if (stats.first_node_rematch_radians.has_value()) {
+      char text[160];
+      std::snprintf(text, sizeof(text), "; its first scan's heading in its finished first submap %+.3f deg "
+                    "(--rematch_first_node)", *stats.first_node_rematch_radians / kDeg);
+      tilt += text;
+    }
     std::printf("%s: %d nodes, %s%s\n", robots[r].name.c_str(), team.graph().num_nodes(r), frame.c_str(), tilt.c_str());
   }
   for (const TeamTagPlace& tag : team.TagPlaces()) {

@@ -471,7 +471,9 @@ void OnlineEstimator::RematchFirstNode() {
   VLOG(1) << "first node rematched in its finished submap: " << Between(inserted, revised).theta() * 180 / M_PI
           << " deg (the refinement's shift, not taken: " << Between(inserted, *refined).translation().transpose()
           << " m)";
-  graph_->ReviseFirstNodeInFirstSubmap(options_.robot, revised);
+  if (graph_->ReviseFirstNodeInFirstSubmap(options_.robot, revised)) {
+    stats_.first_node_rematch_radians = Between(inserted, revised).theta();
+  }
 }
 
 void OnlineEstimator::EnforceMapStoreBound() {

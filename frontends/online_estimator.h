@@ -208,6 +208,10 @@ struct OnlineEstimatorStats {
   int floor_tilt_updates = 0;       // scans whose floor line corrected the attitude's tilt
   Eigen::Vector2d floor_tilt_radians = Eigen::Vector2d::Zero();  // the (roll, pitch) correction now
   int ekf_predicted_scans = 0;      // scans predicted by the EKF
+  // The first scan's heading in the finished first submap against where it was inserted
+  // (OnlineEstimatorOptions::rematch_first_node): the turn given to the robot's map; unset
+  // until then, or when the refinement gave nothing.
+  std::optional<double> first_node_rematch_radians;
   size_t active_submap_bytes_at_finish = 0;  // LaserMap::MemoryBytes of the active submaps Finish() freed
   int marg_samples = 0;
   int marg_errors = 0;              // samples the MARG filter refused

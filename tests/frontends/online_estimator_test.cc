@@ -133,8 +133,11 @@ TEST(OnlineEstimatorTest, TheFirstNodeSitsWhereTheFinishedFirstSubmapPutsIt) {
     EXPECT_NEAR(0.0, trajectory.front().pose.theta(), 1e-7) << "rematch " << rematch;
     if (!rematch) {
       EXPECT_EQ(Pose2::Identity().ToVector(), first.ToVector());
+      EXPECT_FALSE(estimator.stats().first_node_rematch_radians.has_value());
       continue;
     }
+    ASSERT_TRUE(estimator.stats().first_node_rematch_radians.has_value());
+    EXPECT_EQ(first.theta(), *estimator.stats().first_node_rematch_radians);
     EXPECT_NE(0.0, first.theta()) << "the finished map turns the first scan a little";
     EXPECT_EQ(0.0, first.translation().norm());
     const SubmapGraph::MatchingPoints points = graph.NodeMatchingPoints({0, 0});
