@@ -349,15 +349,21 @@ void SubmapGraph::ReleaseConstraint(int index) {
   released_constraints_.push_back(index);
 }
 
-bool SubmapGraph::IntraSubmapPose(const NodeId& node, const SubmapId& submap, Pose2* submap_T_node) const {
-  for (const Constraint& c : constraints_) {
-    if (c.edge < 0 || c.kind != EdgeKind::kSequential || c.to_submap >= 0 || !(c.submap == submap) || c.node != node) {
-      continue;
+int SubmapGraph::IntraSubmapConstraint(const NodeId& node, const SubmapId& submap) const {
+  for (size_t k = 0; k < constraints_.size(); ++k) {
+    const Constraint& c = constraints_[k];
+    if (c.edge >= 0 && c.kind == EdgeKind::kSequential && c.to_submap < 0 && c.submap == submap && c.node == node) {
+      return static_cast<int>(k);
     }
-    *submap_T_node = c.submap_T_node;
-    return true;
   }
-  return false;
+  return -1;
+}
+
+bool SubmapGraph::IntraSubmapPose(const NodeId& node, const SubmapId& submap, Pose2* submap_T_node) const {
+  const int k = IntraSubmapConstraint(node, submap);
+  if (k < 0) return false;
+  *submap_T_node = constraints_[k].submap_T_node;
+  return true;
 }
 
 bool SubmapGraph::ReviseFirstNodeInFirstSubmap(int robot_id, const Pose2& submap_T_node) {
@@ -365,31 +371,25 @@ bool SubmapGraph::ReviseFirstNodeInFirstSubmap(int robot_id, const Pose2& submap
   if (robot_it == robots_.end()) return false;
   Robot& robot = robot_it->second;
   if (robot.nodes.empty() || robot.submaps.empty() || robot.anchor >= 0 || robot.nodes.front().host >= 0) return false;
-  const NodeId first{robot_id, 0};
-  const SubmapId first_submap{robot_id, robot.submaps.begin()->first};
-  for (Constraint& c : constraints_) {
-    if (c.edge < 0 || c.kind != EdgeKind::kSequential || c.to_submap >= 0 || !(c.submap == first_submap) ||
-        c.node != first) {
-      continue;
-    }
-    const int node_pose = robot.nodes.front().pose;
-    const int submap_pose = robot.submaps.begin()->second.pose;
-    // The first submap where the revised constraint puts it with the first node where it is;
-    // the rest of the robot follows the submap.
-    const Pose2 moved = problem_.pose(node_pose) * submap_T_node.inverse() * problem_.pose(submap_pose).inverse();
-    for (const auto& [index, submap] : robot.submaps) problem_.set_pose(submap.pose, moved * problem_.pose(submap.pose));
-    for (size_t k = 1; k < robot.nodes.size(); ++k) {
-      const Node& node = robot.nodes[k];
-      if (node.host < 0) problem_.set_pose(node.pose, moved * problem_.pose(node.pose));
-    }
-    robot.robot_T_local = moved * robot.robot_T_local;
-    const Eigen::Matrix3d sqrt_information = problem_.edge_sqrt_information(c.edge);
-    problem_.ReleaseEdge(c.edge);
-    c.submap_T_node = submap_T_node;
-    c.edge = problem_.AddEdge(EdgeKind::kSequential, submap_pose, node_pose, submap_T_node, sqrt_information);
-    return true;
+  const int k = IntraSubmapConstraint({robot_id, 0}, {robot_id, robot.submaps.begin()->first});
+  if (k < 0) return false;
+  Constraint& c = constraints_[k];
+  const int node_pose = robot.nodes.front().pose;
+  const int submap_pose = robot.submaps.begin()->second.pose;
+  // The first submap where the revised constraint puts it with the first node where it is;
+  // the rest of the robot follows the submap.
+  const Pose2 moved = problem_.pose(node_pose) * submap_T_node.inverse() * problem_.pose(submap_pose).inverse();
+  for (const auto& [index, submap] : robot.submaps) problem_.set_pose(submap.pose, moved * problem_.pose(submap.pose));
+  for (size_t n = 1; n < robot.nodes.size(); ++n) {
+    const Node& node = robot.nodes[n];
+    if (node.host < 0) problem_.set_pose(node.pose, moved * problem_.pose(node.pose));
   }
-  return false;
+  robot.robot_T_local = moved * robot.robot_T_local;
+  const Eigen::Matrix3d sqrt_information = problem_.edge_sqrt_information(c.edge);
+  problem_.ReleaseEdge(c.edge);
+  c.submap_T_node = submap_T_node;
+  c.edge = problem_.AddEdge(EdgeKind::kSequential, submap_pose, node_pose, submap_T_node, sqrt_information);
+  return true;
 }
 
 bool SubmapGraph::RemoveInterRobotConstraint(const SubmapId& submap, const NodeId& node) {

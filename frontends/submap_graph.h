@@ -384,6 +384,8 @@ class SubmapGraph {
     int to_submap = -1;
   };
   int EnsureAnchor(int robot);
+  // The index in constraints_ of `node`'s intra-submap constraint into `submap`; -1 when none.
+  int IntraSubmapConstraint(const NodeId& node, const SubmapId& submap) const;
   // Stores `c` in a slot ReleaseConstraint freed, or at the end.
   void StoreConstraint(const Constraint& c);
   // Releases constraints_[index] and its edge; the slot is reused.

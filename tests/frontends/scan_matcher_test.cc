@@ -28,6 +28,14 @@ std::vector<Eigen::Vector2f> SimulateScan(const sim::World& world, const Pose2& 
   return points;
 }
 
+// Scans of `world` from four poses spread over a room, inserted into `map` (range noise as
+// SimulateScan's, drawn from `rng`).
+void InsertScansFromFourPoses(const sim::World& world, double noise_std, std::mt19937* rng, LaserMap* map) {
+  for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
+    map->InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world, pose, noise_std, rng));
+  }
+}
+
 class ScanMatcherTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -376,17 +384,15 @@ TEST(ScanMatcherRefineHoldingDirectionTest, PlacesAcrossAndInYawKeepsAlong) {
 
 // Refine (the first node's rematch, OnlineEstimatorOptions::rematch_first_node): from a start
 // 0.5 degrees and 3 cm off in a room mapped from several poses, the pose comes back to the truth
-// to a fraction of the offset, whatever its bilinear score; a start beyond the rotation bound,
-// or nothing to match, gives nothing.
+// to a fraction of the offset; a rotation bound the refinement exceeds, or nothing to match,
+// gives nothing.
 TEST(ScanMatcherRefineTest, ReturnsTheRefinedPoseWithinItsBounds) {
   sim::World world;
   world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(8.0, 5.0), 0.0);
   world.AddBox(Eigen::Vector2d(1.5, 1.0), Eigen::Vector2d(0.5, 0.5), 0.0);
   std::mt19937 rng(7);
   LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
-  for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
-    map.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world, pose, 0.005, &rng));
-  }
+  InsertScansFromFourPoses(world, 0.005, &rng, &map);
   const Pose2 truth(-0.4, 0.3, 0.2);
   const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.005, &rng);
   const ScanMatcher matcher{ScanMatcherOptions()};
@@ -417,9 +423,7 @@ TEST(ScanMatcherSecondModeTest, TellsASymmetricRoomFromAnAsymmetricOne) {
     if (pillar) world.AddBox(Eigen::Vector2d(1.2, 0.7), Eigen::Vector2d(0.6, 0.6), 0.0);
     std::mt19937 rng(3);
     LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
-    for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
-      map.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world, pose, 0.01, &rng));
-    }
+    InsertScansFromFourPoses(world, 0.01, &rng, &map);
     const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.01, &rng);
     const ScanMatchResult result =
         ScanMatcher(options).MatchWithinWindow(map, Pose2(0.0, 0.0, 0.0), scan, 2.5, M_PI);
@@ -467,9 +471,7 @@ TEST(ScanMatcherSecondModeTest, WideSearchesAloneLookForASecondMode) {
   world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 4.0), 0.0);
   std::mt19937 rng(3);
   LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
-  for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
-    map.InsertScan(pose, Eigen::Vector2d::Zero(), SimulateScan(world, pose, 0.01, &rng));
-  }
+  InsertScansFromFourPoses(world, 0.01, &rng, &map);
   const Pose2 truth(-1.0, 0.5, 0.3);
   const Pose2 half_turn = Pose2(0.0, 0.0, M_PI) * truth;
   const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.01, &rng);
