@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "core/euler.h"
@@ -78,21 +79,48 @@ std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan) {
   return points;
 }
 
-std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters) {
+std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters,
+                                         VoxelPoint keep) {
   CHECK_GT(voxel_size_meters, 0.f) << "voxel_size_meters=" << voxel_size_meters;
-  std::unordered_set<uint64_t> seen;
-  std::vector<Eigen::Vector2f> kept;
-  for (const Eigen::Vector2f& p : points) {
+  // A point's voxel key; false for a point that has none.
+  const auto voxel_key = [voxel_size_meters](const Eigen::Vector2f& p, uint64_t* key) {
     // In float, as the voxels were always computed (a double division moves points that lie
     // on a voxel border to the next voxel, and changes which point a voxel keeps).
     const float fx = std::floor(p.x() / voxel_size_meters);
     const float fy = std::floor(p.y() / voxel_size_meters);
     // A non-finite point, or one whose voxel index does not fit an int64, is no usable point.
-    if (!(std::abs(fx) < 9e18f && std::abs(fy) < 9e18f)) continue;
+    if (!(std::abs(fx) < 9e18f && std::abs(fy) < 9e18f)) return false;
     const int64_t ix = static_cast<int64_t>(fx);
     const int64_t iy = static_cast<int64_t>(fy);
-    const uint64_t key = (static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffu);
-    if (seen.insert(key).second) kept.push_back(p);
+    *key = (static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffu);
+    return true;
+  };
+  std::vector<Eigen::Vector2f> kept;
+  if (keep == VoxelPoint::kFirst) {
+    std::unordered_set<uint64_t> seen;
+    for (const Eigen::Vector2f& p : points) {
+      uint64_t key;
+      if (voxel_key(p, &key) && seen.insert(key).second) kept.push_back(p);
+    }
+    return kept;
+  }
+  // kMiddle: count each voxel's points, then keep the (n / 2)-th of each on a second pass.
+  std::unordered_map<uint64_t, int> voxel_of_key;  // key -> voxel (order of its first point)
+  std::vector<int> voxel_of_point(points.size(), -1);
+  std::vector<int> count;
+  for (size_t i = 0; i < points.size(); ++i) {
+    uint64_t key;
+    if (!voxel_key(points[i], &key)) continue;
+    const auto [it, inserted] = voxel_of_key.emplace(key, static_cast<int>(count.size()));
+    if (inserted) count.push_back(0);
+    voxel_of_point[i] = it->second;
+    ++count[it->second];
+  }
+  kept.resize(count.size());
+  std::vector<int> seen(count.size(), 0);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const int v = voxel_of_point[i];
+    if (v >= 0 && seen[v]++ == count[v] / 2) kept[v] = points[i];
   }
   return kept;
 }

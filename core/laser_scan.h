@@ -72,9 +72,22 @@ std::vector<ProjectedPoint> ProjectScan(const LaserScan& scan, const BodyAttitud
 // Convenience for a level robot: the 2D end points of the valid beams in the robot frame.
 std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan);
 
-// Keeps the first point (in input order) of every square voxel of side `voxel_size_meters`,
-// so that dense near walls do not outvote sparse far structure. Deterministic.
-std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters);
+// Which of a voxel's points VoxelFilter keeps, by input (beam) order.
+enum class VoxelPoint {
+  kFirst,   // the first
+  kMiddle,  // the (n / 2)-th of its n points (0-based): the same for the beams in either order
+};
+
+// Keeps one point (`keep`) of every square voxel of side `voxel_size_meters`, so that dense
+// near walls do not outvote sparse far structure; the voxels in the order of their first point.
+// Non-finite points are left out. Deterministic.
+// The first beam of a voxel lies at the same side of it in every voxel: where a surface ends
+// in a voxel (a wall's end, an occlusion), the kept point is the end itself on one side of the
+// scan and a point inside the surface on the other. Matched, such points turn the pose a
+// little towards that side, the same way scan after scan (measured: 1.2 degrees in 60 s on a
+// simulated rover). The middle beam has no side.
+std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters,
+                                         VoxelPoint keep = VoxelPoint::kFirst);
 
 }  // namespace hetslam
 

@@ -102,6 +102,10 @@ DEFINE_double(translation_penalty, 0.05, "Weak motion prior: score penalty per s
 DEFINE_double(rotation_penalty, 0.0, "Weak motion prior: score penalty per square radian of heading change from the prediction.");
 DEFINE_double(matching_voxel, 0.20, "Thin the points used for scan matching to one per voxel of this size in metres, "
               "so near walls do not outvote far structure (0 = use every point). The map gets every point.");
+DEFINE_bool(refine_on_middle_beams, true, "The search places each scan on the first beam of every --matching_voxel voxel; the "
+            "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
+            "of the scan only, which turned the pose that way scan after scan: 0.5-1.1 deg in 60 s on simulated "
+            "robots, 0.35-0.5 with this). --norefine_on_middle_beams refines on the first beams too.");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
 DEFINE_bool(no_loop_closure, false, "Run the scan-matching front end alone against one global map (no submaps, no "
@@ -434,6 +438,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   options->motion_filter_attitude_radians = FLAGS_motion_filter_attitude_deg * M_PI / 180.0;
   options->motion_filter_time_seconds = FLAGS_motion_filter_time;
   options->matching_voxel_meters = FLAGS_matching_voxel;
+  options->refine_on_middle_beams = FLAGS_refine_on_middle_beams;
   options->velocity_fraction = FLAGS_velocity_fraction;
   options->angular_velocity_fraction = FLAGS_angular_velocity_fraction;
   options->scans_per_submap = FLAGS_no_loop_closure ? 0 : FLAGS_scans_per_submap;

@@ -111,6 +111,10 @@ DEFINE_double(max_map_store_mib, 0.0, "Each robot's map store bound (see hetslam
 DEFINE_double(retire_revisited_share, 0.9, "Each robot's revisits (see hetslam_run --help): a finished submap whose "
               "occupied cells its robot's earlier submaps cover to at least this share is retired (its map freed, no "
               "longer searched by loop closure or the overlap search, still rendered). In [0, 1]; 0 = off.");
+DEFINE_bool(refine_on_middle_beams, true, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
+            "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
+            "of the scan only, which turned the pose that way scan after scan: 0.5-1.1 deg in 60 s on simulated "
+            "robots, 0.35-0.5 with this). --norefine_on_middle_beams refines on the first beams too.");
 DEFINE_bool(rematch_first_node, true, "The frame is the body at the first scan: when the first submap is finished, "
             "the first scan is refined against it and the map turned around the first pose to the heading the finished "
             "map gives it (the next few scans' matches can turn a young submap's map against the first scan; 0.4-0.6 "
@@ -188,6 +192,7 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   robot->retire_revisited_share = FLAGS_retire_revisited_share;
   robot->attach_revisits = FLAGS_attach_revisits;
   robot->rematch_first_node = FLAGS_rematch_first_node;
+  robot->local.refine_on_middle_beams = FLAGS_refine_on_middle_beams;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
   if (!team->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;

@@ -142,6 +142,9 @@ int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map,
   // left (fewer than half the matching points) could not place it; the whole scan is matched.
   if (2 * matching.size() < points->matching.size()) return 0;
   points->matching = std::move(matching);
+  if (!points->refinement.empty()) {
+    points->refinement = VoxelFilter(kept, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+  }
   return left_out;
 }
 
@@ -162,6 +165,12 @@ int AddFloorObstaclesOnMappedStructure(const LocalSlamOptions& options, const La
   points->matching = options.matching_voxel_meters > 0
                          ? VoxelFilter(matching, static_cast<float>(options.matching_voxel_meters))
                          : std::move(matching);
+  if (!points->refinement.empty()) {
+    std::vector<Eigen::Vector2f> refinement = std::move(points->refinement);
+    refinement.insert(refinement.end(), on_structure.begin(), on_structure.end());
+    points->refinement =
+        VoxelFilter(refinement, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+  }
   return static_cast<int>(on_structure.size());
 }
 
@@ -410,6 +419,9 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   points.matching = options.matching_voxel_meters > 0
                         ? VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters))
                         : points.all;
+  if (options.refine_on_middle_beams && options.matching_voxel_meters > 0 && !points.matching.empty()) {
+    points.refinement = VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+  }
   points.sensor_robot = scan.robot_T_sensor.translation().head<2>();
   points.attitude = body;
   points.floor_line = floor_line;
@@ -493,6 +505,9 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
     }
     result.structure_floor_obstacles =
         AddFloorObstaclesOnMappedStructure(options_, *target.map, predicted_submap, &points);
+    // The refinement's own points (refine_on_middle_beams), for a scan without matching weights.
+    const std::vector<Eigen::Vector2f>* refinement =
+        points.refinement.empty() || !points.matching_weights.empty() ? nullptr : &points.refinement;
     if (prediction.covariance.has_value()) {
       const ScanMatcherOptions& m = options_.matcher;
       const Eigen::Matrix3d& covariance = *prediction.covariance;
@@ -505,7 +520,7 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
       const double angular = std::min(m.angular_search_window_radians,
                                       m.narrow_angular_search_window_radians + options_.covariance_sigmas * yaw_sigma);
       result.match = matcher_.MatchWithinWindow(*target.map, predicted_submap, points.matching, linear, angular,
-                                                points.matching_weights);
+                                                points.matching_weights, 0.0, refinement);
       if (result.match.converged && result.match.score < options_.outlier_max_score) {
         // A poor fit far outside the prediction's own uncertainty: the motion source (a gyro,
         // odometry) is the better estimate. Mahalanobis distance of the correction, the
@@ -525,7 +540,7 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
       }
     } else {
       result.match = matcher_.Match(*target.map, predicted_submap, points.matching, points.matching_weights,
-                                    prediction.external || NarrowSearchTrusted(options_, state.recent));
+                                    prediction.external || NarrowSearchTrusted(options_, state.recent), refinement);
     }
     if (result.match.converged) {
       // Along a flat direction the prediction is kept, when it measures the motion there; the
@@ -538,7 +553,8 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
               ? DegeneracyAwarePose(options_, predicted_submap, result.match, &result.degenerate, &weak_direction)
               : result.match.pose;
       if (result.degenerate) {
-        submap_T_robot = matcher_.RefineHoldingDirection(*target.map, submap_T_robot, weak_direction, points.matching,
+        submap_T_robot = matcher_.RefineHoldingDirection(*target.map, submap_T_robot, weak_direction,
+                                                         refinement != nullptr ? *refinement : points.matching,
                                                          points.matching_weights);
       }
       result.local_pose = target.local_T_submap * submap_T_robot;

@@ -16,7 +16,8 @@ namespace {
 
 // Heap bytes of a scan's points.
 size_t PointsBytes(const ScanPoints& points) {
-  return (points.all.capacity() + points.matching.capacity() + points.floor_obstacles.capacity()) *
+  return (points.all.capacity() + points.matching.capacity() + points.refinement.capacity() +
+          points.floor_obstacles.capacity()) *
              sizeof(Eigen::Vector2f) +
          points.labels.capacity() * sizeof(PointLabel) +
          (points.heights_meters.capacity() + points.matching_weights.capacity()) * sizeof(float);

@@ -1246,11 +1246,13 @@ bool ScanMatcher::OnWindowBorder(const Pose2& predicted, const Pose2& pose, doub
 
 ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
                                    const std::vector<Eigen::Vector2f>& points_robot,
-                                   const std::vector<float>& weights, bool try_narrow_first) const {
+                                   const std::vector<float>& weights, bool try_narrow_first,
+                                   const std::vector<Eigen::Vector2f>* refinement_points) const {
   int narrow_candidates = 0;
   if (try_narrow_first && options_.narrow_linear_search_window_meters > 0.0 &&
       options_.narrow_angular_search_window_radians > 0.0) {
-    ScanMatchResult narrow = MatchOnce(map, predicted, points_robot, weights, options_.narrow_linear_search_window_meters,
+    ScanMatchResult narrow = MatchOnce(map, predicted, points_robot, weights, refinement_points,
+                                       options_.narrow_linear_search_window_meters,
                                        options_.narrow_angular_search_window_radians,
                                        options_.second_mode_exclusion_meters, options_.second_mode_exclusion_radians);
     if (narrow.converged && narrow.score >= options_.narrow_accept_score &&
@@ -1267,7 +1269,8 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
   const double exclusion_radians =
       wide_modes ? options_.wide_second_mode_exclusion_radians : options_.second_mode_exclusion_radians;
   const double min_ratio = wide_modes ? options_.wide_second_mode_min_score_ratio : 0.0;
-  ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, options_.linear_search_window_meters,
+  ScanMatchResult result = MatchOnce(map, predicted, points_robot, weights, refinement_points,
+                                     options_.linear_search_window_meters,
                                      options_.angular_search_window_radians, exclusion_meters, exclusion_radians,
                                      min_ratio);
   result.wide_search = true;
@@ -1287,7 +1290,7 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
     // above that are pruned (MIT CSAIL: 95 fallbacks were 12% of the run), and its best is the
     // one it finds without.
     ScanMatchResult fallback =
-        MatchOnce(map, predicted, points_robot, weights,
+        MatchOnce(map, predicted, points_robot, weights, refinement_points,
                   std::max(options_.linear_search_window_meters, options_.fallback_linear_search_window_meters),
                   std::max(options_.angular_search_window_radians, options_.fallback_angular_search_window_radians),
                   exclusion_meters, exclusion_radians, min_ratio, 0.0,
@@ -1302,21 +1305,25 @@ ScanMatchResult ScanMatcher::Match(const LaserMap& map, const Pose2& predicted,
 ScanMatchResult ScanMatcher::MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
                                                const std::vector<Eigen::Vector2f>& points_robot,
                                                double linear_window_meters, double angular_window_radians,
-                                               const std::vector<float>& weights, double min_score) const {
+                                               const std::vector<float>& weights, double min_score,
+                                               const std::vector<Eigen::Vector2f>* refinement_points) const {
   CHECK(linear_window_meters >= 0 && angular_window_radians >= 0 && angular_window_radians <= M_PI)
       << "bad window " << linear_window_meters << " m, " << angular_window_radians << " rad";
-  return MatchOnce(map, predicted, points_robot, weights, linear_window_meters, angular_window_radians,
+  return MatchOnce(map, predicted, points_robot, weights, refinement_points, linear_window_meters, angular_window_radians,
                    options_.second_mode_exclusion_meters, options_.second_mode_exclusion_radians, 0.0, min_score);
 }
 
 ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predicted,
                                        const std::vector<Eigen::Vector2f>& points_robot,
-                                       const std::vector<float>& weights, double linear_window_meters,
+                                       const std::vector<float>& weights,
+                                       const std::vector<Eigen::Vector2f>* refinement_points, double linear_window_meters,
                                        double angular_window_radians, double second_mode_exclusion_meters,
                                        double second_mode_exclusion_radians, double second_mode_min_score_ratio,
                                        double min_score, double to_beat) const {
   CHECK(weights.empty() || weights.size() == points_robot.size())
       << weights.size() << " weights for " << points_robot.size() << " points";
+  CHECK(refinement_points == nullptr || (weights.empty() && !refinement_points->empty()))
+      << "refinement points need empty weights and at least one point";
   const LikelihoodField& field = map.field();
   ScanMatchResult result;
   result.pose = predicted;
@@ -1403,13 +1410,17 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     }
   }
 
+  // The refinement, and the information and score profile at its pose, on the refinement
+  // points when given (see LocalSlamOptions::refine_on_middle_beams); the score on the
+  // searched points, as the thresholds on it were set.
+  const std::vector<Eigen::Vector2f>& refinement = refinement_points != nullptr ? *refinement_points : points_robot;
   if (options_.refine_with_ceres) {
     double pose[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};
     ceres::Problem::Options problem_options;
     ceres::Problem problem(problem_options);
     std::vector<ceres::CostFunction*> refinement_costs;  // owned by `problem`
     refinement_costs.push_back(
-        CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation));
+        CreateScanToLikelihoodFieldCost(field, refinement, weights, options_.refine_interpolation));
     problem.AddResidualBlock(refinement_costs.back(), nullptr, pose);
     // Paper §III-E: the wall channel as a second cost over the same points, each residual
     // weighted sqrt(wall_weight - 1): summed, (1 - L)^2 + (wall_weight - 1)(1 - L_wall)^2 per
@@ -1417,9 +1428,9 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     // (where L_wall = 0 and its term is constant).
     std::vector<float> wall_weights;
     if (wall_field != nullptr) {
-      wall_weights = WallResidualWeights(weights, points_robot.size(), wall_weight);
+      wall_weights = WallResidualWeights(weights, refinement.size(), wall_weight);
       refinement_costs.push_back(
-          CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, options_.refine_interpolation));
+          CreateScanToLikelihoodFieldCost(*wall_field, refinement, wall_weights, options_.refine_interpolation));
       problem.AddResidualBlock(refinement_costs.back(), nullptr, pose);
     }
     ceres::Solver::Summary summary;
@@ -1431,8 +1442,8 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     // score (bilinear values, also when the refinement interpolated distances: measured, the
     // cost's own decrease as the test lets a sparse log's refinements wander, ACES 0.11 -> 4.1 m
     // against GMapping); otherwise the discrete pose is the better answer.
-    const bool better = BilinearScore(map.field(), refined, points_robot, weights, wall_field, wall_weight) >=
-                        BilinearScore(map.field(), result.pose, points_robot, weights, wall_field, wall_weight);
+    const bool better = BilinearScore(map.field(), refined, refinement, weights, wall_field, wall_weight) >=
+                        BilinearScore(map.field(), result.pose, refinement, weights, wall_field, wall_weight);
     if (summary.IsSolutionUsable() && better && (refined.translation() - result.pose.translation()).norm() < 4 * r) {
       result.pose = refined;
     }
@@ -1451,10 +1462,10 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     std::vector<ceres::CostFunction*> information_costs = refinement_costs;
     if (options_.refine_interpolation != ScanCostInterpolation::kValues) {
       values_costs.emplace_back(
-          CreateScanToLikelihoodFieldCost(field, points_robot, weights, ScanCostInterpolation::kValues));
+          CreateScanToLikelihoodFieldCost(field, refinement, weights, ScanCostInterpolation::kValues));
       if (wall_field != nullptr) {
         values_costs.emplace_back(
-            CreateScanToLikelihoodFieldCost(*wall_field, points_robot, wall_weights, ScanCostInterpolation::kValues));
+            CreateScanToLikelihoodFieldCost(*wall_field, refinement, wall_weights, ScanCostInterpolation::kValues));
       }
       information_costs.clear();
       for (const auto& cost : values_costs) information_costs.push_back(cost.get());
@@ -1477,14 +1488,14 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     // The score's profile in kDirections directions over a half turn: the flattest is the weak
     // one, its angle refined by a parabola through its neighbours' drops.
     constexpr int kDirections = 16;
-    const RotatedPoints rotated(result.pose.theta(), points_robot);
+    const RotatedPoints rotated(result.pose.theta(), refinement);
     const double at_match =
         BilinearScoreAt(map.field(), result.pose.x(), result.pose.y(), rotated, weights, wall_field, wall_weight);
     // The shifted poses' yaw, as a Pose2 of it would wrap it (WrapAngle can move a wrapped
     // angle by an ulp).
     const double shifted_yaw = WrapAngle(result.pose.theta());
     const bool same_yaw = shifted_yaw == result.pose.theta();
-    const RotatedPoints rotated_wrapped = same_yaw ? RotatedPoints() : RotatedPoints(shifted_yaw, points_robot);
+    const RotatedPoints rotated_wrapped = same_yaw ? RotatedPoints() : RotatedPoints(shifted_yaw, refinement);
     const RotatedPoints& shifted_rotated = same_yaw ? rotated : rotated_wrapped;
     // The six shifted positions of each direction (±1, ±2, ±3 steps), all scored at once.
     constexpr int kShifts = 6;

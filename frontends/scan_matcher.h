@@ -175,18 +175,24 @@ class ScanMatcher {
   // per point. The map must not change during the call.
   // `try_narrow_first`: allow the narrow first try (when its windows are set); callers pass
   // false when the prediction is not trusted to be that close (large recent motion).
+  // `refinement_points` (non-empty, with empty `weights`): the same scan thinned otherwise
+  // (LocalSlamOptions::refine_on_middle_beams), for the refinement of the pose the search
+  // found and its `information` and score profile; `score` stays on `points_robot`.
   ScanMatchResult Match(const LaserMap& map, const Pose2& predicted,
                         const std::vector<Eigen::Vector2f>& points_robot,
-                        const std::vector<float>& weights = {}, bool try_narrow_first = true) const;
+                        const std::vector<float>& weights = {}, bool try_narrow_first = true,
+                        const std::vector<Eigen::Vector2f>* refinement_points = nullptr) const;
 
   // One search within the given windows (instead of the options' windows), without the wider
   // fallback search. A refined result whose score is below `min_score` (a caller that rejects
   // such results: the loop closer) is returned as soon as its score is known, without
   // `information` and the score profile (weak/strong direction); its pose and score are the same.
+  // `refinement_points` as for Match.
   ScanMatchResult MatchWithinWindow(const LaserMap& map, const Pose2& predicted,
                                     const std::vector<Eigen::Vector2f>& points_robot,
                                     double linear_window_meters, double angular_window_radians,
-                                    const std::vector<float>& weights = {}, double min_score = 0.0) const;
+                                    const std::vector<float>& weights = {}, double min_score = 0.0,
+                                    const std::vector<Eigen::Vector2f>* refinement_points = nullptr) const;
 
   // Refines `start` (world_T_robot) by the likelihood field's cost (L alone: the wall channel
   // is not weighed here, whatever wall_weight_in_refinement says) with the translation along
@@ -238,7 +244,7 @@ class ScanMatcher {
   // search, whose best no pose scoring less can displace.
   ScanMatchResult MatchOnce(const LaserMap& map, const Pose2& predicted,
                             const std::vector<Eigen::Vector2f>& points_robot, const std::vector<float>& weights,
-                            double linear_window_meters, double angular_window_radians,
+                            const std::vector<Eigen::Vector2f>* refinement_points, double linear_window_meters, double angular_window_radians,
                             double second_mode_exclusion_meters, double second_mode_exclusion_radians,
                             double second_mode_min_score_ratio = 0.0, double min_score = 0.0,
                             double to_beat = -std::numeric_limits<double>::infinity()) const;
