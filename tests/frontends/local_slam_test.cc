@@ -682,6 +682,27 @@ TEST(PrepareScanPointsTest, DensifyFillsGapsAlongASurfaceOnly) {
   EXPECT_GT(on_side_wall, 150);
 }
 
+// The refinement's points (refine_on_middle_beams): the matching voxels, each by its middle
+// beam; none without the option or without voxels (the refinement then uses `matching`).
+TEST(PrepareScanPointsTest, TheRefinementTakesEachMatchingVoxelsMiddleBeam) {
+  LaserScan scan;
+  scan.angles_radians = EvenlySpacedAngles(91, 0.0, M_PI / 180);
+  scan.range_max_meters = 30.0;
+  for (double angle : scan.angles_radians) scan.ranges_meters.push_back(1.0 / std::sin(angle + 0.3));
+  LocalSlamOptions options;
+  const ScanPoints points = PrepareScanPoints(options, scan);
+  ASSERT_EQ(91u, points.all.size());
+  EXPECT_EQ(VoxelFilter(points.all, 0.2f), points.matching);
+  EXPECT_EQ(VoxelFilter(points.all, 0.2f, VoxelPoint::kMiddle), points.refinement);
+  EXPECT_EQ(points.matching.size(), points.refinement.size());
+  EXPECT_NE(points.matching, points.refinement);
+  options.refine_on_middle_beams = false;
+  EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty());
+  options.refine_on_middle_beams = true;
+  options.matching_voxel_meters = 0.0;
+  EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty());
+}
+
 TEST(DegeneracyAwarePoseTest, KeepsThePredictionAlongTheWeakDirectionOnly) {
   LocalSlamOptions options;
   options.degenerate_eigenvalue_ratio = 0.05;

@@ -407,6 +407,46 @@ TEST(ScanMatcherRefineTest, ReturnsTheRefinedPoseWithinItsBounds) {
   EXPECT_FALSE(matcher.Refine(map, start, {}, {}, 2.0 * degree).has_value());
 }
 
+// Refinement points (LocalSlamOptions::refine_on_middle_beams): the search places the scan on
+// its own points, the refinement and the information use the refinement points, the score
+// stays on the searched points. Refinement points 4 cm ahead of the scan's own put the pose 4
+// cm back; the same points as the scan's give the plain match bit for bit.
+TEST(ScanMatcherRefinementPointsTest, TheRefinementUsesItsOwnPointsAndTheScoreTheSearched) {
+  sim::World world;
+  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(8.0, 5.0), 0.0);
+  world.AddBox(Eigen::Vector2d(1.5, 1.0), Eigen::Vector2d(0.5, 0.5), 0.0);
+  std::mt19937 rng(7);
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  InsertScansFromFourPoses(world, 0.005, &rng, &map);
+  const Pose2 truth(-0.4, 0.3, 0.2);
+  const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.005, &rng);
+  std::vector<Eigen::Vector2f> ahead = scan;
+  for (Eigen::Vector2f& p : ahead) p.x() += 0.04f;
+  const ScanMatcher matcher{ScanMatcherOptions()};
+  const Pose2 predicted = truth * Pose2(0.05, -0.03, 0.02);
+  const ScanMatchResult plain = matcher.MatchWithinWindow(map, predicted, scan, 0.3, 0.2);
+  const ScanMatchResult same = matcher.MatchWithinWindow(map, predicted, scan, 0.3, 0.2, {}, 0.0, &scan);
+  const ScanMatchResult shifted = matcher.MatchWithinWindow(map, predicted, scan, 0.3, 0.2, {}, 0.0, &ahead);
+  ASSERT_TRUE(plain.converged && same.converged && shifted.converged) << plain.message << shifted.message;
+  EXPECT_EQ(plain.pose.ToVector(), same.pose.ToVector());
+  EXPECT_EQ(plain.score, same.score);
+  EXPECT_EQ(plain.information, same.information);
+  EXPECT_NEAR(truth.x(), plain.pose.x(), 0.01) << plain.pose;
+  EXPECT_NEAR(truth.y(), plain.pose.y(), 0.01) << plain.pose;
+  // The search is the same; the refined pose is the one that puts the points ahead on the walls.
+  EXPECT_EQ(plain.correlative_score, shifted.correlative_score);
+  const Pose2 back = truth * Pose2(-0.04, 0.0, 0.0);
+  EXPECT_NEAR(back.x(), shifted.pose.x(), 0.01) << shifted.pose;
+  EXPECT_NEAR(back.y(), shifted.pose.y(), 0.01) << shifted.pose;
+  EXPECT_NEAR(truth.theta(), shifted.pose.theta(), 0.3 * M_PI / 180.0) << shifted.pose;
+  // Scored on the scan's own points, 4 cm off them.
+  EXPECT_LT(shifted.score, plain.score - 0.02);
+  // Through Match as well.
+  const ScanMatchResult through_match = matcher.Match(map, predicted, scan, {}, true, &ahead);
+  ASSERT_TRUE(through_match.converged) << through_match.message;
+  EXPECT_NEAR(back.x(), through_match.pose.x(), 0.01) << through_match.pose;
+}
+
 // The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
 // as well as the truth (a symmetric room: ambiguous); with the pillar it fits only the truth.
 TEST(ScanMatcherSecondModeTest, TellsASymmetricRoomFromAnAsymmetricOne) {

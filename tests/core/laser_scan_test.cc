@@ -1,0 +1,62 @@
+#include "core/laser_scan.h"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "gtest/gtest.h"
+
+namespace hetslam {
+namespace {
+
+// Points every centimetre along y = 0.1 from x = 0.005 to 0.995 (five 0.2 m voxels), in
+// increasing x, or in decreasing x (the other direction of the scan's beams).
+std::vector<Eigen::Vector2f> PointsAlongASegment(bool increasing) {
+  std::vector<Eigen::Vector2f> points;
+  for (int i = 0; i < 100; ++i) points.emplace_back(0.005f + 0.01f * (increasing ? i : 99 - i), 0.1f);
+  return points;
+}
+
+float MeanX(const std::vector<Eigen::Vector2f>& points) {
+  float sum = 0.f;
+  for (const Eigen::Vector2f& p : points) sum += p.x();
+  return sum / static_cast<float>(points.size());
+}
+
+TEST(VoxelFilterTest, KeepsTheFirstOrTheMiddlePointOfEachVoxelInTheOrderOfTheVoxels) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // Voxel (0, 0): four points; voxel (2, 0): one; voxel (-1, -1): three; a NaN point between.
+  const std::vector<Eigen::Vector2f> points = {{0.01f, 0.01f}, {0.45f, 0.05f}, {0.02f, 0.02f}, {0.03f, 0.03f},
+                                               {nan, 0.0f},    {0.04f, 0.04f}, {-0.05f, -0.1f}, {-0.1f, -0.1f},
+                                               {-0.15f, -0.1f}};
+  const std::vector<Eigen::Vector2f> first = VoxelFilter(points, 0.2f);
+  ASSERT_EQ(3u, first.size());
+  EXPECT_EQ(points[0], first[0]);
+  EXPECT_EQ(points[1], first[1]);
+  EXPECT_EQ(points[6], first[2]);
+  const std::vector<Eigen::Vector2f> middle = VoxelFilter(points, 0.2f, VoxelPoint::kMiddle);
+  ASSERT_EQ(3u, middle.size());
+  EXPECT_EQ(points[3], middle[0]);  // the third (index 2 of 0..3) of the voxel's four
+  EXPECT_EQ(points[1], middle[1]);
+  EXPECT_EQ(points[7], middle[2]);  // the second of three
+  EXPECT_TRUE(VoxelFilter({}, 0.2f, VoxelPoint::kMiddle).empty());
+  EXPECT_TRUE(VoxelFilter({{nan, nan}}, 0.2f, VoxelPoint::kMiddle).empty());
+}
+
+// The reason for the middle point: along a surface, the first point of each voxel lies at the
+// voxel's side the beams come from, so the kept points shift with the beams' direction; the
+// middle points do not.
+TEST(VoxelFilterTest, TheMiddlePointsDoNotShiftWithTheDirectionOfTheBeams) {
+  const float first_up = MeanX(VoxelFilter(PointsAlongASegment(true), 0.2f));
+  const float first_down = MeanX(VoxelFilter(PointsAlongASegment(false), 0.2f));
+  EXPECT_NEAR(0.405f, first_up, 1e-4f);    // 0.005, 0.205, ... 0.805
+  EXPECT_NEAR(0.595f, first_down, 1e-4f);  // 0.195, 0.395, ... 0.995
+  const float middle_up = MeanX(VoxelFilter(PointsAlongASegment(true), 0.2f, VoxelPoint::kMiddle));
+  const float middle_down = MeanX(VoxelFilter(PointsAlongASegment(false), 0.2f, VoxelPoint::kMiddle));
+  EXPECT_NEAR(0.5f, middle_up, 0.006f);  // 20 points a voxel: the 11th either way, half a centimetre off
+  EXPECT_NEAR(0.5f, middle_down, 0.006f);
+  EXPECT_LE(std::abs(middle_up - middle_down), 0.0101f);
+}
+
+}  // namespace
+}  // namespace hetslam
