@@ -382,19 +382,33 @@ TEST(ScanMatcherRefineHoldingDirectionTest, PlacesAcrossAndInYawKeepsAlong) {
   EXPECT_EQ(start.ToVector(), matcher.RefineHoldingDirection(map, start, Eigen::Vector2d::UnitX(), {}).ToVector());
 }
 
+// An 8 m x 5 m room with a 0.5 m box, mapped from four poses, and a scan of it from `truth`
+// (range noise 5 mm).
+struct MappedRoomWithBox {
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  std::vector<Eigen::Vector2f> scan;
+};
+
+MappedRoomWithBox MapRoomWithBox(const Pose2& truth) {
+  sim::World world;
+  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(8.0, 5.0), 0.0);
+  world.AddBox(Eigen::Vector2d(1.5, 1.0), Eigen::Vector2d(0.5, 0.5), 0.0);
+  std::mt19937 rng(7);
+  MappedRoomWithBox room;
+  InsertScansFromFourPoses(world, 0.005, &rng, &room.map);
+  room.scan = SimulateScan(world, truth, 0.005, &rng);
+  return room;
+}
+
 // Refine (the first node's rematch, OnlineEstimatorOptions::rematch_first_node): from a start
 // 0.5 degrees and 3 cm off in a room mapped from several poses, the pose comes back to the truth
 // to a fraction of the offset; a rotation bound the refinement exceeds, or nothing to match,
 // gives nothing.
 TEST(ScanMatcherRefineTest, ReturnsTheRefinedPoseWithinItsBounds) {
-  sim::World world;
-  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(8.0, 5.0), 0.0);
-  world.AddBox(Eigen::Vector2d(1.5, 1.0), Eigen::Vector2d(0.5, 0.5), 0.0);
-  std::mt19937 rng(7);
-  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
-  InsertScansFromFourPoses(world, 0.005, &rng, &map);
   const Pose2 truth(-0.4, 0.3, 0.2);
-  const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.005, &rng);
+  const MappedRoomWithBox room = MapRoomWithBox(truth);
+  const LaserMap& map = room.map;
+  const std::vector<Eigen::Vector2f>& scan = room.scan;
   const ScanMatcher matcher{ScanMatcherOptions()};
   const double degree = M_PI / 180.0;
   const Pose2 start(truth.x() + 0.03, truth.y() - 0.02, truth.theta() + 0.5 * degree);
@@ -412,14 +426,10 @@ TEST(ScanMatcherRefineTest, ReturnsTheRefinedPoseWithinItsBounds) {
 // stays on the searched points. Refinement points 4 cm ahead of the scan's own put the pose 4
 // cm back; the same points as the scan's give the plain match bit for bit.
 TEST(ScanMatcherRefinementPointsTest, TheRefinementUsesItsOwnPointsAndTheScoreTheSearched) {
-  sim::World world;
-  world.AddBox(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(8.0, 5.0), 0.0);
-  world.AddBox(Eigen::Vector2d(1.5, 1.0), Eigen::Vector2d(0.5, 0.5), 0.0);
-  std::mt19937 rng(7);
-  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
-  InsertScansFromFourPoses(world, 0.005, &rng, &map);
   const Pose2 truth(-0.4, 0.3, 0.2);
-  const std::vector<Eigen::Vector2f> scan = SimulateScan(world, truth, 0.005, &rng);
+  const MappedRoomWithBox room = MapRoomWithBox(truth);
+  const LaserMap& map = room.map;
+  const std::vector<Eigen::Vector2f>& scan = room.scan;
   std::vector<Eigen::Vector2f> ahead = scan;
   for (Eigen::Vector2f& p : ahead) p.x() += 0.04f;
   const ScanMatcher matcher{ScanMatcherOptions()};
