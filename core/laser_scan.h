@@ -75,7 +75,7 @@ std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan);
 // Which of a voxel's points VoxelFilter keeps, by input (beam) order.
 enum class VoxelPoint {
   kFirst,   // the first
-  kMiddle,  // the (n / 2)-th of its n points (0-based): the same for the beams in either order
+  kMiddle,  // the (n / 2)-th of its n points (0-based): for an odd n the same whichever way the beams run
 };
 
 // Keeps one point (`keep`) of every square voxel of side `voxel_size_meters`, so that dense
@@ -85,7 +85,7 @@ enum class VoxelPoint {
 // in a voxel (a wall's end, an occlusion), the kept point is the end itself on one side of the
 // scan and a point inside the surface on the other. Matched, such points turn the pose a
 // little towards that side, the same way scan after scan (measured: 1.2 degrees in 60 s on a
-// simulated rover). The middle beam has no side.
+// simulated rover's front end). The middle beam has no side.
 std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters,
                                          VoxelPoint keep = VoxelPoint::kFirst);
 

@@ -62,9 +62,10 @@ struct LocalSlamOptions {
   // pose it finds (and the match's information and score profile) uses each voxel's middle
   // point instead (core/laser_scan.h VoxelPoint::kMiddle): the first point sits at a
   // surface's end on one side of the scan only, and turned the pose towards that side scan
-  // after scan (simulated rovers and UAVs: 0.5-1.1 degrees from the start frame in 60 s,
-  // 0.35-0.5 with this). The search itself stays on the first points: with the middle ones it
-  // picked the wrong one of two modes 1.2 m apart along an ACES corridor (4 m off at the end).
+  // after scan (the simulated robots' worst heading from their start over seeds 1-5:
+  // 0.26-1.13 degrees, 0.13-0.79 with this). The search itself stays on the first points:
+  // with the middle ones it picked the wrong one of two modes 1.2 m apart along an ACES
+  // corridor (4 m off at the end).
   // Used when the scan carries no matching weights.
   bool refine_on_middle_beams = true;
   // Scans with fewer valid points are not matched or inserted (counted as skipped).
@@ -298,19 +299,20 @@ bool RunsIntoUnobservedGround(const LaserMap& map, const Pose2& world_T_robot, c
                               const ScanLine& line, double margin_meters);
 
 // Leaves out of points->matching (and points->refinement, when set; both rebuilt from
-// points->all) the points whose surface
-// RunsIntoUnobservedGround of `map` where `predicted` (map frame) puts them; returns how many
-// of points->all were left out. Nothing is left out (0) when the option is off, the map is
-// empty, or fewer than options.min_points points or half the matching points would remain.
+// points->all) the points whose surface RunsIntoUnobservedGround of `map` where `predicted`
+// (map frame) puts them; returns how many of points->all were left out. Nothing is left out
+// (0) when the option is off, the map is empty, or fewer than options.min_points points or
+// half the matching points would remain.
 int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
                            ScanPoints* points);
 
 // Adds to points->matching (after its points, voxel-thinned with them: only voxels it does not
-// hold yet; to points->refinement likewise, when set) the floor obstacles of `points` that `predicted` (the map's frame) puts on a cell
-// `map` holds as occupied (see match_floor_obstacles_on_mapped_structure); returns how many
-// floor obstacles lie there. points->all and points->floor_obstacles do not change. Nothing is
-// added (0) when the option is off, the map is empty, or the scan carries matching weights
-// (one per matching point: the added points would have none).
+// hold yet; to points->refinement likewise, when set) the floor obstacles of `points` that
+// `predicted` (the map's frame) puts on a cell `map` holds as occupied (see
+// match_floor_obstacles_on_mapped_structure); returns how many floor obstacles lie there.
+// points->all and points->floor_obstacles do not change. Nothing is added (0) when the option
+// is off, the map is empty, or the scan carries matching weights (one per matching point: the
+// added points would have none).
 int AddFloorObstaclesOnMappedStructure(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
                                        ScanPoints* points);
 
