@@ -102,11 +102,11 @@ DEFINE_double(translation_penalty, 0.05, "Weak motion prior: score penalty per s
 DEFINE_double(rotation_penalty, 0.0, "Weak motion prior: score penalty per square radian of heading change from the prediction.");
 DEFINE_double(matching_voxel, 0.20, "Thin the points used for scan matching to one per voxel of this size in metres, "
               "so near walls do not outvote far structure (0 = use every point). The map gets every point.");
-DEFINE_bool(refine_on_middle_beams, true, "The search places each scan on the first beam of every --matching_voxel voxel; the "
+DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the first beam of every --matching_voxel voxel; the "
             "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
             "of the scan only, which turned the pose that way scan after scan: the simulated robots' worst heading "
-            "from their start 0.26-1.13 deg, 0.13-0.79 with this). --norefine_on_middle_beams refines on the first "
-            "beams too.");
+            "from their start 0.26-1.13 deg, 0.13-0.79 with this). Off by default: the simulated office loop's "
+            "corrected trajectory and the corridor's get worse with it (README, Teams).");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
 DEFINE_bool(no_loop_closure, false, "Run the scan-matching front end alone against one global map (no submaps, no "

@@ -111,11 +111,11 @@ DEFINE_double(max_map_store_mib, 0.0, "Each robot's map store bound (see hetslam
 DEFINE_double(retire_revisited_share, 0.9, "Each robot's revisits (see hetslam_run --help): a finished submap whose "
               "occupied cells its robot's earlier submaps cover to at least this share is retired (its map freed, no "
               "longer searched by loop closure or the overlap search, still rendered). In [0, 1]; 0 = off.");
-DEFINE_bool(refine_on_middle_beams, true, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
+DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
             "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
             "of the scan only, which turned the pose that way scan after scan: the simulated robots' worst heading "
-            "from their start 0.26-1.13 deg, 0.13-0.79 with this). --norefine_on_middle_beams refines on the first "
-            "beams too.");
+            "from their start 0.26-1.13 deg, 0.13-0.79 with this). Off by default: the simulated office loop's "
+            "corrected trajectory and the corridor's get worse with it (README, Teams).");
 DEFINE_bool(rematch_first_node, true, "The frame is the body at the first scan: when the first submap is finished, "
             "the first scan is refined against it and the map turned around the first pose to the heading the finished "
             "map gives it (the next few scans' matches can turn a young submap's map against the first scan; 0.4-0.6 "

@@ -683,13 +683,16 @@ TEST(PrepareScanPointsTest, DensifyFillsGapsAlongASurfaceOnly) {
 }
 
 // The refinement's points (refine_on_middle_beams): the matching voxels, each by its middle
-// beam; none without the option or without voxels (the refinement then uses `matching`).
+// beam; none without the option (the default) or without voxels (the refinement then uses
+// `matching`).
 TEST(PrepareScanPointsTest, TheRefinementTakesEachMatchingVoxelsMiddleBeam) {
   LaserScan scan;
   scan.angles_radians = EvenlySpacedAngles(91, 0.0, M_PI / 180);
   scan.range_max_meters = 30.0;
   for (double angle : scan.angles_radians) scan.ranges_meters.push_back(1.0 / std::sin(angle + 0.3));
   LocalSlamOptions options;
+  EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty()) << "off by default";
+  options.refine_on_middle_beams = true;
   const ScanPoints points = PrepareScanPoints(options, scan);
   ASSERT_EQ(91u, points.all.size());
   EXPECT_EQ(VoxelFilter(points.all, 0.2f), points.matching);
