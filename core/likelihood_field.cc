@@ -209,9 +209,9 @@ void LikelihoodField::Resize(const GridGeometry& g) {
     const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / r));
     const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / r));
     // Only the cells that differ from the default move (the grids hold nothing else).
-    values_.MoveInto(dx, dy, &values);
-    squared_distances_.MoveInto(dx, dy, &squared_distances);
-    published_index_.MoveInto(dx, dy, &published_index);
+    values_.MoveTilesInto(dx, dy, &values);
+    squared_distances_.MoveTilesInto(dx, dy, &squared_distances);
+    published_index_.MoveTilesInto(dx, dy, &published_index);
   }
   geometry_ = g;
   values_ = std::move(values);

@@ -115,16 +115,16 @@ void OccupancyGrid::Resize(const GridGeometry& g) {
   // default move (the tiled layers hold nothing else).
   const int dx = static_cast<int>(std::lround((geometry_.origin().x() - g.origin().x()) / g.resolution_meters()));
   const int dy = static_cast<int>(std::lround((geometry_.origin().y() - g.origin().y()) / g.resolution_meters()));
-  auto moved = [&](const auto& old_layer) {
+  auto moved = [&](auto& old_layer) {
     std::decay_t<decltype(old_layer)> layer(g.width(), g.height(), old_layer.empty());
-    old_layer.MoveInto(dx, dy, &layer);
+    old_layer.MoveTilesInto(dx, dy, &layer);
     return layer;
   };
   TiledGrid<float> log_odds = moved(log_odds_);
   TiledGrid<uint8_t> labels = moved(labels_);
   TiledGrid<uint8_t> height_min = moved(height_min_), height_max = moved(height_max_);
   TiledIndex hit_index(g.width(), g.height());
-  hit_index_.MoveInto(dx, dy, &hit_index);
+  hit_index_.MoveTilesInto(dx, dy, &hit_index);
   if (observed_max_.x >= observed_min_.x) {
     observed_min_ = {observed_min_.x + dx, observed_min_.y + dy};
     observed_max_ = {observed_max_.x + dx, observed_max_.y + dy};

@@ -106,17 +106,14 @@ void LoopCloser::WideSearch(const SubmapGraph& graph, const NodeId& node, double
   travel_since_wide_search_meters_ = 0.0;
   std::optional<WideCandidate> best;
   const double window = std::min(gate_meters, options_.wide_window_meters);
-  // The matchers' tables are the largest buffers of the process (Intel: ~20 MB) and one set per
-  // thread (frontends/scan_matcher.h ReleaseScratch); a table that grows frees its old buffer
-  // first. Freed after a wide search that grew them (wide matches are rare; the standard search
-  // and the front end, which run every node and scan, then grow them back to their own size),
-  // and only then: most wide searches match no submap (ACES: 9 of 115), and freeing the tables
-  // each time made the next scan's search fault them in again (ACES: 230 of 239 releases, ~48%
-  // of the run's page faults).
-  const size_t tables_bytes = wide_matcher_.ScratchBytes();
+  // The wide search grows the matchers' tables (one set per thread, frontends/scan_matcher.h
+  // ReleaseScratch) to its ±8 m window; they are kept until the next solve frees them, as the
+  // standard search's are. Freeing them after each wide search that grew them made the front
+  // end's next search fault its tables in again, at ~11 us a page on this machine's VM (session
+  // 37: without that release, page faults Intel 68 -> 57 thousand, FR079 94 -> 66, MIT CSAIL
+  // 100 -> 66, ACES 84 -> 71; peak RSS +0.5 MiB on Intel, ACES and MIT CSAIL, -0.2 on FR079).
   SearchSubmaps(graph, node, window, std::min(gate_radians, options_.wide_angular_window_radians), gate_meters,
                 gate_radians, options_.wide_min_score, window, nullptr, &best);
-  if (wide_matcher_.ScratchBytes() > tables_bytes) wide_matcher_.ReleaseScratch();
   if (!best.has_value()) return;
   ++stats_.wide_candidates;
   // One wide match may be an alias (a corridor, a repeated room); two matches of different

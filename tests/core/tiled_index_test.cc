@@ -154,5 +154,64 @@ TEST(TiledGridTest, MoveIntoWritesWhatRefCellByCellWouldInTheSameTileOrder) {
   }
 }
 
+// A grid replaced by the moved one: whole-tile shifts hand the tile storage over (no cell is
+// written again), any other shift falls back to MoveInto; either way every cell holds what
+// MoveInto writes, and the source is left empty.
+TEST(TiledGridTest, MoveTilesIntoHoldsWhatMoveIntoWritesAndEmptiesTheSource) {
+  constexpr float kEmpty = -1.f;
+  const int width = 29, height = 19;
+  std::mt19937 rng(12);
+  std::uniform_int_distribution<int> x_of(0, width - 1), y_of(0, height - 1);
+  std::uniform_real_distribution<float> value_of(0.5f, 1.f);
+  TiledGrid<float> grid(width, height, kEmpty);
+  for (int k = 0; k < 120; ++k) grid.Set(x_of(rng), y_of(rng), value_of(rng));
+  for (const auto& [dx, dy] : std::vector<std::pair<int, int>>{{0, 0}, {8, 0}, {0, 16}, {24, 8}, {1, 0}, {7, 3}, {13, 21}}) {
+    TiledGrid<float> expected(width + dx + 9, height + dy + 4, kEmpty);
+    grid.MoveInto(dx, dy, &expected);
+    TiledGrid<float> source = grid;
+    const float* storage = source.TileRow(0, 0) != nullptr ? source.TileRow(0, 0) : nullptr;
+    TiledGrid<float> moved(width + dx + 9, height + dy + 4, kEmpty);
+    source.MoveTilesInto(dx, dy, &moved);
+    EXPECT_EQ(expected.Dense(), moved.Dense()) << dx << ", " << dy;
+    EXPECT_EQ(0, source.num_allocated_tiles());
+    EXPECT_EQ(0u, source.MemoryBytes());
+    const bool whole_tiles = dx % 8 == 0 && dy % 8 == 0;
+    if (whole_tiles && storage != nullptr) {
+      EXPECT_EQ(storage, moved.TileRow(dx, dy)) << "whole tiles: the storage handed over, " << dx << ", " << dy;
+    }
+    if (whole_tiles) EXPECT_EQ(grid.num_allocated_tiles(), moved.num_allocated_tiles());
+    // The moved grid grows on as any other.
+    moved.Set(width + dx + 8, height + dy + 3, 0.25f);
+    EXPECT_EQ(0.25f, moved.Get(width + dx + 8, height + dy + 3));
+    EXPECT_EQ(expected.Get(dx, dy), moved.Get(dx, dy));
+  }
+}
+
+// The tile storage grows by realloc: the values written stay, copies are deep.
+TEST(TileStorageTest, AppendsKeepsWhatWasWrittenAndCopiesDeeply) {
+  TileStorage<int32_t> storage;
+  EXPECT_EQ(0u, storage.size());
+  for (int i = 0; i < 1000; ++i) {
+    storage.Append(64, -1);
+    storage[static_cast<size_t>(i) * 64] = i;
+  }
+  ASSERT_EQ(64000u, storage.size());
+  EXPECT_GE(storage.capacity(), storage.size());
+  TileStorage<int32_t> copy = storage;
+  storage[0] = 77;
+  for (int i = 0; i < 1000; ++i) {
+    EXPECT_EQ(i, copy[static_cast<size_t>(i) * 64]);
+    EXPECT_EQ(-1, copy[static_cast<size_t>(i) * 64 + 63]);
+  }
+  EXPECT_EQ(77, storage[0]);
+  copy.ShrinkToFit();
+  EXPECT_EQ(copy.size(), copy.capacity());
+  TileStorage<int32_t> moved = std::move(copy);
+  EXPECT_EQ(0u, copy.size());  // NOLINT(bugprone-use-after-move): the moved-from state is empty
+  EXPECT_EQ(999, moved[999 * 64]);
+  moved.Free();
+  EXPECT_EQ(0u, moved.capacity());
+}
+
 }  // namespace
 }  // namespace hetslam
