@@ -104,7 +104,7 @@ std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& poi
     }
     return kept;
   }
-  // kMiddle: count each voxel's points, then keep the (n / 2)-th of each on a second pass.
+  // kMiddle: count each voxel's points, then take the middle of each on a second pass.
   std::unordered_map<uint64_t, int> voxel_of_key;  // key -> voxel (order of its first point)
   std::vector<int> voxel_of_point(points.size(), -1);
   std::vector<int> count;
@@ -116,11 +116,18 @@ std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& poi
     voxel_of_point[i] = it->second;
     ++count[it->second];
   }
-  kept.resize(count.size());
+  kept.assign(count.size(), Eigen::Vector2f::Zero());
   std::vector<int> seen(count.size(), 0);
   for (size_t i = 0; i < points.size(); ++i) {
     const int v = voxel_of_point[i];
-    if (v >= 0 && seen[v]++ == count[v] / 2) kept[v] = points[i];
+    if (v < 0) continue;
+    const int index = seen[v]++;
+    const int n = count[v];
+    if (n % 2 == 1) {
+      if (index == n / 2) kept[v] = points[i];
+    } else if (index == n / 2 - 1 || index == n / 2) {
+      kept[v] += 0.5f * points[i];
+    }
   }
   return kept;
 }

@@ -75,7 +75,10 @@ std::vector<Eigen::Vector2f> ScanPointsInRobotFrame(const LaserScan& scan);
 // Which of a voxel's points VoxelFilter keeps, by input (beam) order.
 enum class VoxelPoint {
   kFirst,   // the first
-  kMiddle,  // the (n / 2)-th of its n points (0-based): for an odd n the same whichever way the beams run
+  // The middle of its n points: the (n / 2)-th (0-based) for an odd n, the midpoint of the two
+  // middle ones for an even n. The same point whichever way the beams run; the (n / 2)-th alone
+  // would be the last of two, as one-sided as the first where beams are sparse (two a voxel).
+  kMiddle,
 };
 
 // Keeps one point (`keep`) of every square voxel of side `voxel_size_meters`, so that dense

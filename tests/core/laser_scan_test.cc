@@ -9,11 +9,12 @@
 namespace hetslam {
 namespace {
 
-// Points every centimetre along y = 0.1 from x = 0.005 to 0.995 (five 0.2 m voxels), in
-// increasing x, or in decreasing x (the other direction of the scan's beams).
-std::vector<Eigen::Vector2f> PointsAlongASegment(bool increasing) {
+// Points every `spacing` metres along y = 0.1 from x = spacing / 2 to 1 - spacing / 2 (five 0.2 m
+// voxels), in increasing x, or in decreasing x (the other direction of the scan's beams).
+std::vector<Eigen::Vector2f> PointsAlongASegment(bool increasing, float spacing = 0.01f) {
+  const int n = static_cast<int>(std::lround(1.f / spacing));
   std::vector<Eigen::Vector2f> points;
-  for (int i = 0; i < 100; ++i) points.emplace_back(0.005f + 0.01f * (increasing ? i : 99 - i), 0.1f);
+  for (int i = 0; i < n; ++i) points.emplace_back(spacing * (0.5f + static_cast<float>(increasing ? i : n - 1 - i)), 0.1f);
   return points;
 }
 
@@ -36,7 +37,9 @@ TEST(VoxelFilterTest, KeepsTheFirstOrTheMiddlePointOfEachVoxelInTheOrderOfTheVox
   EXPECT_EQ(points[6], first[2]);
   const std::vector<Eigen::Vector2f> middle = VoxelFilter(points, 0.2f, VoxelPoint::kMiddle);
   ASSERT_EQ(3u, middle.size());
-  EXPECT_EQ(points[3], middle[0]);  // the third (index 2 of 0..3) of the voxel's four
+  const Eigen::Vector2f midpoint = 0.5f * points[2] + 0.5f * points[3];  // of the second and third of four
+  EXPECT_EQ(midpoint, middle[0]);
+  EXPECT_NEAR(0.025f, middle[0].x(), 1e-7f);
   EXPECT_EQ(points[1], middle[1]);
   EXPECT_EQ(points[7], middle[2]);  // the second of three
   EXPECT_TRUE(VoxelFilter({}, 0.2f, VoxelPoint::kMiddle).empty());
@@ -53,9 +56,17 @@ TEST(VoxelFilterTest, TheMiddlePointsDoNotShiftWithTheDirectionOfTheBeams) {
   EXPECT_NEAR(0.595f, first_down, 1e-4f);  // 0.195, 0.395, ... 0.995
   const float middle_up = MeanX(VoxelFilter(PointsAlongASegment(true), 0.2f, VoxelPoint::kMiddle));
   const float middle_down = MeanX(VoxelFilter(PointsAlongASegment(false), 0.2f, VoxelPoint::kMiddle));
-  EXPECT_NEAR(0.5f, middle_up, 0.006f);  // 20 points a voxel: the 11th either way, half a centimetre off
-  EXPECT_NEAR(0.5f, middle_down, 0.006f);
-  EXPECT_LE(std::abs(middle_up - middle_down), 0.0101f);
+  EXPECT_NEAR(0.5f, middle_up, 1e-4f);  // 20 points a voxel: between the 10th and the 11th either way
+  EXPECT_NEAR(0.5f, middle_down, 1e-4f);
+}
+
+// Where beams are sparse, a voxel holds two points: the second of two would be as one-sided as
+// the first (10 cm either way here); their midpoint is not.
+TEST(VoxelFilterTest, TheMiddleOfTwoPointsIsTheirMidpoint) {
+  EXPECT_NEAR(0.45f, MeanX(VoxelFilter(PointsAlongASegment(true, 0.1f), 0.2f)), 1e-4f);   // 0.05, 0.25, ...
+  EXPECT_NEAR(0.55f, MeanX(VoxelFilter(PointsAlongASegment(false, 0.1f), 0.2f)), 1e-4f);  // 0.15, 0.35, ...
+  EXPECT_NEAR(0.5f, MeanX(VoxelFilter(PointsAlongASegment(true, 0.1f), 0.2f, VoxelPoint::kMiddle)), 1e-4f);
+  EXPECT_NEAR(0.5f, MeanX(VoxelFilter(PointsAlongASegment(false, 0.1f), 0.2f, VoxelPoint::kMiddle)), 1e-4f);
 }
 
 }  // namespace
