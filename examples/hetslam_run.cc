@@ -288,14 +288,17 @@ DEFINE_double(densify_max_gap, 0.0, "Join the end points of neighbouring beams c
               "the grid resolution before matching and mapping (0 = off).");
 DEFINE_int32(max_scans, 0, "Process at most this many scans (0 = all).");
 DEFINE_int32(progress_every, 100, "Print progress every N scans (0 = never).");
-DEFINE_int32(malloc_mmap_threshold_kib, 256,
+DEFINE_int32(malloc_mmap_threshold_kib, 1024,
              "glibc: allocations of at least this many KiB get their own pages, returned when freed "
-             "(0 = glibc's own threshold, which grows after a large block is freed).");
-DEFINE_int32(malloc_trim_threshold_kib, 256,
+             "(0 = glibc's own threshold, which grows after a large block is freed). Every page given "
+             "back is faulted in again when used again (~11 us a page on the VM of the README's figures): "
+             "256 took 41-51% more page faults and 10-21% more wall time; glibc's own (both this and "
+             "--malloc_trim_threshold_kib at 0) 40-70% fewer faults and another 3-15% less time, but "
+             "FR079's peak memory up to 29.3 MiB instead of 28.4-28.6 (README, Performance).");
+DEFINE_int32(malloc_trim_threshold_kib, 512,
              "glibc: free memory above this many KiB at the top of the heap is returned to the system "
              "(0 = glibc's own: 128 KiB once the mmap threshold is fixed, which returns and faults in "
-             "again the pages of every finished submap's freed tiles; 1024 faults less, ~1% faster, and "
-             "keeps up to ~0.6 MiB more at the peak).");
+             "again the pages of every finished submap's freed tiles). See --malloc_mmap_threshold_kib.");
 
 namespace hetslam {
 namespace {
