@@ -292,9 +292,10 @@ DEFINE_int32(malloc_mmap_threshold_kib, 1024,
              "glibc: allocations of at least this many KiB get their own pages, returned when freed "
              "(0 = glibc's own threshold, which grows after a large block is freed). Every page given "
              "back is faulted in again when used again (~11 us a page on the VM of the README's figures): "
-             "256 took 41-51% more page faults and 10-21% more wall time; glibc's own (both this and "
-             "--malloc_trim_threshold_kib at 0) 40-70% fewer faults and another 3-15% less time, but "
-             "FR079's peak memory up to 29.3 MiB instead of 28.4-28.6 (README, Performance).");
+             "with 256 (and 256 for --malloc_trim_threshold_kib) the four shared logs took 34-106% more "
+             "page faults and 6-26% more wall time; glibc's own (both flags 0) 42-66% fewer faults and "
+             "another 3-15% less time, but FR079's peak memory up to 29.3 MiB instead of 28.4-28.7 "
+             "(README, Performance: \"Page faults, again\").");
 DEFINE_int32(malloc_trim_threshold_kib, 512,
              "glibc: free memory above this many KiB at the top of the heap is returned to the system "
              "(0 = glibc's own: 128 KiB once the mmap threshold is fixed, which returns and faults in "
