@@ -104,8 +104,9 @@ DEFINE_double(matching_voxel, 0.20, "Thin the points used for scan matching to o
               "so near walls do not outvote far structure (0 = use every point). The map gets every point.");
 DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the first beam of every --matching_voxel voxel; the "
             "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
-            "of the scan only, which turned the pose that way scan after scan: the simulated robots' worst heading "
-            "from their start 0.26-1.13 deg, 0.13-0.79 with this). Off by default: the simulated office loop's "
+            "of the scan only, which turned the pose that way scan after scan: the simulated 2.5D robots' worst "
+            "heading from their start up to 1.13 deg, up to 0.58 with this but the corridor's 0.99). An even "
+            "voxel's middle is the midpoint of its two middle beams. Off by default: the simulated office loop's "
             "corrected trajectory and the corridor's get worse with it (README, Teams).");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");

@@ -113,8 +113,9 @@ DEFINE_double(retire_revisited_share, 0.9, "Each robot's revisits (see hetslam_r
               "longer searched by loop closure or the overlap search, still rendered). In [0, 1]; 0 = off.");
 DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
             "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
-            "of the scan only, which turned the pose that way scan after scan: the simulated robots' worst heading "
-            "from their start 0.26-1.13 deg, 0.13-0.79 with this). Off by default: the simulated office loop's "
+            "of the scan only, which turned the pose that way scan after scan: the simulated 2.5D robots' worst "
+            "heading from their start up to 1.13 deg, up to 0.58 with this but the corridor's 0.99). An even "
+            "voxel's middle is the midpoint of its two middle beams. Off by default: the simulated office loop's "
             "corrected trajectory and the corridor's get worse with it (README, Teams).");
 DEFINE_bool(rematch_first_node, true, "The frame is the body at the first scan: when the first submap is finished, "
             "the first scan is refined against it and the map turned around the first pose to the heading the finished "

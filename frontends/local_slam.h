@@ -62,10 +62,10 @@ struct LocalSlamOptions {
   // pose it finds (and the match's information and score profile) uses each voxel's middle
   // point instead (core/laser_scan.h VoxelPoint::kMiddle): the first point sits at a
   // surface's end on one side of the scan only, and turned the pose towards that side scan
-  // after scan (the simulated 2.5D robots' worst heading from their start over seeds 1-5:
-  // 0.26-1.13 degrees, about half with this; README, Teams). The search itself stays on the first points:
-  // with the middle ones it picked the wrong one of two modes 1.2 m apart along an ACES
-  // corridor (4 m off at the end). Off by default: the simulated office loop's corrected
+  // after scan (the simulated 2.5D robots' worst heading from their start over seeds 1-5: up
+  // to 1.13 degrees, up to 0.58 with this but wheeled_corridor's 0.99; README, Teams). The
+  // search itself stays on the first points: with the middle ones it picked the wrong one of
+  // two modes 1.2 m apart along an ACES corridor (4 m off at the end). Off by default: the simulated office loop's corrected
   // trajectory (not its front end) and wheeled_corridor's are worse with it (README, Teams).
   // Used when the scan carries no matching weights.
   bool refine_on_middle_beams = false;
