@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -26,6 +27,7 @@
 #include "core/trajectory_io.h"
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
+#include "frontends/constraint_truth.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
 #include "merger/team_estimator.h"
@@ -66,6 +68,10 @@ DEFINE_int32(link_min_matches, 2, "Agreeing scan matches a tag link needs before
 DEFINE_bool(more_constraints, true, "After two robots share a frame, search more inter-robot constraints by scan "
             "matching where their trajectories come close (the paper's second constraint, §V-B).");
 DEFINE_double(inter_min_score, 0.5, "Minimum mean likelihood of a scan match between robots already in one frame.");
+DEFINE_double(min_profile_drop_ratio, 0.1,
+              "A scan match between robots whose score drops along its flattest direction by less than this fraction "
+              "of its drop along the steepest slides (a door, a corridor): it does not refine a tag link, and as a "
+              "further inter-robot constraint it weighs little along that direction. 0 turns the test off.");
 DEFINE_double(second_constraint_min_distance, 3.0, "The second constraint of a robot pair lies at least this many "
               "metres from its first link.");
 DEFINE_int32(tag_min_votes, 2, "Sightings at one place of a robot's map that must report the same tag id before that "
@@ -178,6 +184,7 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->overlap_confirm_seconds = FLAGS_overlap_confirm_seconds;
   team->overlap_confirm_new_nodes = FLAGS_overlap_confirm_new_nodes;
   team->inter_min_score = FLAGS_inter_min_score;
+  team->min_profile_drop_ratio = FLAGS_min_profile_drop_ratio;
   team->second_constraint_min_distance_meters = FLAGS_second_constraint_min_distance;
   team->tag_min_separation_meters = FLAGS_tag_min_separation;
   team->graph.map_min_hit_share = FLAGS_map_min_hit_share;
@@ -503,6 +510,37 @@ int Run() {
                   drift.final_translation_meters, drift.final_rotation_degrees, drift.max_translation_meters,
                   drift.max_translation_stamp_seconds, drift.max_rotation_degrees, drift.max_rotation_stamp_seconds);
     }
+    // Each constraint's match against the truth, with the trajectories taken out (the submap placed
+    // by its own nodes' truth): what the matches got wrong, apart from the robots' drift.
+    std::map<int, std::vector<StampedPose2>> truth_by_robot;
+    std::vector<std::string> names;
+    for (int r = 0; r < team.num_robots(); ++r) {
+      truth_by_robot[r] = robots[r].log.truth;
+      names.push_back(robots[r].name);
+    }
+    const std::vector<ConstraintTruthError> constraint_errors = ConstraintTruthErrors(team.graph(), truth_by_robot);
+    for (int a = 0; a < team.num_robots(); ++a) {
+      for (int b = 0; b < team.num_robots(); ++b) {
+        std::vector<ConstraintTruthError> kept;
+        for (const ConstraintTruthError& e : constraint_errors) {
+          if (!e.removed && e.submap.robot == a && e.node.robot == b) kept.push_back(e);
+        }
+        if (kept.empty()) continue;
+        const ConstraintTruthSummary c = SummarizeConstraintTruth(kept);
+        const std::string what = a == b ? robots[a].name + " loop closures"
+                                        : robots[b].name + " nodes in " + robots[a].name + "'s submaps";
+        std::printf("truth: %s against the truth (each submap placed by its own nodes' truth): %d, median %.3f m / "
+                    "%.2f deg, max %.3f m / %.2f deg, mean signed rotation %+.3f deg\n",
+                    what.c_str(), c.count, c.median_translation_meters, c.median_rotation_degrees,
+                    c.max_translation_meters, c.max_rotation_degrees, c.mean_signed_rotation_degrees);
+      }
+    }
+    if (const Status status = WriteConstraintTruthErrors((std::filesystem::path(FLAGS_out) / "constraints_truth.txt").string(),
+                                                         constraint_errors, names);
+        !status.ok()) {
+      std::cerr << "hetslam_team: " << status.message() << "\n";
+      return 1;
+    }
     for (int i = 0; i < team.num_robots(); ++i) {
       for (int j = i + 1; j < team.num_robots(); ++j) {
         Pose2 i_T_j;
@@ -542,8 +580,8 @@ int Run() {
     }
   }
   std::printf("wrote %s/{<robot>/trajectory.txt, <robot>/map.pgm, merged_map.pgm, merged_map.png, constraints.txt, "
-              "frames.txt}\n",
-              FLAGS_out.c_str());
+              "frames.txt%s}\n",
+              FLAGS_out.c_str(), have_truth ? ", constraints_truth.txt" : "");
   return 0;
 }
 
@@ -559,7 +597,8 @@ int main(int argc, char** argv) {
       "relative pose error. Writes OUT/<robot>/trajectory.txt (t x y theta, frame of the manifest's first robot;\n"
       "OUT/frames.txt flags a robot that never merged: it keeps its own frame), OUT/<robot>/map.pgm + .yaml,\n"
       "OUT/merged_map.pgm + .yaml + .png and OUT/constraints.txt (every inter-robot constraint, accepted or\n"
-      "rejected, and why).");
+      "rejected, and why); with TRUTH also OUT/constraints_truth.txt (each loop closure and inter-robot constraint\n"
+      "against the truth, its submap placed by its own nodes' truth: the matches' own error, drift taken out).");
   hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, true);
   google::InitGoogleLogging(argv[0]);

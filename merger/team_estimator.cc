@@ -99,6 +99,11 @@ bool Within(const Pose2& difference, double meters, double radians) {
 
 }  // namespace
 
+bool MatchSlides(const ScanMatchResult& match, double min_profile_drop_ratio) {
+  return min_profile_drop_ratio > 0 && match.strong_direction_score_drop > 0 &&
+         match.weak_direction_score_drop < min_profile_drop_ratio * match.strong_direction_score_drop;
+}
+
 bool InsideSearchWindow(const Pose2& correction, double linear_window, double angular_window, double cell_meters) {
   const double border = linear_window - std::min(0.5 * linear_window, cell_meters);
   return correction.translation().cwiseAbs().maxCoeff() <= border && std::abs(correction.theta()) <= angular_window;
@@ -179,8 +184,8 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   if (min_agreeing_submaps < 1 || min_agreeing_submaps > max_submaps_per_match)
     msg << "min_agreeing_submaps must be in [1, max_submaps_per_match]; ";
   if (!(submap_agreement_meters > 0 && submap_agreement_radians > 0 && min_information_ratio >= 0 &&
-        min_information_ratio <= 1))
-    msg << "submap agreement bounds must be > 0, min_information_ratio in [0, 1]; ";
+        min_information_ratio <= 1 && min_profile_drop_ratio >= 0 && min_profile_drop_ratio <= 1))
+    msg << "submap agreement bounds must be > 0, min_information_ratio and min_profile_drop_ratio in [0, 1]; ";
   if (!overlap_matcher.IsValid(&sub)) msg << "overlap_matcher: " << sub;
   if (!(overlap_node_spacing_meters > 0 && overlap_submap_spacing_meters >= 0 && overlap_max_window_meters > 0 &&
         overlap_max_window_meters <= 50 && overlap_agreement_meters > 0 && overlap_agreement_radians > 0 &&
@@ -521,7 +526,9 @@ bool TeamEstimator::TryLink(double stamp_seconds, int a, int b, int tag_id, cons
       const std::optional<ConstraintCandidate> found =
           MatchNodeAgainstRobot(node, other, predicted.robot1_T_robot2, linear, angular, options_.link_min_score, &covered);
       any_submap = any_submap || covered;
-      if (!found.has_value()) continue;
+      // A match that slides places the node anywhere along its flat direction: it cannot
+      // confirm the tag's relative pose there.
+      if (!found.has_value() || found->weak_direction.squaredNorm() > 0) continue;
       // other_T_seer implied by the match.
       const Pose2 other_T_seer = graph_->SubmapPose(found->submap) * found->submap_T_node * seer_T_node.inverse();
       Match match;
@@ -697,6 +704,9 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
     if (!match.converged || match.score < min_score) continue;
     // A scan that pins the pose in one direction only (one wall, a corridor) slides along the other.
     if (ratio < options_.min_information_ratio) continue;
+    // One that passes that test may still slide (a door, a corridor: J^T J holds mostly the
+    // walls' noise); its score profile says so.
+    const bool slides = MatchSlides(match, options_.min_profile_drop_ratio);
     // The window's border: the peak may lie outside it (team_three seed 3: rover nodes matched
     // 0.30 m off in a 0.30 m window, against five agreeing constraints, pulled the drone 2 cm).
     if (!InsideSearchWindow(Between(predicted, match.pose), linear_window, angular_window,
@@ -704,6 +714,13 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
       continue;
     }
     found.push_back(InterRobotCandidate(submap, node, match.pose, match.score));
+    if (slides) {
+      // Kept, but weighed little along the flat direction (as the loop closer's degenerate
+      // closures: SubmapGraph), continuous at the threshold.
+      found.back().weak_direction = match.weak_direction;
+      found.back().weak_information_fraction = std::max(0.0, match.weak_direction_score_drop) /
+                                                (options_.min_profile_drop_ratio * match.strong_direction_score_drop);
+    }
     robot_T_matched.push_back(graph_->SubmapPose(submap) * match.pose);
   }
   // A well-constrained scan lands at the same place in every submap of the teammate that sees

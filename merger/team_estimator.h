@@ -190,6 +190,17 @@ struct TeamEstimatorOptions {
   // one and all of them put the node at the same pose (in the teammate's frame) within
   // submap_agreement_*: a scan that slides lands wherever each submap's partial view pulls it.
   double min_information_ratio = 0.15;
+  // A match whose score profile drops along its flattest direction by less than this fraction
+  // of the drop along its steepest one slides (MatchSlides; LoopCloserOptions::
+  // degenerate_max_drop_ratio's test): in a door or a corridor J^T J holds mostly the walls'
+  // noise and can pass min_information_ratio while the match slides (team_three seeds 2 and 5:
+  // drone nodes in a door placed 0.19-0.20 m off along it in the nao's submaps, weak drops
+  // 0.001-0.006 against strong 0.29-0.33). Such a match does not refine a tag link; as a
+  // further inter-robot constraint it is kept with little information along the flat
+  // direction (ConstraintCandidate::weak_direction, as the loop closer's degenerate closures;
+  // dropped instead, team_overlap's final pose got 1 cm worse: those were right across it).
+  // 0: off.
+  double min_profile_drop_ratio = 0.1;
   int min_agreeing_submaps = 2;
   double submap_agreement_meters = 0.1;
   double submap_agreement_radians = 1.0 * M_PI / 180.0;
@@ -252,6 +263,13 @@ enum class TeamConstraintKind {
 };
 // "tag_eq4", "tag_scan_match", "scan_match", "map_overlap"
 const char* TeamConstraintKindName(TeamConstraintKind kind);
+
+// Whether a match slides: its score profile drops along its flattest direction by less than
+// `min_profile_drop_ratio` of its drop along the steepest (ScanMatchResult::weak_direction_score_drop,
+// strong_direction_score_drop), as in a corridor or a door (the weak drop can be negative: the
+// refined pose is not the best along that direction); a match without a profile (no refinement)
+// never slides, nor any with a ratio of 0. TeamEstimatorOptions::min_profile_drop_ratio.
+bool MatchSlides(const ScanMatchResult& match, double min_profile_drop_ratio);
 
 // Whether a match's correction (its pose relative to the prediction the search was centred on)
 // is one to keep: within `angular_window`, and translated at most `linear_window` less a margin
