@@ -194,8 +194,8 @@ struct TeamEstimatorOptions {
   // of the drop along its steepest one slides (MatchSlides; LoopCloserOptions::
   // degenerate_max_drop_ratio's test): in a door or a corridor J^T J holds mostly the walls'
   // noise and can pass min_information_ratio while the match slides (team_three seeds 2 and 5:
-  // drone nodes in a door placed 0.19-0.20 m off along it in the nao's submaps, weak drops
-  // 0.001-0.006 against strong 0.29-0.33). Such a match does not refine a tag link; as a
+  // drone nodes in a door placed 0.07-0.20 m off along it in the nao's submaps, weak drops
+  // -0.017 to 0.006 against strong 0.29-0.39). Such a match does not refine a tag link; as a
   // further inter-robot constraint it is kept with little information along the flat
   // direction (ConstraintCandidate::weak_direction, as the loop closer's degenerate closures;
   // dropped instead, team_overlap's final pose got 1 cm worse: those were right across it).

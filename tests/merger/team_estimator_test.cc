@@ -476,7 +476,7 @@ ScanMatchResult TeamMatchIn(const sim::World& world, const Pose2& truth) {
 
 // A match in a corridor slides along it (its profile is flat there: it refines no tag link and,
 // as a constraint, weighs little along the corridor); one in a room with a box pins every
-// direction. (team_three seeds 2 and 5: drone scans in a door, 0.19-0.20 m off along it in the
+// direction. (team_three seeds 2 and 5: drone scans in a door, 0.07-0.20 m off along it in the
 // nao's submaps, passed the information-ratio test.)
 TEST(TeamEstimatorTest, AMatchInACorridorSlidesOneInARoomDoesNot) {
   sim::World corridor;
