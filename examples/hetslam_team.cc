@@ -117,6 +117,10 @@ DEFINE_double(max_map_store_mib, 0.0, "Each robot's map store bound (see hetslam
 DEFINE_double(retire_revisited_share, 0.9, "Each robot's revisits (see hetslam_run --help): a finished submap whose "
               "occupied cells its robot's earlier submaps cover to at least this share is retired (its map freed, no "
               "longer searched by loop closure or the overlap search, still rendered). In [0, 1]; 0 = off.");
+DEFINE_bool(refine_on_all_points, false, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
+            "refinement of its pose (front ends, loop closures and inter-robot matches) uses every beam (a voxel's "
+            "first beam lies nearest the side the sweep enters by, which turned each robot's front end +0.04 to "
+            "+2.25 deg a run). Off by default (hetslam_run --help). Takes precedence over --refine_on_middle_beams.");
 DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
             "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
             "of the scan only, which turned the pose that way scan after scan: the simulated 2.5D robots' worst "
@@ -202,6 +206,9 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   robot->attach_revisits = FLAGS_attach_revisits;
   robot->rematch_first_node = FLAGS_rematch_first_node;
   robot->local.refine_on_middle_beams = FLAGS_refine_on_middle_beams;
+  robot->local.refine_on_all_points = FLAGS_refine_on_all_points;
+  robot->loop.refine_on_all_points = FLAGS_refine_on_all_points;
+  team->refine_on_all_points = FLAGS_refine_on_all_points;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;
   if (!team->IsValid(&invalid)) return (*error = "bad flag value: " + invalid), false;

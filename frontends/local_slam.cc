@@ -143,7 +143,9 @@ int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map,
   if (2 * matching.size() < points->matching.size()) return 0;
   points->matching = std::move(matching);
   if (!points->refinement.empty()) {
-    points->refinement = VoxelFilter(kept, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+    points->refinement = options.refine_on_all_points
+                             ? std::move(kept)
+                             : VoxelFilter(kept, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
   }
   return left_out;
 }
@@ -169,7 +171,9 @@ int AddFloorObstaclesOnMappedStructure(const LocalSlamOptions& options, const La
     std::vector<Eigen::Vector2f> refinement = std::move(points->refinement);
     refinement.insert(refinement.end(), on_structure.begin(), on_structure.end());
     points->refinement =
-        VoxelFilter(refinement, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+        options.refine_on_all_points
+            ? std::move(refinement)
+            : VoxelFilter(refinement, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
   }
   return static_cast<int>(on_structure.size());
 }
@@ -419,8 +423,13 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   points.matching = options.matching_voxel_meters > 0
                         ? VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters))
                         : points.all;
-  if (options.refine_on_middle_beams && options.matching_voxel_meters > 0 && !points.matching.empty()) {
-    points.refinement = VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+  if (options.matching_voxel_meters > 0 && !points.matching.empty()) {
+    if (options.refine_on_all_points) {
+      points.refinement = points.all;
+    } else if (options.refine_on_middle_beams) {
+      points.refinement =
+          VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+    }
   }
   points.sensor_robot = scan.robot_T_sensor.translation().head<2>();
   points.attitude = body;

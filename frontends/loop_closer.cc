@@ -145,7 +145,7 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
                                double margin_meters, std::vector<ConstraintCandidate>* closures,
                                std::optional<WideCandidate>* wide_best) {
   const Pose2 robot_T_node = graph.NodePose(node);
-  const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints(node);
+  const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints(node, options_.refine_on_all_points);
   const std::vector<Eigen::Vector2f>& points = matching.points;
   const std::vector<float>& weights = matching.weights;
   const int num_submaps = graph.num_submaps(node.robot);
@@ -234,8 +234,9 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     const ScanMatcher& matcher = wide_best != nullptr ? wide_matcher_ : matcher_;
     ++(wide_best != nullptr ? stats_.wide_searches : stats_.searches);
     const Gate& gate = candidate.gate;
-    const ScanMatchResult match = matcher.MatchWithinWindow(*map, predicted, points, gate.linear_window,
-                                                            gate.angular_window, weights, min_score);
+    const ScanMatchResult match =
+        matcher.MatchWithinWindow(*map, predicted, points, gate.linear_window, gate.angular_window, weights, min_score,
+                                  matching.all.empty() ? nullptr : &matching.all);
     if (!match.converged || match.score < min_score) continue;
     const Pose2 correction = Between(predicted, match.pose);
     if (correction.translation().norm() > gate.meters || std::abs(correction.theta()) > gate.radians) {

@@ -683,7 +683,7 @@ bool SubmapGraph::SetAnchorEstimate(int robot_id, const Pose2& world_T_robot) {
 
 double SubmapGraph::NodeStamp(const NodeId& node) const { return robots_.at(node.robot).nodes.at(node.index).stamp_seconds; }
 
-SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) const {
+SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id, bool with_all_points) const {
   const Node& node = robots_.at(id.robot).nodes.at(id.index);
   MatchingPoints matching;
   if (node.host >= 0) return matching;  // released (AttachRevisits)
@@ -700,6 +700,7 @@ SubmapGraph::MatchingPoints SubmapGraph::NodeMatchingPoints(const NodeId& id) co
     for (size_t k = 0; k < all.size(); ++k) {
       if ((scan.matching_mask[k / 64] >> (k % 64)) & 1u) matching.points.push_back(all[k]);
     }
+    if (with_all_points && matching.weights.empty()) matching.all = std::move(all);
   }
   return matching;
 }

@@ -211,8 +211,12 @@ class SubmapGraph {
   struct MatchingPoints {
     std::vector<Eigen::Vector2f> points;
     std::vector<float> weights;
+    // With `with_all_points`: every point the matching points were thinned from (a refinement's
+    // points, LocalSlamOptions::refine_on_all_points); empty when the node has matching weights
+    // or matching points that are not a subset of its points.
+    std::vector<Eigen::Vector2f> all;
   };
-  MatchingPoints NodeMatchingPoints(const NodeId& node) const;
+  MatchingPoints NodeMatchingPoints(const NodeId& node, bool with_all_points = false) const;
   const Pose2& NodeLocalPose(const NodeId& node) const;
   // A finished submap's map (null while it is active, and once evicted) and the box of its
   // nodes' positions in its own frame; the index of the last node inserted into it.

@@ -668,7 +668,7 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
                                                                         const Pose2& submap_robot_T_node,
                                                                         double linear_window, double angular_window,
                                                                         double min_score, bool* covered) {
-  const SubmapGraph::MatchingPoints matching = graph_->NodeMatchingPoints(node);
+  const SubmapGraph::MatchingPoints matching = graph_->NodeMatchingPoints(node, options_.refine_on_all_points);
   if (matching.points.empty()) return std::nullopt;
   // Candidate submaps: finished, near (the box of their nodes grown by submap_margin_meters), and
   // seeing most of what the node sees (the share of its points on known cells at the estimate).
@@ -694,9 +694,9 @@ std::optional<ConstraintCandidate> TeamEstimator::MatchNodeAgainstRobot(const No
   for (const auto& [negative_overlap, s] : candidates) {
     const SubmapId submap{submap_robot, s};
     const Pose2 predicted = graph_->SubmapPose(submap).inverse() * submap_robot_T_node;
-    const ScanMatchResult match = matcher_.MatchWithinWindow(*graph_->FinishedSubmapMap(submap), predicted,
-                                                             matching.points, linear_window, angular_window,
-                                                             matching.weights);
+    const ScanMatchResult match =
+        matcher_.MatchWithinWindow(*graph_->FinishedSubmapMap(submap), predicted, matching.points, linear_window,
+                                   angular_window, matching.weights, 0.0, matching.all.empty() ? nullptr : &matching.all);
     const double ratio = TranslationalInformationRatio(match.information);
     VLOG(2) << "match robot " << node.robot << " node " << node.index << " in robot " << submap_robot << " submap " << s
             << " (overlap " << -negative_overlap << "): converged " << match.converged << " score " << match.score
@@ -802,7 +802,7 @@ void TeamEstimator::MatchOverlaps(int a, int b) {
         ++stats_.overlap_matches;
         const NodeId node{q, node_index};
         const SubmapId submap{p, submap_index};
-        const SubmapGraph::MatchingPoints matching = graph_->NodeMatchingPoints(node);
+        const SubmapGraph::MatchingPoints matching = graph_->NodeMatchingPoints(node, options_.refine_on_all_points);
         const LaserMap* evictable = graph_->FinishedSubmapMap(submap);
         if (evictable == nullptr) continue;  // evicted from a bounded map store
         const LaserMap& map = *evictable;
@@ -812,8 +812,9 @@ void TeamEstimator::MatchOverlaps(int a, int b) {
         const Eigen::Vector2d hi = grid.geometry().CellCenter(grid.observed_max());
         const double window = std::min(options_.overlap_max_window_meters, 0.5 * (hi - lo).maxCoeff());
         if (!(window > 0)) continue;
-        const ScanMatchResult match = overlap_matcher_.MatchWithinWindow(
-            map, Pose2(0.5 * (lo + hi), 0.0), matching.points, window, M_PI, matching.weights);
+        const ScanMatchResult match =
+            overlap_matcher_.MatchWithinWindow(map, Pose2(0.5 * (lo + hi), 0.0), matching.points, window, M_PI,
+                                               matching.weights, 0.0, matching.all.empty() ? nullptr : &matching.all);
         if (!match.converged || match.score < options_.overlap_min_score) continue;
         // A scan that fits elsewhere in the submap about as well (a symmetric room) says nothing.
         if (match.correlative_score - match.second_mode_correlative_score < options_.overlap_min_mode_margin) continue;

@@ -704,6 +704,14 @@ TEST(PrepareScanPointsTest, TheRefinementTakesEachMatchingVoxelsMiddleBeam) {
   options.refine_on_middle_beams = true;
   options.matching_voxel_meters = 0.0;
   EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty());
+  // refine_on_all_points: every point, before the middle beams.
+  options.matching_voxel_meters = 0.2;
+  options.refine_on_all_points = true;
+  const ScanPoints every = PrepareScanPoints(options, scan);
+  EXPECT_EQ(every.all, every.refinement);
+  EXPECT_EQ(VoxelFilter(every.all, 0.2f), every.matching);
+  options.matching_voxel_meters = 0.0;
+  EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty()) << "without voxels: the matching points";
 }
 
 TEST(DegeneracyAwarePoseTest, KeepsThePredictionAlongTheWeakDirectionOnly) {

@@ -4,6 +4,7 @@
 #include <random>
 
 #include "core/laser_map.h"
+#include "core/laser_scan.h"
 #include "datasets/sim/world.h"
 #include "gtest/gtest.h"
 #include "tests/frontends/sim_fixtures.h"
@@ -455,6 +456,16 @@ TEST(ScanMatcherRefinementPointsTest, TheRefinementUsesItsOwnPointsAndTheScoreTh
   const ScanMatchResult through_match = matcher.Match(map, predicted, scan, {}, true, &ahead);
   ASSERT_TRUE(through_match.converged) << through_match.message;
   EXPECT_NEAR(back.x(), through_match.pose.x(), 0.01) << through_match.pose;
+  // More refinement points than searched ones (refine_on_all_points): the information is a
+  // mean over the points (factors/scan_cost.h: 1/sqrt(N)), so its scale does not grow with
+  // them. Each point twice: the same pose and information.
+  std::vector<Eigen::Vector2f> twice = scan;
+  twice.insert(twice.end(), scan.begin(), scan.end());
+  const ScanMatchResult doubled = matcher.MatchWithinWindow(map, predicted, scan, 0.3, 0.2, {}, 0.0, &twice);
+  ASSERT_TRUE(doubled.converged) << doubled.message;
+  EXPECT_NEAR(0.0, (doubled.pose.ToVector() - plain.pose.ToVector()).norm(), 1e-4) << doubled.pose;
+  EXPECT_LT((doubled.information - plain.information).norm(), 1e-3 * plain.information.norm())
+      << doubled.information << "\nagainst\n" << plain.information;
 }
 
 // The second mode: in a bare rectangular room a scan fits its half-turn about the room's centre
@@ -725,6 +736,63 @@ TEST(ScanMatcherOptionsTest, RejectsBadValues) {
   options.max_ceres_iterations = -1;
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("max_ceres_iterations"));
+}
+
+// Each voxel's first point turns a match: of the beams whose end points fall in a voxel, the
+// first in scan order is more often one whose range noise carried it in across the voxel's
+// side the scan enters by, so the first points lie off the surfaces by an error whose sign
+// goes with the scan's direction. Matches refined on them turn one way on average
+// (LocalSlamOptions::refine_on_all_points: the simulated robots' front ends turned +0.04 to
+// +2.3 degrees a run); refined on every point, they do not. Sixty scans, each at its own pose
+// in a room with a pillar, matched against a map of noisy scans; the mean heading error of
+// each way, and the information on all points scaled back to the searched points' count.
+TEST(ScanMatcherRefinementPointsTest, EveryPointRefinesWithoutTheFirstPointsTurn) {
+  const sim::World world = RoomWithPillar();
+  std::mt19937 rng(7);
+  // 1440 beams (0.25 degrees, as fine as the simulated robots' lasers), 1 cm range noise.
+  const auto fine_scan = [&world, &rng](const Pose2& world_T_robot) {
+    std::normal_distribution<double> noise(0.0, 0.01);
+    std::vector<Eigen::Vector2f> points;
+    for (int i = 0; i < 1440; ++i) {
+      const double angle = -M_PI + i * M_PI / 720.0;
+      double range = 0.0;
+      if (!world.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, 20.0, &range)) continue;
+      const double r = range + noise(rng);
+      points.emplace_back(static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle)));
+    }
+    return points;
+  };
+  LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+  for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
+    map.InsertScan(pose, Eigen::Vector2d::Zero(), fine_scan(pose));
+  }
+  const ScanMatcher matcher{ScanMatcherOptions()};
+  std::uniform_real_distribution<double> position(-0.8, 0.8), heading(-M_PI, M_PI);
+  double first_sum = 0.0, last_sum = 0.0, all_sum = 0.0;
+  int n = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Pose2 truth(position(rng), 0.5 * position(rng), heading(rng));
+    const std::vector<Eigen::Vector2f> scan = fine_scan(truth);
+    const std::vector<Eigen::Vector2f> voxels = VoxelFilter(scan, 0.2f);
+    const std::vector<Eigen::Vector2f> reversed(scan.rbegin(), scan.rend());
+    const std::vector<Eigen::Vector2f> last_voxels = VoxelFilter(reversed, 0.2f);
+    const Pose2 predicted = truth * Pose2(0.03, -0.02, 0.01);
+    const ScanMatchResult first = matcher.MatchWithinWindow(map, predicted, voxels, 0.3, 0.2);
+    const ScanMatchResult last = matcher.MatchWithinWindow(map, predicted, last_voxels, 0.3, 0.2);
+    const ScanMatchResult all = matcher.MatchWithinWindow(map, predicted, voxels, 0.3, 0.2, {}, 0.0, &scan);
+    ASSERT_TRUE(first.converged && all.converged) << first.message << all.message;
+    first_sum += WrapAngle(first.pose.theta() - truth.theta());
+    last_sum += WrapAngle(last.pose.theta() - truth.theta());
+    all_sum += WrapAngle(all.pose.theta() - truth.theta());
+    ++n;
+  }
+  const double degree = M_PI / 180.0;
+  const double first_mean = first_sum / n / degree, last_mean = last_sum / n / degree, all_mean = all_sum / n / degree;
+  // Measured: first +0.042, last -0.068, every point -0.009 degrees.
+  EXPECT_GT(first_mean, 0.02);
+  EXPECT_LT(last_mean, -0.02);
+  EXPECT_LT(std::abs(all_mean), 0.25 * (first_mean - last_mean))
+      << "first " << first_mean << ", last " << last_mean << ", every point " << all_mean << " deg";
 }
 
 }  // namespace

@@ -154,10 +154,12 @@ TEST(SubmapGraphTest, RevisingTheFirstNodeMovesTheRobotAroundIt) {
 // them in order (the voxel filter's output), and as they are otherwise; either way
 // NodeMatchingPoints gives back exactly what the LocalResult held, weights included.
 // Node points are kept to the millimetre in 16 bits when every one is within 32.7 m of the
-// robot (node 3: one point 40 m away, so its points are kept as they are).
+// robot (node 3: one point 40 m away, so its points are kept as they are). Asked for, every
+// point the matching points were thinned from comes along (LocalSlamOptions::
+// refine_on_all_points), but not for matching points with weights or not a subset.
 TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsToTheMillimetre) {
   SubmapGraph graph{SubmapGraphOptions()};
-  std::vector<std::vector<Eigen::Vector2f>> given;
+  std::vector<std::vector<Eigen::Vector2f>> given, given_all;
   std::vector<std::vector<float>> given_weights;
   for (int i = 0; i < 4; ++i) {
     LocalResult result;
@@ -185,10 +187,24 @@ TEST(SubmapGraphTest, NodeMatchingPointsAreTheLocalResultsToTheMillimetre) {
     }
     given.push_back(result.points.matching);
     given_weights.push_back(result.points.matching_weights);
+    given_all.push_back(result.points.all);
     graph.AddNode(0, std::move(result));
   }
   for (int i = 0; i < 4; ++i) {
     const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints({0, i});
+    EXPECT_TRUE(matching.all.empty()) << "node " << i << ": not asked for";
+    const SubmapGraph::MatchingPoints with_all = graph.NodeMatchingPoints({0, i}, true);
+    EXPECT_EQ(matching.points, with_all.points) << "node " << i;
+    EXPECT_EQ(matching.weights, with_all.weights) << "node " << i;
+    if (i == 1 || i == 2) {
+      EXPECT_TRUE(with_all.all.empty()) << "node " << i << ": weights, or not a subset";
+    } else {
+      ASSERT_EQ(given_all[i].size(), with_all.all.size()) << "node " << i;
+      for (size_t k = 0; k < given_all[i].size(); ++k) {
+        EXPECT_LE((given_all[i][k] - with_all.all[k]).cwiseAbs().maxCoeff(), 0.0005f + 1e-6f)
+            << "node " << i << " point " << k;
+      }
+    }
     EXPECT_EQ(given_weights[i], matching.weights) << "node " << i;
     ASSERT_EQ(given[i].size(), matching.points.size()) << "node " << i;
     if (i >= 2) {
