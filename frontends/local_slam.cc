@@ -123,6 +123,14 @@ bool RunsIntoUnobservedGround(const LaserMap& map, const Pose2& world_T_robot, c
   return false;
 }
 
+// The refinement's points from the points the matching ones were thinned from
+// (LocalSlamOptions::refine_on_all_points: all of them; refine_on_middle_beams: each matching
+// voxel's middle point).
+std::vector<Eigen::Vector2f> RefinementPoints(const LocalSlamOptions& options, std::vector<Eigen::Vector2f> points) {
+  if (options.refine_on_all_points) return points;
+  return VoxelFilter(points, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+}
+
 int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
                            ScanPoints* points) {
   if (options.frontier_margin_meters <= 0 || map.num_scans_inserted() == 0) return 0;
@@ -143,9 +151,7 @@ int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map,
   if (2 * matching.size() < points->matching.size()) return 0;
   points->matching = std::move(matching);
   if (!points->refinement.empty()) {
-    points->refinement = options.refine_on_all_points
-                             ? std::move(kept)
-                             : VoxelFilter(kept, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+    points->refinement = RefinementPoints(options, std::move(kept));
   }
   return left_out;
 }
@@ -170,10 +176,7 @@ int AddFloorObstaclesOnMappedStructure(const LocalSlamOptions& options, const La
   if (!points->refinement.empty()) {
     std::vector<Eigen::Vector2f> refinement = std::move(points->refinement);
     refinement.insert(refinement.end(), on_structure.begin(), on_structure.end());
-    points->refinement =
-        options.refine_on_all_points
-            ? std::move(refinement)
-            : VoxelFilter(refinement, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+    points->refinement = RefinementPoints(options, std::move(refinement));
   }
   return static_cast<int>(on_structure.size());
 }
@@ -423,13 +426,9 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   points.matching = options.matching_voxel_meters > 0
                         ? VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters))
                         : points.all;
-  if (options.matching_voxel_meters > 0 && !points.matching.empty()) {
-    if (options.refine_on_all_points) {
-      points.refinement = points.all;
-    } else if (options.refine_on_middle_beams) {
-      points.refinement =
-          VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
-    }
+  if ((options.refine_on_all_points || options.refine_on_middle_beams) && options.matching_voxel_meters > 0 &&
+      !points.matching.empty()) {
+    points.refinement = RefinementPoints(options, points.all);
   }
   points.sensor_robot = scan.robot_T_sensor.translation().head<2>();
   points.attitude = body;
