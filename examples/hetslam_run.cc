@@ -257,6 +257,11 @@ DEFINE_bool(spawn_on_second_mode, true, "Also spawn particles when a wide search
 DEFINE_double(sideslip_sigma, 0.1, "Without a motion source, while several particles live: standard deviation (metres) "
               "of a robot's sideways slide between scans in the particles' weights (a robot drives and turns; it does "
               "not slide sideways). 0 = off (a holonomic robot), which also stops --spawn_on_second_mode.");
+DEFINE_double(speed_change_sigma, 0.3, "Without a motion source: standard deviation (m/s) of the change of a robot's "
+              "speed from one scan-to-scan motion to the next, in the particles' weights (with --sideslip_sigma) and "
+              "where a scan fits two places along the direction of travel that no particle follows: the scan goes on "
+              "at the place this motion model and the scan's likelihood favour (a corridor's length: there the wrong "
+              "place is where the scan before was taken). 0 = off: the better-scoring place.");
 DEFINE_double(second_mode_exclusion, 0.5, "See --spawn_on_second_mode (metres, > 0).");
 DEFINE_double(second_mode_exclusion_deg, 20.0, "See --spawn_on_second_mode (degrees, > 0).");
 DEFINE_double(second_mode_score_ratio, 0.9, "See --spawn_on_second_mode, in (0, 1].");
@@ -370,6 +375,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"second_mode_exclusion_meters", "--second_mode_exclusion"},
       {"second_mode_score_ratio", "--second_mode_score_ratio"},
       {"sideslip_sigma_meters", "--sideslip_sigma"},
+      {"speed_change_sigma_mps", "--speed_change_sigma"},
       {"max_ceres_iterations", "--refine_max_iterations"},
       {"refine_function_tolerance", "--refine_function_tolerance"},
       {"max_submaps_per_search", "--loop_max_submaps"},
@@ -476,6 +482,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->particles.second_mode_exclusion_radians = FLAGS_second_mode_exclusion_deg * M_PI / 180.0;
   estimator->particles.second_mode_score_ratio = FLAGS_second_mode_score_ratio;
   estimator->particles.sideslip_sigma_meters = FLAGS_sideslip_sigma;
+  estimator->particles.speed_change_sigma_mps = FLAGS_speed_change_sigma;
   estimator->use_odometry = FLAGS_use_odometry;
   estimator->use_commands = FLAGS_use_commands && !FLAGS_use_odometry;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &estimator->attitude_source) ||
@@ -645,9 +652,11 @@ std::string Summary(const OnlineEstimator& estimator) {
     std::snprintf(line, sizeof(line),
                   "particles: %d scans fit two places alike (a second mode of at least --second_mode_score_ratio "
                   "of the best, distinct when matched again) that no particle followed: neither slides the robot "
-                  "sideways, which is what the motion model weighs (two places along a corridor's length); each "
-                  "went on at the better-scoring place, a guess where they score alike (t = %.1f to %.1f s)\n",
-                  p.unfollowed_modes, p.first_unfollowed_mode_stamp, p.last_unfollowed_mode_stamp);
+                  "sideways (two places along a corridor's length, t = %.1f to %.1f s); without a motion source "
+                  "each went on at the place the scan and the change of speed favour (--speed_change_sigma), %d "
+                  "of them at the second; with one, at the better-scoring place\n",
+                  p.unfollowed_modes, p.first_unfollowed_mode_stamp, p.last_unfollowed_mode_stamp,
+                  p.modes_chosen_by_motion);
     out += line;
   }
   const SubmapGraphStats& store = estimator.graph().stats();

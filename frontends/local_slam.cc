@@ -572,7 +572,7 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
   result.match_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - match_start).count();
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
   state.recent.push_back({stamp_seconds, result.local_pose});
-  if (state.recent.size() > 2) state.recent.erase(state.recent.begin());
+  if (state.recent.size() > 3) state.recent.erase(state.recent.begin());
   result.points = std::move(points);
   result.awaiting_insertion = true;
   return result;

@@ -359,7 +359,7 @@ struct InsertedScan {
 // Everything AddScan changes: one value, cheap to copy (the maps are shared until written).
 struct LocalSlamState {
   std::vector<ActiveSubmap> active;           // oldest first
-  std::vector<StampedPose2> recent;           // the last (up to) two matched local poses
+  std::vector<StampedPose2> recent;           // the last (up to) three matched local poses
   std::optional<Pose2> last_odometry;         // odometry pose at the last matched scan
   std::optional<InsertedScan> last_inserted;
   int next_submap_index = 0;

@@ -30,6 +30,25 @@ double ScanLogLikelihood(const ParticleFilterOptions& options, double score) {
   return options.effective_points * std::log(p);
 }
 
+// The motion model's log-likelihood of the last motion in `recent` (at least two poses): its
+// sideslip and, given a third pose, its change of speed (see sideslip_sigma_meters and
+// speed_change_sigma_mps; a term whose sigma is 0 is left out).
+double MotionLogLikelihood(const ParticleFilterOptions& options, const std::vector<StampedPose2>& recent) {
+  CHECK_GE(recent.size(), 2u);
+  double log_likelihood = 0.0;
+  if (options.sideslip_sigma_meters > 0) {
+    const double s =
+        SideslipMeters(Between(recent[recent.size() - 2].pose, recent.back().pose)) / options.sideslip_sigma_meters;
+    log_likelihood -= 0.5 * s * s;
+  }
+  const std::optional<double> change = SpeedChangeMetersPerSecond(recent);
+  if (options.speed_change_sigma_mps > 0 && change.has_value()) {
+    const double a = *change / options.speed_change_sigma_mps;
+    log_likelihood -= 0.5 * a * a;
+  }
+  return log_likelihood;
+}
+
 // Whether `a` lies within the collapse spread of `b` (translation and yaw).
 bool WithinSpread(const ParticleFilterOptions& options, const Pose2& a, const Pose2& b) {
   return (a.translation() - b.translation()).norm() <= options.collapse_spread_meters &&
@@ -74,6 +93,22 @@ double EffectiveSampleSize(const std::vector<double>& weights) {
   double sum_squares = 0.0;
   for (double w : weights) sum_squares += w * w;
   return sum_squares > 0 ? 1.0 / sum_squares : 0.0;
+}
+
+std::optional<double> SpeedChangeMetersPerSecond(const std::vector<StampedPose2>& recent) {
+  const size_t n = recent.size();
+  if (n < 3) return std::nullopt;
+  // Signed by the direction of travel in the earlier pose's frame: reversing is negative.
+  auto speed = [](const StampedPose2& from, const StampedPose2& to) -> std::optional<double> {
+    const double dt = to.stamp_seconds - from.stamp_seconds;
+    if (!(dt > 0)) return std::nullopt;
+    const Pose2 motion = Between(from.pose, to.pose);
+    return (motion.x() < 0 ? -1.0 : 1.0) * motion.translation().norm() / dt;
+  };
+  const std::optional<double> earlier = speed(recent[n - 3], recent[n - 2]);
+  const std::optional<double> later = speed(recent[n - 2], recent[n - 1]);
+  if (!earlier.has_value() || !later.has_value()) return std::nullopt;
+  return *later - *earlier;
 }
 
 double SideslipMeters(const Pose2& motion) {
@@ -137,6 +172,8 @@ bool ParticleFilterOptions::IsValid(std::string* error) const {
     msg << "sideslip_sigma_meters must be >= 0; ";
   if (!(mode_min_sideslip_sigmas >= 0 && std::isfinite(mode_min_sideslip_sigmas)))
     msg << "mode_min_sideslip_sigmas must be >= 0; ";
+  if (!(speed_change_sigma_mps >= 0 && std::isfinite(speed_change_sigma_mps)))
+    msg << "speed_change_sigma_mps must be >= 0; ";
   if (!(second_mode_score_ratio > 0 && second_mode_score_ratio <= 1))
     msg << "second_mode_score_ratio must be in (0, 1]; ";
   if (error != nullptr) *error = msg.str();
@@ -177,7 +214,8 @@ void ParticleLocalSlam::Spawn(const Eigen::Matrix3d& covariance, const Predictio
   ++stats_.spawns;
 }
 
-bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints& points, LocalSlamState before,
+bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints& points, bool motion_source,
+                                          LocalSlamState before,
                                           std::vector<LocalResult>* results) {
   const LocalResult& first = results->front();
   const ScanMatchResult& match = first.match;
@@ -225,6 +263,21 @@ bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints
   if (!followed) {
     if (stats_.unfollowed_modes++ == 0) stats_.first_unfollowed_mode_stamp = stamp_seconds;
     stats_.last_unfollowed_mode_stamp = stamp_seconds;
+    // Weighed at once by the scan and the motion model, which then includes the change of
+    // speed: both modes' states hold three poses, the newest at the mode (`before` was matched
+    // at the second).
+    const std::vector<StampedPose2>& recent_second = before.recent;
+    if (!motion_source && options_.speed_change_sigma_mps > 0 && recent_first.size() >= 3 &&
+        recent_second.size() >= 3) {
+      const double first_log = ScanLogLikelihood(options_, match.score) + MotionLogLikelihood(options_, recent_first);
+      const double second_log =
+          ScanLogLikelihood(options_, second.match.score) + MotionLogLikelihood(options_, recent_second);
+      if (second_log > first_log) {
+        particles_[0].state = std::move(before);
+        results->front() = std::move(second);
+        ++stats_.modes_chosen_by_motion;
+      }
+    }
     return false;
   }
   // Two particles from this scan on; its results are deferred like every scan's while several
@@ -322,7 +375,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   if (before_match.has_value()) {
     LocalSlamState before = std::move(*before_match);
     before_match.reset();
-    if (SpawnAtSecondMode(stamp_seconds, *mode_points, std::move(before), &results)) {
+    if (SpawnAtSecondMode(stamp_seconds, *mode_points, predictions[0].external, std::move(before), &results)) {
       step.spawned = true;
       points = std::move(*mode_points);
       n = num_particles();
@@ -393,9 +446,7 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
       const std::vector<StampedPose2>& recent = particles_[i].state.recent;
       if (options_.sideslip_sigma_meters > 0 && !predictions[std::min<size_t>(i, predictions.size() - 1)].external &&
           results[i].matched && results[i].match.converged && recent.size() >= 2) {
-        const double s = SideslipMeters(Between(recent[recent.size() - 2].pose, recent.back().pose)) /
-                         options_.sideslip_sigma_meters;
-        particles_[i].log_weight -= 0.5 * s * s;
+        particles_[i].log_weight += MotionLogLikelihood(options_, recent);
       }
     }
     ScoreAgainstGraph(points, results, graph, robot);

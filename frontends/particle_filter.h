@@ -93,6 +93,12 @@ std::vector<int> LowVarianceResample(const std::vector<double>& weights, int cou
 // heading).
 double SideslipMeters(const Pose2& motion);
 
+// The change of speed over the last two scan-to-scan motions of `recent` (oldest first, at
+// least three poses), m/s: the later motion's speed minus the earlier one's, each its
+// translation over its time, negative when reversing. nullopt with fewer poses or a time step
+// that is not positive.
+std::optional<double> SpeedChangeMetersPerSecond(const std::vector<StampedPose2>& recent);
+
 struct ParticleFilterOptions;
 // Whether the normalised `weights` settle an ambiguity on the `best` particle
 // (ParticleFilterOptions::collapse_weight): its weight reaches collapse_weight, and the
@@ -148,6 +154,18 @@ struct ParticleFilterOptions {
   // A second mode spawns particles only when one of the two modes slides the robot sideways by
   // at least this many sideslip sigmas (the motion model can weigh them; see SpawnAtSecondMode).
   double mode_min_sideslip_sigmas = 3.0;
+  // The motion model's second term, with sideslip_sigma_meters: each particle's log-weight also
+  // gains -a² / (2 σ²) for the change of speed a (SpeedChangeMetersPerSecond) from its
+  // previous scan-to-scan motion to this one (a robot speeds up and slows down smoothly). Two
+  // modes along the direction of travel, which no particle follows (see SpawnAtSecondMode),
+  // are weighed by this model and the scan's likelihood at once: the scan goes on at the
+  // better. There the wrong mode is the pose of the scan before (the map it matched against was
+  // seen from there): a robot that drove on at ~0.35 m/s would have stopped dead (ACES's
+  // corridor at t = 151.9 s). Measured under tests/bench/run_sensitivity.sh's ten stopping
+  // rules: 0.2 picks a standstill after Intel's turn on the spot at t = 383.8 s on 7 of 10;
+  // 0.3 and 0.4 leave Intel's spread as it was and take ACES's far runs from 3 of 10 to 0.
+  // 0 = off.
+  double speed_change_sigma_mps = 0.3;
   // Per-scan log-likelihood: effective_points · log(likelihood_floor + (1 - floor) · score).
   // Beams of one scan are not independent (Thrun et al.'s and GMapping's point: the weights
   // would collapse after one scan), so a scan counts as this many independent points.
@@ -197,11 +215,14 @@ struct ParticleFilterStats {
   int spawns = 0;
   int mode_spawns = 0;           // of which at a second mode (spawn_on_second_mode)
   // Scans whose second mode held when matched again (distinct from the best) but no particle
-  // followed it: neither mode slides the robot sideways, so the motion model cannot weigh them
-  // (two places along a corridor's length). The scan went on at the best-scoring mode, a guess
-  // where the two score alike (README, "How far the real-log figures move": ACES's corridor).
-  // Their first and last stamps (NaN when none).
+  // followed it: neither mode slides the robot sideways (two places along a corridor's
+  // length). The scan went on at the mode the scan's likelihood and the motion model's change
+  // of speed favour (without a motion source; with one, or with speed_change_sigma_mps 0, at
+  // the best-scoring mode). Their first and last stamps (NaN when none).
   int unfollowed_modes = 0;
+  // Of those, the scans that went on at the second mode: the motion model
+  // (speed_change_sigma_mps, sideslip_sigma_meters) and the scan's likelihood favoured it.
+  int modes_chosen_by_motion = 0;
   double first_unfollowed_mode_stamp = std::numeric_limits<double>::quiet_NaN();
   double last_unfollowed_mode_stamp = std::numeric_limits<double>::quiet_NaN();
   int collapses = 0;
@@ -290,8 +311,10 @@ class ParticleLocalSlam {
   // (c): whether `result` (the lone particle's match, not yet inserted) found a second mode
   // close in score; then matches the scan around it from `before` (the particle's state before
   // that match) and, when that match holds, adds it as a second particle (its result appended
-  // to `results`) and returns true.
-  bool SpawnAtSecondMode(double stamp_seconds, const ScanPoints& points, LocalSlamState before,
+  // to `results`) and returns true. A second mode no particle follows replaces the first (its
+  // result and the particle's state) when the motion model and the scan favour it; false then
+  // too. `motion_source`: the scan was predicted by one (no motion model then).
+  bool SpawnAtSecondMode(double stamp_seconds, const ScanPoints& points, bool motion_source, LocalSlamState before,
                          std::vector<LocalResult>* results);
   // Log-likelihood of the scan at each particle's pose against the graph's finished submaps.
   void ScoreAgainstGraph(const ScanPoints& points, const std::vector<LocalResult>& results, const SubmapGraph& graph,
