@@ -270,6 +270,96 @@ TEST(ParticleLocalSlamTest, ASecondModeNoParticleFollowsIsCounted) {
   EXPECT_TRUE(std::isnan(single.stats.first_unfollowed_mode_stamp));
 }
 
+TEST(SpeedChangeTest, IsTheLaterMotionsSpeedMinusTheEarlierOnes) {
+  const Pose2 start(1.0, 2.0, 0.5);
+  const Pose2 middle = start * Pose2(0.5, 0.0, 0.2);  // 0.5 m in 1 s
+  const Pose2 end = middle * Pose2(1.6, 1.2, 0.0);    // 2 m in 2 s
+  EXPECT_NEAR(0.5, *SpeedChangeMetersPerSecond({{0.0, start}, {1.0, middle}, {3.0, end}}), 1e-12);
+  // Reversing is a negative speed: -1 m/s after +0.5 m/s.
+  const Pose2 back = middle * Pose2(-2.0, 0.0, 0.0);
+  EXPECT_NEAR(-1.5, *SpeedChangeMetersPerSecond({{0.0, start}, {1.0, middle}, {3.0, back}}), 1e-12);
+  // Only the last three poses count.
+  EXPECT_NEAR(0.5, *SpeedChangeMetersPerSecond({{-5.0, Pose2(9.0, 9.0, 0.0)}, {0.0, start}, {1.0, middle}, {3.0, end}}),
+              1e-12);
+  EXPECT_FALSE(SpeedChangeMetersPerSecond({{0.0, start}, {1.0, middle}}).has_value());
+  EXPECT_FALSE(SpeedChangeMetersPerSecond({{0.0, start}, {1.0, middle}, {1.0, end}}).has_value());  // no time
+  EXPECT_FALSE(SpeedChangeMetersPerSecond({{0.0, start}, {1.0, middle}, {0.5, end}}).has_value());  // backwards
+}
+
+// A corridor with a post every metre on both sides fits a scan at every metre along it. The
+// robot drives at 1 m/s, a scan a second; the last scan's prediction (the front end's own, no
+// motion source) is set near the pose of the scan before, so the best-scoring match is that
+// standstill, 1 m behind the truth, and the truth is its second mode. Neither slides sideways,
+// so no particle follows it; the change of speed (1 m/s to 0) decides for the truth.
+struct CorridorRun {
+  LocalResult last;
+  ParticleFilterStats stats;
+};
+
+CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options) {
+  sim::World world;
+  world.AddWall(Eigen::Vector2d(-40.0, 1.2), Eigen::Vector2d(40.0, 1.2));
+  world.AddWall(Eigen::Vector2d(-40.0, -1.2), Eigen::Vector2d(40.0, -1.2));
+  for (int k = -40; k <= 40; ++k) {
+    for (const double y : {1.0, -1.0}) world.AddBox(Eigen::Vector2d(k, y), Eigen::Vector2d(0.2, 0.2), 0.0);
+  }
+  ParticleLocalSlam filter(LocalSlamOptions(), options);
+  SubmapGraph graph{SubmapGraphOptions()};
+  CorridorRun run;
+  const int scans = 6;
+  for (int k = 0; k < scans; ++k) {
+    const Pose2 truth(0.5 + k, 0.0, 0.0);
+    ScanPoints points;
+    for (int i = 0; i < 360; ++i) {
+      const double angle = -M_PI + i * M_PI / 180.0;
+      double range = 0.0;
+      if (!world.CastRay(truth.translation(), truth.theta() + angle, 8.0, &range)) continue;
+      points.all.emplace_back(static_cast<float>(range * std::cos(angle)), static_cast<float>(range * std::sin(angle)));
+    }
+    points.labels.assign(points.all.size(), PointLabel::kStructure);
+    points.heights_meters.assign(points.all.size(), 0.0f);
+    points.valid_points = static_cast<int>(points.all.size());
+    points.matching = VoxelFilter(points.all, 0.1f);
+    // The scans before the last one are placed by a tight motion source at the truth (a
+    // metre-periodic corridor cannot place them alone); the last is the front end's own
+    // prediction (no motion source), 0.4 m from the scan before.
+    Prediction prediction = filter.Predict(std::nullopt);
+    if (k < scans - 1) {
+      prediction.pose = truth;
+      prediction.external = true;
+      prediction.covariance = Eigen::Vector3d(0.02 * 0.02, 0.02 * 0.02, 0.01 * 0.01).asDiagonal();
+    } else {
+      prediction.pose = Pose2(truth.x() - 0.6, 0.0, 0.0);
+    }
+    ParticleStep step = filter.AddScan(k, std::move(points), prediction, std::nullopt, graph, 0);
+    if (k == scans - 1) run.last = step.Current();
+  }
+  run.stats = filter.stats();
+  return run;
+}
+
+TEST(ParticleLocalSlamTest, TwoPlacesAlongACorridorAreWeighedByTheChangeOfSpeed) {
+  const double truth_x = 0.5 + 5;
+  ParticleFilterOptions options;
+  ASSERT_GT(options.speed_change_sigma_mps, 0.0) << "on by default";
+  // At the truth the scan's far end runs a metre past the mapped corridor, so the truth
+  // scores below the standstill: it counts as a second mode at half the best score.
+  options.second_mode_score_ratio = 0.5;
+  const CorridorRun run = RunInPostedCorridor(options);
+  EXPECT_EQ(1, run.stats.unfollowed_modes);
+  EXPECT_EQ(1, run.stats.modes_chosen_by_motion);
+  EXPECT_EQ(0, run.stats.spawns);
+  EXPECT_NEAR(truth_x, run.last.local_pose.x(), 0.05) << run.last.local_pose;
+  EXPECT_NEAR(0.0, run.last.local_pose.y(), 0.05);
+
+  // Off: the scan goes on at the better-scoring standstill, a metre behind.
+  options.speed_change_sigma_mps = 0.0;
+  const CorridorRun off = RunInPostedCorridor(options);
+  EXPECT_EQ(1, off.stats.unfollowed_modes);
+  EXPECT_EQ(0, off.stats.modes_chosen_by_motion);
+  EXPECT_NEAR(truth_x - 1.0, off.last.local_pose.x(), 0.05) << off.last.local_pose;
+}
+
 // The ring of rooms (tests/frontends/sim_fixtures.h), fed as scans with the true motion as an
 // "external" prediction with a covariance (as the EKF gives it); some scans are marked as facing
 // the floor.
