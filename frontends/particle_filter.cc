@@ -263,12 +263,13 @@ bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints
   if (!followed) {
     if (stats_.unfollowed_modes++ == 0) stats_.first_unfollowed_mode_stamp = stamp_seconds;
     stats_.last_unfollowed_mode_stamp = stamp_seconds;
-    // Weighed at once by the scan and the motion model, which then includes the change of
-    // speed: both modes' states hold three poses, the newest at the mode (`before` was matched
-    // at the second).
+    // Weighed at once by the scan and the motion model, when that includes a change of speed
+    // for both: both modes' states hold three poses, the newest at the mode (`before` was
+    // matched at the second). Without one (too few poses, stamps that do not advance) the
+    // better-scoring mode stays.
     const std::vector<StampedPose2>& recent_second = before.recent;
-    if (!motion_source && options_.speed_change_sigma_mps > 0 && recent_first.size() >= 3 &&
-        recent_second.size() >= 3) {
+    if (!motion_source && options_.speed_change_sigma_mps > 0 &&
+        SpeedChangeMetersPerSecond(recent_first).has_value() && SpeedChangeMetersPerSecond(recent_second).has_value()) {
       const double first_log = ScanLogLikelihood(options_, match.score) + MotionLogLikelihood(options_, recent_first);
       const double second_log =
           ScanLogLikelihood(options_, second.match.score) + MotionLogLikelihood(options_, recent_second);
