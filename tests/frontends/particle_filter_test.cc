@@ -304,7 +304,8 @@ struct CorridorRun {
   ParticleFilterStats stats;
 };
 
-CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options) {
+// `last_external`: the last scan's prediction comes from a motion source (no covariance).
+CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options, bool last_external = false) {
   sim::World world;
   world.AddWall(Eigen::Vector2d(-40.0, 1.2), Eigen::Vector2d(40.0, 1.2));
   world.AddWall(Eigen::Vector2d(-40.0, -1.2), Eigen::Vector2d(40.0, -1.2));
@@ -319,8 +320,8 @@ CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options) {
     const Pose2 truth(0.5 + k, 0.0, 0.0);
     ScanPoints points = NoiselessScan(world, truth, 8.0);
     // The scans before the last one are placed by a tight motion source at the truth (a
-    // metre-periodic corridor cannot place them alone); the last is the front end's own
-    // prediction (no motion source), 0.4 m from the scan before.
+    // metre-periodic corridor cannot place them alone); the last is predicted 0.4 m from the
+    // scan before, by the front end itself (no motion source) unless `last_external`.
     Prediction prediction = filter.Predict(std::nullopt);
     if (k < scans - 1) {
       prediction.pose = truth;
@@ -328,6 +329,7 @@ CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options) {
       prediction.covariance = Eigen::Vector3d(0.02 * 0.02, 0.02 * 0.02, 0.01 * 0.01).asDiagonal();
     } else {
       prediction.pose = Pose2(truth.x() - 0.6, 0.0, 0.0);
+      prediction.external = last_external;
     }
     ParticleStep step = filter.AddScan(k, std::move(points), prediction, std::nullopt, graph, 0);
     if (k == scans - 1) run.last = step.Current();
@@ -348,6 +350,12 @@ TEST(ParticleLocalSlamTest, TwoPlacesAlongACorridorAreWeighedByTheChangeOfSpeed)
   EXPECT_EQ(1, run.stats.modes_chosen_by_motion);
   EXPECT_EQ(0, run.stats.spawns);
   EXPECT_NEAR(truth_x, run.last.local_pose.x(), 0.05) << run.last.local_pose;
+
+  // Predicted by a motion source: no motion model, the better-scoring standstill.
+  const CorridorRun predicted = RunInPostedCorridor(options, /*last_external=*/true);
+  EXPECT_EQ(1, predicted.stats.unfollowed_modes);
+  EXPECT_EQ(0, predicted.stats.modes_chosen_by_motion);
+  EXPECT_NEAR(truth_x - 1.0, predicted.last.local_pose.x(), 0.05) << predicted.last.local_pose;
   EXPECT_NEAR(0.0, run.last.local_pose.y(), 0.05);
 
   // Off: the scan goes on at the better-scoring standstill, a metre behind.
