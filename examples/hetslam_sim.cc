@@ -52,6 +52,11 @@ DEFINE_double(max_duration, 0.0, "Teams only: stop after this many simulated sec
               "than the scenario's duration_limit_s (0: the scenario's limit).");
 DEFINE_bool(images, true, "Teams only: render and write the camera images (--noimages keeps the "
             "IMAGE lines but writes no PNG files; faster).");
+DEFINE_bool(mirror, false, "Simulate the scenario mirrored about the vertical line through the middle of its "
+            "walls (x -> 2 axis - x): walls, furniture, tags (readable, normals mirrored), starts, waypoints and "
+            "body-frame commands; the robots themselves are not mirrored. A method whose errors lean one way "
+            "with the handedness of its scans gets them the other way round here (datasets/sim/scenario.h, "
+            "MirroredScenario).");
 DEFINE_bool(allow_incomplete, false, "Exit with status 0 even when a robot did not finish its "
             "route before the duration limit (the files are written either way).");
 
@@ -170,6 +175,7 @@ int Run() {
     std::cerr << "hetslam_sim: " << status.message() << "\n";
     return 1;
   }
+  if (FLAGS_mirror) scenario = sim::MirroredScenario(scenario);
   if (scenario.IsTeam()) return RunTeam(scenario);
   sim::SimulatorOptions options;
   std::string error;

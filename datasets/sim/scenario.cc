@@ -714,6 +714,43 @@ Status ParseScenario(const std::string& text, const std::string& source_name,
   return ScenarioParser(source_name, scenario).Parse(text);
 }
 
+Scenario MirroredScenario(const Scenario& scenario) {
+  const Eigen::AlignedBox2d bounds = scenario.world.Bounds();
+  const double axis = bounds.isEmpty() ? 0.0 : 0.5 * (bounds.min().x() + bounds.max().x());
+  const auto point = [axis](const Eigen::Vector2d& p) { return Eigen::Vector2d(2.0 * axis - p.x(), p.y()); };
+  const auto pose = [&point](const Pose2& p) { return Pose2(point(p.translation()), M_PI - p.theta()); };
+  Scenario mirrored = scenario;
+  mirrored.source_name = scenario.source_name + " (mirrored)";
+  World& world = mirrored.world;
+  world = World();
+  world.SetHeights(scenario.world.wall_height_meters(), scenario.world.ceiling_height_meters());
+  for (const WallSegment& wall : scenario.world.walls()) world.AddWall(point(wall.a), point(wall.b), wall.source_line);
+  for (const Prism& prism : scenario.world.prisms()) {
+    std::vector<Eigen::Vector2d> footprint;
+    for (const Eigen::Vector2d& p : prism.footprint) footprint.push_back(point(p));
+    world.AddPrism(std::move(footprint), prism.z_min_meters, prism.z_max_meters, prism.surface, prism.source_line);
+  }
+  for (Eigen::Vector2d& w : mirrored.waypoints) w = point(w);
+  mirrored.start_pose = pose(scenario.start_pose);
+  for (TagSpec& tag : mirrored.tags) {
+    tag.center.x() = 2.0 * axis - tag.center.x();
+    tag.normal_yaw_radians = WrapAngle(M_PI - tag.normal_yaw_radians);
+  }
+  for (RandomObstacleSpec& spec : mirrored.random_obstacles) {
+    const Eigen::Vector2d a = point(spec.region.min()), b = point(spec.region.max());
+    spec.region = Eigen::AlignedBox2d(a.cwiseMin(b), a.cwiseMax(b));
+  }
+  for (RobotSpec& robot : mirrored.robots) {
+    robot.start_pose = pose(robot.start_pose);
+    for (RouteStep& step : robot.route) {
+      step.target = point(step.target);
+      step.vy_mps = -step.vy_mps;
+      step.yaw_rate_radps = -step.yaw_rate_radps;
+    }
+  }
+  return mirrored;
+}
+
 Status ReadScenarioFile(const std::string& path, Scenario* scenario) {
   std::ifstream file;
   // Refuses a directory by name (an ifstream opens one and reads nothing from it).

@@ -84,6 +84,19 @@ struct Scenario {
   bool IsValid(std::string* error) const;
 };
 
+// The scenario mirrored about the vertical line x = axis through the middle of its walls'
+// bounds (x -> 2 axis - x): walls, prisms (tables, shelves, obstacles), tags (centres moved,
+// normals mirrored; a tag's pattern is not, so it stays readable), random-obstacle regions,
+// start poses (heading theta -> pi - theta), waypoints, and each robot's body-frame commands
+// (sideways speed and yaw rate negated). The robots themselves (laser and camera mounts, head
+// profiles, sensors) are not mirrored, and floor obstacles placed at run time land elsewhere
+// in their mirrored region (the run's random draws are the same, not their places). What it is
+// for: a method whose errors lean one way because of the handedness of its scans (a beam order
+// that picks points on one side, say) gets them the other way round in the mirrored world, so
+// a claim that holds on both holds whatever way the building is built (hetslam_sim --mirror;
+// tests/bench/run_scenarios.sh with HETSLAM_MIRROR=1). `source_name` gets " (mirrored)".
+Scenario MirroredScenario(const Scenario& scenario);
+
 // Parses scenario text; `source_name` prefixes every error message ("name:line: ...").
 // On error `*scenario` is left in an unspecified state.
 Status ParseScenario(const std::string& text, const std::string& source_name,

@@ -15,6 +15,9 @@
 #                      (e.g. HETSLAM_SEEDS="1 2 3 4 5"); default: $HETSLAM_SEED, else 1.
 #   HETSLAM_SEED       the single seed used when HETSLAM_SEEDS is unset or empty.
 #   HETSLAM_BENCH_OUT  output folder (default: <repo>/out/scenarios).
+#   HETSLAM_MIRROR     1: simulate every scenario mirrored (hetslam_sim --mirror: the world, tags,
+#                      starts and routes mirrored about the middle of the walls), to see whether a
+#                      figure depends on the handedness of the building; default 0.
 #
 # For each seed, every datasets/scenarios/*.scenario with robot blocks is generated with
 # `hetslam_sim --scenario=... --seed=<seed> --noimages` into <out>/<scenario>/ (one seed) or
@@ -52,6 +55,12 @@ while [ $# -gt 0 ]; do
   shift
 done
 build=${build:-$root/build}
+mirror_flag=()
+case "${HETSLAM_MIRROR:-0}" in
+  0|"") ;;
+  1) mirror_flag=(--mirror) ;;
+  *) echo "$(basename "$0"): HETSLAM_MIRROR must be 0 or 1, got '${HETSLAM_MIRROR}'" >&2; exit 2 ;;
+esac
 out_root=${HETSLAM_BENCH_OUT:-$root/out/scenarios}
 seed_list=${HETSLAM_SEEDS:-${HETSLAM_SEED:-1}}
 read -r -a seed_words <<<"${seed_list//,/ }"
@@ -97,7 +106,7 @@ for seed in "${seeds[@]}"; do
     grep -q '^robot_begin' "$scenario" || continue  # the 2D office loop writes CARMEN, see the quick start
     dir="$seed_root/$name"
     rm -rf "$dir"
-    if ! "$build/examples/hetslam_sim" --scenario="$scenario" --out="$dir" --seed="$seed" --noimages >"$seed_root.$name.sim.log" 2>&1; then
+    if ! "$build/examples/hetslam_sim" --scenario="$scenario" --out="$dir" --seed="$seed" --noimages "${mirror_flag[@]}" >"$seed_root.$name.sim.log" 2>&1; then
       printf '%-22s %-6s %4s FAILED: hetslam_sim, see %s\n' "$name" "" "$seed" "$seed_root.$name.sim.log"
       echo "$name - $seed sim" >>"$runs"
       status=1

@@ -15,6 +15,9 @@
 #   HETSLAM_TEAMS      the team scenarios (default: "team_two team_three team_overlap").
 #   HETSLAM_BENCH_OUT  output folder (default: <repo>/out/teams): <team>/seed-<seed>/{sim,run},
 #                      run.log = hetslam_team's output.
+#   HETSLAM_MIRROR     1: simulate every scenario mirrored (hetslam_sim --mirror: the world, tags,
+#                      starts and routes mirrored about the middle of the walls), to see whether a
+#                      figure depends on the handedness of the building; default 0.
 #
 # One row per team, seed and pair of robots, from the "truth:" lines hetslam_team prints on
 # simulated data: the error of the pair's relative pose against the truth after the first link,
@@ -49,6 +52,12 @@ while [ $# -gt 0 ]; do
   shift
 done
 build=${build:-$root/build}
+mirror_flag=()
+case "${HETSLAM_MIRROR:-0}" in
+  0|"") ;;
+  1) mirror_flag=(--mirror) ;;
+  *) echo "$(basename "$0"): HETSLAM_MIRROR must be 0 or 1, got '${HETSLAM_MIRROR}'" >&2; exit 2 ;;
+esac
 out_root=${HETSLAM_BENCH_OUT:-$root/out/teams}
 seed_list=${HETSLAM_SEEDS:-1}
 read -r -a seeds <<<"${seed_list//,/ }"
@@ -81,7 +90,7 @@ for team in "${teams[@]}"; do
     rm -rf "$dir"
     mkdir -p "$dir"
     echo "== $team seed $seed" >&2
-    if ! "$build/examples/hetslam_sim" --scenario="$scenario" --seed="$seed" --out="$dir/sim" >"$dir/sim.log" 2>&1; then
+    if ! "$build/examples/hetslam_sim" --scenario="$scenario" --seed="$seed" --out="$dir/sim" "${mirror_flag[@]}" >"$dir/sim.log" 2>&1; then
       echo "run_teams.sh: hetslam_sim failed, see $dir/sim.log" >&2
       status=1
       continue

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <string>
 
 #include "gmock/gmock.h"
@@ -291,6 +292,96 @@ TEST(TeamScenarioTest, ParsesEveryTeamStatement) {
   const RobotSpec& rover = scenario.robots[2];
   EXPECT_NEAR(rover.body_T_laser.translation().z(), 0.3, 1e-12);
   EXPECT_EQ(std::string(RobotKindName(rover.kind)), "wheeled");
+}
+
+TEST(TeamScenarioTest, TheMirroredScenarioIsTheWorldAndTheRoutesSeenInAMirror) {
+  Scenario scenario;
+  ASSERT_TRUE(ParseScenario(kTeamScenario, "team.scenario", &scenario).ok());
+  const Scenario mirrored = MirroredScenario(scenario);
+  EXPECT_EQ(mirrored.source_name, "team.scenario (mirrored)");
+  // The walls span x in [-5, 5]: the mirror is x -> -x.
+  const auto mirror = [](const Eigen::Vector3d& v) { return Eigen::Vector3d(-v.x(), v.y(), v.z()); };
+  ASSERT_EQ(mirrored.world.walls().size(), scenario.world.walls().size());
+  ASSERT_EQ(mirrored.world.prisms().size(), scenario.world.prisms().size());
+  EXPECT_EQ(mirrored.world.ceiling_height_meters(), 2.4);
+  EXPECT_EQ(mirrored.world.wall_height_meters(), 2.2);
+  // Every ray sees in the mirrored world what its mirror image sees in the scenario's: walls,
+  // the table (its legs and top), the shelf's two parts, the obstacle, floor and ceiling.
+  int rays = 0;
+  std::set<Surface> surfaces;
+  for (double x = -4.0; x <= 4.0; x += 1.3) {
+    for (double y = -3.5; y <= 3.5; y += 1.1) {
+      for (double z : {0.1, 0.5, 0.8, 1.5}) {
+        for (double yaw = 0.0; yaw < 2 * M_PI; yaw += 0.37) {
+          for (double pitch : {-0.3, 0.0, 0.2}) {
+            const Eigen::Vector3d origin(x, y, z);
+            const Eigen::Vector3d direction(std::cos(pitch) * std::cos(yaw), std::cos(pitch) * std::sin(yaw),
+                                            std::sin(pitch));
+            const RayHit hit = scenario.world.CastRay3D(origin, direction, 20.0);
+            const RayHit seen = mirrored.world.CastRay3D(mirror(origin), mirror(direction), 20.0);
+            ASSERT_EQ(hit.hit, seen.hit) << origin.transpose() << " yaw " << yaw << " pitch " << pitch;
+            if (!hit.hit) continue;
+            EXPECT_NEAR(hit.range_meters, seen.range_meters, 1e-9) << origin.transpose() << " yaw " << yaw;
+            EXPECT_EQ(hit.surface, seen.surface);
+            EXPECT_EQ(hit.source_line, seen.source_line);
+            surfaces.insert(hit.surface);
+            ++rays;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(rays, 5000);
+  EXPECT_EQ(surfaces, (std::set<Surface>{Surface::kFloor, Surface::kCeiling, Surface::kWall, Surface::kFurniture,
+                                         Surface::kObstacle}));
+  // Tag 7 moves to the west wall and faces east; it stays a right-handed (readable) tag.
+  ASSERT_EQ(mirrored.tags.size(), 1u);
+  EXPECT_TRUE(mirrored.tags[0].center.isApprox(Eigen::Vector3d(-5.0, 0.0, 1.2), 1e-12));
+  const Eigen::Isometry3d world_T_tag = mirrored.tags[0].WorldTTag();
+  EXPECT_TRUE(world_T_tag.linear().col(2).isApprox(Eigen::Vector3d::UnitX(), 1e-12));
+  EXPECT_NEAR(world_T_tag.linear().determinant(), 1.0, 1e-12);
+  // Routes: starts and waypoints mirrored, headings theta -> pi - theta, body-frame commands
+  // turning and sliding the other way; altitudes, stands, sensors and head profiles as they were.
+  const RobotSpec& nao = mirrored.robots[0];
+  EXPECT_NEAR(nao.InitialPose().theta(), M_PI / 2, 1e-12);
+  EXPECT_EQ(nao.route[1].target, Eigen::Vector2d(0.0, 2.0));
+  EXPECT_EQ(nao.route[2].vx_mps, 0.1);
+  EXPECT_EQ(nao.route[2].vy_mps, -0.05);
+  EXPECT_NEAR(nao.route[2].yaw_rate_radps, -10.0 * kDeg, 1e-12);
+  EXPECT_NEAR(nao.HeadPitchRadians(7.0), 40.0 * kDeg, 1e-12);
+  const RobotSpec& drone = mirrored.robots[1];
+  EXPECT_EQ(drone.route[0].target, Eigen::Vector2d(1.0, -1.0));
+  EXPECT_EQ(drone.route[1].target, Eigen::Vector2d(-1.0, -1.0));
+  EXPECT_EQ(drone.route[1].altitude_meters, 1.8);
+  // Without a start the robot faces its second waypoint: west instead of east.
+  EXPECT_NEAR(std::abs(drone.InitialPose().theta()), M_PI, 1e-12);
+  EXPECT_NEAR(std::abs(mirrored.robots[2].InitialPose().theta()), M_PI, 1e-12);
+  EXPECT_TRUE(mirrored.robots[2].body_T_laser.isApprox(scenario.robots[2].body_T_laser));
+  ASSERT_EQ(mirrored.random_obstacles.size(), 1u);
+  EXPECT_TRUE(mirrored.random_obstacles[0].region.isApprox(scenario.random_obstacles[0].region));
+  // Twice mirrored is the scenario again.
+  const Scenario twice = MirroredScenario(mirrored);
+  for (size_t i = 0; i < scenario.world.walls().size(); ++i) {
+    EXPECT_TRUE(twice.world.walls()[i].a.isApprox(scenario.world.walls()[i].a, 1e-12));
+    EXPECT_TRUE(twice.world.walls()[i].b.isApprox(scenario.world.walls()[i].b, 1e-12));
+  }
+  EXPECT_TRUE(twice.tags[0].WorldTTag().isApprox(scenario.tags[0].WorldTTag(), 1e-12));
+  EXPECT_NEAR(std::cos(twice.robots[2].InitialPose().theta()), std::cos(scenario.robots[2].InitialPose().theta()), 1e-12);
+}
+
+TEST(ScenarioTest, TheMirroredSingleRobotPathTurnsTheOtherWay) {
+  Scenario scenario;
+  ASSERT_TRUE(ParseScenario("wall 2 0 12 0\nwall 12 0 12 6\nwaypoint 3 1\nwaypoint 5 1\nstart 3 1 30\n",
+                            "path.scenario", &scenario)
+                  .ok());
+  const Scenario mirrored = MirroredScenario(scenario);  // about x = 7
+  EXPECT_EQ(mirrored.world.walls()[0].a, Eigen::Vector2d(12.0, 0.0));
+  EXPECT_EQ(mirrored.world.walls()[1].b, Eigen::Vector2d(2.0, 6.0));
+  EXPECT_EQ(mirrored.waypoints[1], Eigen::Vector2d(9.0, 1.0));
+  EXPECT_EQ(mirrored.start_pose.translation(), Eigen::Vector2d(11.0, 1.0));
+  EXPECT_NEAR(mirrored.start_pose.theta(), 150.0 * kDeg, 1e-12);
+  std::string error;
+  EXPECT_TRUE(mirrored.IsValid(&error)) << error;
 }
 
 struct BadCase {
