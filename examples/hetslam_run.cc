@@ -170,6 +170,11 @@ DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metre
 DEFINE_double(loop_wide_spacing, 1.0, "Wide loop search: search again only after this much travel (metres) since the "
               "last wide search (see --loop_wide_search).");
 DEFINE_double(loop_wide_min_score, 0.6, "Wide loop search: minimum mean likelihood of a match (see --loop_wide_search).");
+DEFINE_double(loop_agreeing_min_score, 0.35, "Revisits seen the other way round: where the wide loop search would run "
+              "(no closure, the drift bound beyond the ±2 m window, once per --loop_wide_spacing), the node is also "
+              "searched in the standard window for matches scoring at least this (below --loop_min_score: a scan that "
+              "overlaps an old submap only in part); such a match is a closure only once a later node's calls for the "
+              "same correction of the estimate (within 5 cm and 0.57 degrees). 0 = off.");
 DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score drops, shifted 0.1-0.3 m along its "
               "flattest direction, by less than this fraction of its drop along the steepest (a corridor's walls) "
               "places the scan poorly along that direction: the closure's information along it is scaled by (drop "
@@ -499,6 +504,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->wide_search = FLAGS_loop_wide_search;
   loop->wide_window_meters = FLAGS_loop_wide_window;
   loop->wide_min_score = FLAGS_loop_wide_min_score;
+  loop->agreeing_min_score = FLAGS_loop_agreeing_min_score;
   loop->wide_search_spacing_meters = FLAGS_loop_wide_spacing;
   loop->degenerate_max_drop_ratio = FLAGS_loop_degenerate_drop_ratio;
   loop->max_submaps_per_search = FLAGS_loop_max_submaps;
@@ -687,10 +693,12 @@ std::string Summary(const OnlineEstimator& estimator) {
                 "reach the score), %d loop closures accepted (%d gated out), %d removed as inconsistent, %d solves (%d "
                 "iterations, %.2f s, %d failed), loop search %.2f s\n"
                 "wide loop search: %d matches, %d candidates, %d closures accepted; %d results flat along a direction "
-                "(held across it only; wide ones dropped)\n",
+                "(held across it only; wide ones dropped)\n"
+                "agreeing loop search (--loop_agreeing_min_score): %d matches, %d candidates, %d closures accepted\n",
                 g.nodes, g.submaps, l.searches, l.submaps_skipped, l.searches_without_overlap, g.loop_closures_accepted,
                 l.rejected_by_gate, g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds,
-                g.failed_solves, l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate);
+                g.failed_solves, l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate,
+                l.agreeing_searches, l.agreeing_candidates, l.agreeing_accepted);
   out += line;
   // Loop-closure precision as Cartographer reports it: the share of kept closures that the
   // final graph agrees with to 20 cm and 1° (a degenerate closure: across its weak direction).

@@ -46,6 +46,8 @@ bool LoopCloserOptions::IsValid(std::string* error) const {
         wide_agreement_meters > 0 && wide_agreement_radians > 0))
     msg << "wide search windows and agreement bounds must be > 0, its spacing >= 0; ";
   if (!(wide_min_score >= 0 && wide_min_score < 1)) msg << "wide_min_score must be in [0, 1); ";
+  if (!(agreeing_min_score >= 0 && agreeing_min_score < 1 && agreeing_meters >= 0 && agreeing_radians >= 0))
+    msg << "agreeing_min_score must be in [0, 1), agreeing_meters and agreeing_radians >= 0; ";
   if (!(min_score >= 0 && min_score < 1)) msg << "min_score must be in [0, 1); ";
   if (!(degenerate_max_drop_ratio >= 0 && degenerate_max_drop_ratio < 1))
     msg << "degenerate_max_drop_ratio must be in [0, 1); ";
@@ -59,8 +61,21 @@ bool LoopCloserOptions::IsValid(std::string* error) const {
   return msg.str().empty();
 }
 
+namespace {
+
+// The standard search's matcher with its branch and bound's floor at `floor` (the agreeing search).
+ScanMatcherOptions WithFloor(ScanMatcherOptions options, double floor) {
+  if (floor > 0) options.min_correlative_score = std::min(options.min_correlative_score, floor);
+  return options;
+}
+
+}  // namespace
+
 LoopCloser::LoopCloser(const LoopCloserOptions& options)
-    : options_(options), matcher_(options.matcher), wide_matcher_(options.wide_matcher) {
+    : options_(options),
+      matcher_(options.matcher),
+      wide_matcher_(options.wide_matcher),
+      agreeing_matcher_(WithFloor(options.matcher, options.agreeing_min_score)) {
   std::string error;
   CHECK(options_.IsValid(&error)) << "invalid LoopCloserOptions: " << error;
 }
@@ -93,17 +108,47 @@ LoopSearchResult LoopCloser::Search(const SubmapGraph& graph, const NodeId& node
                 options_.matcher.linear_search_window_meters, &result.closures, nullptr);
   if (!result.closures.empty()) {
     pending_wide_.reset();
-  } else if (options_.wide_search && gate_meters > options_.matcher.linear_search_window_meters &&
-             travel_since_wide_search_meters_ >= options_.wide_search_spacing_meters) {
-    WideSearch(graph, node, gate_meters, gate_radians, &result);
+  } else if (gate_meters > options_.matcher.linear_search_window_meters &&
+             travel_since_wide_search_meters_ >= options_.wide_search_spacing_meters &&
+             (options_.wide_search || options_.agreeing_min_score > 0)) {
+    travel_since_wide_search_meters_ = 0.0;
+    if (options_.agreeing_min_score > 0) {
+      AgreeingSearch(graph, node, linear_window, angular_window, gate_meters, gate_radians, &result);
+    }
+    if (options_.wide_search && result.closures.empty()) WideSearch(graph, node, gate_meters, gate_radians, &result);
   }
   stats_.search_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
+void LoopCloser::AgreeingSearch(const SubmapGraph& graph, const NodeId& node, double linear_window,
+                                double angular_window, double gate_meters, double gate_radians,
+                                LoopSearchResult* result) {
+  std::optional<WideCandidate> best;
+  const int searches_before = stats_.searches;
+  SearchSubmaps(graph, node, linear_window, angular_window, gate_meters, gate_radians, options_.agreeing_min_score,
+                options_.matcher.linear_search_window_meters, nullptr, &best, &agreeing_matcher_);
+  stats_.agreeing_searches += stats_.searches - searches_before;
+  stats_.searches = searches_before;
+  if (!best.has_value()) return;
+  ++stats_.agreeing_candidates;
+  if (pending_agreeing_.has_value() && pending_agreeing_->closure.node != node) {
+    const Pose2 disagreement = Between(pending_agreeing_->world_correction, best->world_correction);
+    if (disagreement.translation().norm() <= options_.agreeing_meters &&
+        std::abs(disagreement.theta()) <= options_.agreeing_radians) {
+      result->closures.push_back(pending_agreeing_->closure);
+      result->closures.push_back(best->closure);
+      stats_.agreeing_accepted += 2;
+      pending_agreeing_.reset();
+      result->solve_now = true;
+      return;
+    }
+  }
+  pending_agreeing_ = best;
+}
+
 void LoopCloser::WideSearch(const SubmapGraph& graph, const NodeId& node, double gate_meters, double gate_radians,
                             LoopSearchResult* result) {
-  travel_since_wide_search_meters_ = 0.0;
   std::optional<WideCandidate> best;
   const double window = std::min(gate_meters, options_.wide_window_meters);
   // The wide search grows the matchers' tables (one set per thread, frontends/scan_matcher.h
@@ -143,7 +188,7 @@ void LoopCloser::WideSearch(const SubmapGraph& graph, const NodeId& node, double
 void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, double linear_window,
                                double angular_window, double gate_meters, double gate_radians, double min_score,
                                double margin_meters, std::vector<ConstraintCandidate>* closures,
-                               std::optional<WideCandidate>* wide_best) {
+                               std::optional<WideCandidate>* wide_best, const ScanMatcher* best_matcher) {
   const Pose2 robot_T_node = graph.NodePose(node);
   const SubmapGraph::MatchingPoints matching = graph.NodeMatchingPoints(node, options_.refine_on_all_points);
   const std::vector<Eigen::Vector2f>& points = matching.points;
@@ -231,8 +276,9 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     const LaserMap* map = graph.FinishedSubmapMap(submap);
     const Pose2 robot_T_submap = graph.SubmapPose(submap);
     const Pose2& predicted = candidate.predicted;
-    const ScanMatcher& matcher = wide_best != nullptr ? wide_matcher_ : matcher_;
-    ++(wide_best != nullptr ? stats_.wide_searches : stats_.searches);
+    const ScanMatcher& matcher =
+        wide_best == nullptr ? matcher_ : best_matcher != nullptr ? *best_matcher : wide_matcher_;
+    ++(wide_best != nullptr && best_matcher == nullptr ? stats_.wide_searches : stats_.searches);
     const Gate& gate = candidate.gate;
     const ScanMatchResult match =
         matcher.MatchWithinWindow(*map, predicted, points, gate.linear_window, gate.angular_window, weights, min_score,

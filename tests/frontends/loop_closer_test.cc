@@ -1,7 +1,8 @@
-// The loop closer's drift gate (frontends/loop_closer.h): a closure accepted against a submap
-// measures how far the graph's estimate is off that submap; until the next solve, that
+// The loop closer (frontends/loop_closer.h). Its drift gate: a closure accepted against a
+// submap measures how far the graph's estimate is off that submap; until the next solve, that
 // submap's gate is the base plus that offset plus the drift since, where the drift since the
-// last solve alone allows more.
+// last solve alone allows more. Its agreeing search: revisits seen the other way round, whose
+// matches score below min_score, close the loop once two nodes call for the same correction.
 #include "frontends/loop_closer.h"
 
 #include <cmath>
@@ -15,11 +16,12 @@
 namespace hetslam {
 namespace {
 
-// What the robot at `pose` sees, in its own frame: one beam per degree.
-std::vector<Eigen::Vector2f> Scan(const sim::World& world, const Pose2& pose) {
+// What the robot at `pose` sees, in its own frame: one beam per degree over `fov_degrees`
+// centred ahead.
+std::vector<Eigen::Vector2f> Scan(const sim::World& world, const Pose2& pose, int fov_degrees = 360) {
   std::vector<Eigen::Vector2f> points;
-  for (int i = 0; i < 360; ++i) {
-    const double angle = -M_PI + i * M_PI / 180.0;
+  for (int i = 0; i < fov_degrees; ++i) {
+    const double angle = (-0.5 * fov_degrees + i) * M_PI / 180.0;
     double range = 0.0;
     if (!world.CastRay(pose.translation(), pose.theta() + angle, 20.0, &range)) continue;
     points.emplace_back(static_cast<float>(range * std::cos(angle)), static_cast<float>(range * std::sin(angle)));
@@ -112,6 +114,93 @@ TEST(LoopCloserTest, AClosureNarrowsItsSubmapsGateUntilTheNextSolve) {
   ASSERT_FALSE(narrowed.Search(*near, node_46).closures.empty());
   narrowed.AddTravel(0.5);
   EXPECT_TRUE(ClosesWith(narrowed.Search(*near, node_47), 0, 0.3, *near, node_47));
+}
+
+// Submap 0: the room seen from the origin looking east with a 240° laser, finished with node
+// 0; 45 nodes standing there in submap 1. Then nodes 46 and 47 near the south wall looking
+// north-west (half of what they see is what submap 0 had behind it: their right matches score
+// 0.43-0.44, below min_score), estimated off their truth by `offset_46` and `offset_47` (world
+// frame).
+std::unique_ptr<SubmapGraph> LookingBackGraph(const Eigen::Vector2d& offset_46, const Eigen::Vector2d& offset_47) {
+  const sim::World world = testing_sim::RoomWithPillar();
+  constexpr int kFov = 240;
+  auto map = std::make_shared<LaserMap>(OccupancyGridOptions(), LikelihoodFieldOptions());
+  for (int k = 0; k < 3; ++k) {
+    map->InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), Scan(world, Pose2::Identity(), kFov));
+  }
+  map->Freeze();
+  auto graph = std::make_unique<SubmapGraph>(SubmapGraphOptions());
+  LocalResult first = Node(0.0, Pose2::Identity(), Scan(world, Pose2::Identity(), kFov));
+  first.new_submaps.push_back({0, Pose2::Identity()});
+  first.insertions.push_back({0, Pose2::Identity()});
+  first.finished = LocalResult::FinishedSubmap{0, map};
+  graph->AddNode(0, std::move(first));
+  for (int i = 1; i <= 45; ++i) {
+    LocalResult standing = Node(i, Pose2::Identity(), Scan(world, Pose2::Identity(), kFov));
+    if (i == 1) standing.new_submaps.push_back({1, Pose2::Identity()});
+    standing.insertions.push_back({1, Pose2::Identity()});
+    graph->AddNode(0, std::move(standing));
+  }
+  const Pose2 truth_46(0.1, -1.5, 0.75 * M_PI), truth_47(0.4, -1.2, 0.75 * M_PI);
+  for (const auto& [truth, offset] : {std::make_pair(truth_46, offset_46), std::make_pair(truth_47, offset_47)}) {
+    const Pose2 estimate(truth.translation() + offset, truth.theta());
+    LocalResult moved = Node(graph->num_nodes(0), estimate, Scan(world, truth, kFov));
+    moved.insertions.push_back({1, estimate});
+    graph->AddNode(0, std::move(moved));
+  }
+  return graph;
+}
+
+TEST(LoopCloserTest, RevisitsSeenTheOtherWayRoundCloseWhenTwoNodesAgree) {
+  const NodeId node_46{0, 46}, node_47{0, 47};
+  const Eigen::Vector2d offset(0.2, 0.05);
+  const std::unique_ptr<SubmapGraph> graph = LookingBackGraph(offset, offset);
+  // 20 m since the last solve: a drift bound of 2.3 m, beyond the standard window.
+  LoopCloser closer{LoopCloserOptions()};
+  closer.AddTravel(20.0);
+  const LoopSearchResult first = closer.Search(*graph, node_46);
+  EXPECT_TRUE(first.closures.empty()) << "one node's match below min_score is only a candidate";
+  EXPECT_EQ(closer.stats().agreeing_candidates, 1);
+  closer.AddTravel(1.0);
+  const LoopSearchResult second = closer.Search(*graph, node_47);
+  ASSERT_EQ(second.closures.size(), 2u);
+  EXPECT_TRUE(second.solve_now);
+  EXPECT_EQ(closer.stats().agreeing_accepted, 2);
+  for (const ConstraintCandidate& closure : second.closures) {
+    EXPECT_LT(closure.score, closer.options().min_score);
+    EXPECT_GE(closure.score, closer.options().agreeing_min_score);
+    EXPECT_TRUE(closure.robust);
+    EXPECT_EQ(closure.submap.index, 0);
+  }
+  EXPECT_TRUE(ClosesWith(second, 0, offset.norm(), *graph, node_46));
+  EXPECT_TRUE(ClosesWith(second, 0, offset.norm(), *graph, node_47));
+
+  // Off: the standard and wide searches find nothing (the matches score below their minimum).
+  LoopCloserOptions off_options;
+  off_options.agreeing_min_score = 0.0;
+  LoopCloser off(off_options);
+  off.AddTravel(20.0);
+  EXPECT_TRUE(off.Search(*graph, node_46).closures.empty());
+  off.AddTravel(1.0);
+  EXPECT_TRUE(off.Search(*graph, node_47).closures.empty());
+  EXPECT_EQ(off.stats().agreeing_searches, 0);
+
+  // Two nodes that call for corrections 0.15 m apart: neither closes.
+  const std::unique_ptr<SubmapGraph> apart = LookingBackGraph(offset, Eigen::Vector2d(0.2, -0.1));
+  LoopCloser disagreeing{LoopCloserOptions()};
+  disagreeing.AddTravel(20.0);
+  EXPECT_TRUE(disagreeing.Search(*apart, node_46).closures.empty());
+  disagreeing.AddTravel(1.0);
+  EXPECT_TRUE(disagreeing.Search(*apart, node_47).closures.empty());
+  EXPECT_EQ(disagreeing.stats().agreeing_candidates, 2);
+
+  // A solve between them: the first candidate's correction was of the estimate before it.
+  LoopCloser solved{LoopCloserOptions()};
+  solved.AddTravel(20.0);
+  EXPECT_TRUE(solved.Search(*graph, node_46).closures.empty());
+  solved.OnSolve();
+  solved.AddTravel(21.0);
+  EXPECT_TRUE(solved.Search(*graph, node_47).closures.empty());
 }
 
 }  // namespace
