@@ -30,6 +30,7 @@
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
 #include "frontends/constraint_truth.h"
+#include "frontends/loop_closer.h"
 #include "frontends/online_estimator.h"
 #include "merger/map_picture.h"
 #include "gflags/gflags.h"
@@ -170,11 +171,13 @@ DEFINE_double(loop_wide_window, 8.0, "Wide loop search: largest window, ± metre
 DEFINE_double(loop_wide_spacing, 1.0, "Wide loop search: search again only after this much travel (metres) since the "
               "last wide search (see --loop_wide_search).");
 DEFINE_double(loop_wide_min_score, 0.6, "Wide loop search: minimum mean likelihood of a match (see --loop_wide_search).");
-DEFINE_double(loop_agreeing_min_score, 0.35, "Revisits seen the other way round: where the wide loop search would run "
-              "(no closure, the drift bound beyond the ±2 m window, once per --loop_wide_spacing), the node is also "
-              "searched in the standard window for matches scoring at least this (below --loop_min_score: a scan that "
-              "overlaps an old submap only in part); such a match is a closure only once a later node's calls for the "
-              "same correction of the estimate (within 5 cm and 0.57 degrees). 0 = off.");
+DEFINE_double(loop_agreeing_min_score, hetslam::LoopCloserOptions().agreeing_min_score,
+              "Revisits seen the other way round: where the wide loop search would run (no closure, the drift bound "
+              "beyond the ±2 m window, once per --loop_wide_spacing), the node is also searched in the standard "
+              "window for matches scoring at least this (below --loop_min_score: a scan that overlaps an old submap "
+              "only in part); such a match is a closure only once a later node's calls for the same correction of "
+              "the estimate (within 5 cm and 0.57 degrees). 0 = off (the default); 0.35 with "
+              "--refine_on_all_points in examples/flags/unbiased.flags (README, \"Mirrored worlds\").");
 DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score drops, shifted 0.1-0.3 m along its "
               "flattest direction, by less than this fraction of its drop along the steepest (a corridor's walls) "
               "places the scan poorly along that direction: the closure's information along it is scaled by (drop "

@@ -28,6 +28,7 @@
 #include "core/trajectory_metrics.h"
 #include "examples/flag_help.h"
 #include "frontends/constraint_truth.h"
+#include "frontends/loop_closer.h"
 #include "gflags/gflags.h"
 #include "glog/logging.h"
 #include "merger/team_estimator.h"
@@ -117,6 +118,10 @@ DEFINE_double(max_map_store_mib, 0.0, "Each robot's map store bound (see hetslam
 DEFINE_double(retire_revisited_share, 0.9, "Each robot's revisits (see hetslam_run --help): a finished submap whose "
               "occupied cells its robot's earlier submaps cover to at least this share is retired (its map freed, no "
               "longer searched by loop closure or the overlap search, still rendered). In [0, 1]; 0 = off.");
+DEFINE_double(loop_agreeing_min_score, hetslam::LoopCloserOptions().agreeing_min_score,
+              "Each robot's loop closer: revisits seen the other way round, matches scoring at least this (below the "
+              "loop closer's minimum) closing the loop once a later node's calls for the same correction (see "
+              "hetslam_run --help). 0 = off.");
 DEFINE_bool(refine_on_all_points, false, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
             "refinement of its pose (front ends, loop closures and inter-robot matches) uses every beam (a voxel's "
             "first beam lies nearest the side the sweep enters by, which turned each robot's front end +0.04 to "
@@ -208,6 +213,7 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   robot->local.refine_on_middle_beams = FLAGS_refine_on_middle_beams;
   robot->local.refine_on_all_points = FLAGS_refine_on_all_points;
   robot->loop.refine_on_all_points = FLAGS_refine_on_all_points;
+  robot->loop.agreeing_min_score = FLAGS_loop_agreeing_min_score;
   team->refine_on_all_points = FLAGS_refine_on_all_points;
   if (FLAGS_progress_every < 0) return (*error = "--progress_every must be >= 0"), false;
   std::string invalid;

@@ -151,12 +151,19 @@ std::unique_ptr<SubmapGraph> LookingBackGraph(const Eigen::Vector2d& offset_46, 
   return graph;
 }
 
+// The agreeing search on (off by default), as examples/flags/unbiased.flags sets it.
+LoopCloserOptions Agreeing() {
+  LoopCloserOptions options;
+  options.agreeing_min_score = 0.35;
+  return options;
+}
+
 TEST(LoopCloserTest, RevisitsSeenTheOtherWayRoundCloseWhenTwoNodesAgree) {
   const NodeId node_46{0, 46}, node_47{0, 47};
   const Eigen::Vector2d offset(0.2, 0.05);
   const std::unique_ptr<SubmapGraph> graph = LookingBackGraph(offset, offset);
   // 20 m since the last solve: a drift bound of 2.3 m, beyond the standard window.
-  LoopCloser closer{LoopCloserOptions()};
+  LoopCloser closer{Agreeing()};
   closer.AddTravel(20.0);
   const LoopSearchResult first = closer.Search(*graph, node_46);
   EXPECT_TRUE(first.closures.empty()) << "one node's match below min_score is only a candidate";
@@ -175,10 +182,9 @@ TEST(LoopCloserTest, RevisitsSeenTheOtherWayRoundCloseWhenTwoNodesAgree) {
   EXPECT_TRUE(ClosesWith(second, 0, offset.norm(), *graph, node_46));
   EXPECT_TRUE(ClosesWith(second, 0, offset.norm(), *graph, node_47));
 
-  // Off: the standard and wide searches find nothing (the matches score below their minimum).
-  LoopCloserOptions off_options;
-  off_options.agreeing_min_score = 0.0;
-  LoopCloser off(off_options);
+  // Off (the default): the standard and wide searches find nothing (the matches score below
+  // their minimum).
+  LoopCloser off{LoopCloserOptions()};
   off.AddTravel(20.0);
   EXPECT_TRUE(off.Search(*graph, node_46).closures.empty());
   off.AddTravel(1.0);
@@ -187,7 +193,7 @@ TEST(LoopCloserTest, RevisitsSeenTheOtherWayRoundCloseWhenTwoNodesAgree) {
 
   // Two nodes that call for corrections 0.15 m apart: neither closes.
   const std::unique_ptr<SubmapGraph> apart = LookingBackGraph(offset, Eigen::Vector2d(0.2, -0.1));
-  LoopCloser disagreeing{LoopCloserOptions()};
+  LoopCloser disagreeing{Agreeing()};
   disagreeing.AddTravel(20.0);
   EXPECT_TRUE(disagreeing.Search(*apart, node_46).closures.empty());
   disagreeing.AddTravel(1.0);
@@ -195,7 +201,7 @@ TEST(LoopCloserTest, RevisitsSeenTheOtherWayRoundCloseWhenTwoNodesAgree) {
   EXPECT_EQ(disagreeing.stats().agreeing_candidates, 2);
 
   // A solve between them: the first candidate's correction was of the estimate before it.
-  LoopCloser solved{LoopCloserOptions()};
+  LoopCloser solved{Agreeing()};
   solved.AddTravel(20.0);
   EXPECT_TRUE(solved.Search(*graph, node_46).closures.empty());
   solved.OnSolve();
