@@ -69,6 +69,12 @@ ScanMatcherOptions WithFloor(ScanMatcherOptions options, double floor) {
   return options;
 }
 
+// Two nodes' corrections of the graph's estimate (world frame) agree within the bounds.
+bool SameCorrection(const Pose2& a, const Pose2& b, double meters, double radians) {
+  const Pose2 disagreement = Between(a, b);
+  return disagreement.translation().norm() <= meters && std::abs(disagreement.theta()) <= radians;
+}
+
 }  // namespace
 
 LoopCloser::LoopCloser(const LoopCloserOptions& options)
@@ -132,17 +138,15 @@ void LoopCloser::AgreeingSearch(const SubmapGraph& graph, const NodeId& node, do
   stats_.searches = searches_before;
   if (!best.has_value()) return;
   ++stats_.agreeing_candidates;
-  if (pending_agreeing_.has_value() && pending_agreeing_->closure.node != node) {
-    const Pose2 disagreement = Between(pending_agreeing_->world_correction, best->world_correction);
-    if (disagreement.translation().norm() <= options_.agreeing_meters &&
-        std::abs(disagreement.theta()) <= options_.agreeing_radians) {
-      result->closures.push_back(pending_agreeing_->closure);
-      result->closures.push_back(best->closure);
-      stats_.agreeing_accepted += 2;
-      pending_agreeing_.reset();
-      result->solve_now = true;
-      return;
-    }
+  if (pending_agreeing_.has_value() && pending_agreeing_->closure.node != node &&
+      SameCorrection(pending_agreeing_->world_correction, best->world_correction, options_.agreeing_meters,
+                     options_.agreeing_radians)) {
+    result->closures.push_back(pending_agreeing_->closure);
+    result->closures.push_back(best->closure);
+    stats_.agreeing_accepted += 2;
+    pending_agreeing_.reset();
+    result->solve_now = true;
+    return;
   }
   pending_agreeing_ = best;
 }
@@ -164,9 +168,8 @@ void LoopCloser::WideSearch(const SubmapGraph& graph, const NodeId& node, double
   // One wide match may be an alias (a corridor, a repeated room); two matches of different
   // nodes that call for the same correction of the drifting estimate are taken as real.
   if (pending_wide_.has_value() && pending_wide_->closure.node != node) {
-    const Pose2 disagreement = Between(pending_wide_->world_correction, best->world_correction);
-    if (disagreement.translation().norm() <= options_.wide_agreement_meters &&
-        std::abs(disagreement.theta()) <= options_.wide_agreement_radians) {
+    if (SameCorrection(pending_wide_->world_correction, best->world_correction, options_.wide_agreement_meters,
+                       options_.wide_agreement_radians)) {
       // Confirmed closures enter without robust loss: they are metres from the estimate, where
       // the Huber loss of ordinary closures would leave them almost no pull. Alone against
       // the whole chain they leave a few degrees of residual, so the solve that brings them in
