@@ -22,6 +22,11 @@
 // corrections of the graph's estimate (world frame) agree within wide_agreement_*; then both
 // are returned without robust loss, exempt from the next consistency check, and the caller is
 // asked to solve at once (a correction of metres must reach the next nodes' estimates).
+//
+// Agreeing search (opt-in, agreeing_min_score): where the wide search would run, the node is
+// also matched in the standard window down to a lower score (a revisit seen the other way
+// round overlaps the old submap in part); two nodes' results that call for the same correction
+// become ordinary closures.
 #ifndef HETSLAM_FRONTENDS_LOOP_CLOSER_H_
 #define HETSLAM_FRONTENDS_LOOP_CLOSER_H_
 
@@ -154,12 +159,12 @@ class LoopCloser {
   };
   // Matches the node against every finished, old-enough submap whose box (grown by
   // `margin_meters`) holds its estimate. Appends closures scoring >= min_score within the gate
-  // to *closures; with `best`, uses `matcher` (wide_matcher_ or agreeing_matcher_) and keeps
-  // only the best result there.
+  // to *closures; with `wide_best`, uses `best_matcher` (agreeing_matcher_; null: wide_matcher_)
+  // and keeps only the best result there.
   void SearchSubmaps(const SubmapGraph& graph, const NodeId& node, double linear_window, double angular_window,
                      double gate_meters, double gate_radians, double min_score, double margin_meters,
-                     std::vector<ConstraintCandidate>* closures, std::optional<WideCandidate>* best,
-                     const ScanMatcher* matcher = nullptr);
+                     std::vector<ConstraintCandidate>* closures, std::optional<WideCandidate>* wide_best,
+                     const ScanMatcher* best_matcher = nullptr);
   void WideSearch(const SubmapGraph& graph, const NodeId& node, double gate_meters, double gate_radians,
                   LoopSearchResult* result);
   // The search of agreeing_min_score (see the option): a candidate, or two agreeing ones as closures.
