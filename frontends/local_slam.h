@@ -76,7 +76,7 @@ struct LocalSlamOptions {
   // carried across), and the simulated robots' front ends turned +0.04 to +2.25 degrees a run on
   // all 55 runs of seeds 1-5 (-0.3 to -1.7 with each voxel's last point; -0.57 to +0.51 with
   // this). Off by default: wheeled_corridor's and the office loop's corrected trajectories get
-  // worse, and FR079 takes 31% longer (ACES, since ParticleFilterOptions::speed_change_sigma_mps
+  // worse, and FR079 takes 21-31% longer (ACES, since ParticleFilterOptions::speed_change_sigma_mps
   // weighs its corridor scan, 0.095 -> 0.163 m; README, Teams, "The refinement on every
   // point"). Takes precedence over refine_on_middle_beams.
   // Used when the scan carries no matching weights.
