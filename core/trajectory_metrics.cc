@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <numeric>
 #include <utility>
+
+#include "core/file_io.h"
 
 namespace hetslam {
 namespace {
@@ -145,6 +149,71 @@ StartFrameDrift ComputeStartFrameDrift(const std::vector<StampedPose2>& estimate
     drift.final_rotation_degrees = rotation;
   }
   return drift;
+}
+
+std::vector<PoseError> ComputePoseErrors(const std::vector<StampedPose2>& estimate,
+                                         const std::vector<StampedPose2>& truth, double match_tolerance_seconds) {
+  std::vector<MatchedPose> pairs = MatchPosesByStamp(estimate, truth, match_tolerance_seconds);
+  std::vector<PoseError> errors;
+  if (pairs.empty()) return errors;
+  std::vector<std::pair<Pose2, Pose2>> aligned_pairs;
+  aligned_pairs.reserve(pairs.size());
+  for (const MatchedPose& m : pairs) aligned_pairs.emplace_back(m.estimate, m.truth);
+  const Pose2 truth_T_estimate = AlignPairs(aligned_pairs).truth_T_estimate;
+  std::stable_sort(pairs.begin(), pairs.end(),
+                   [](const MatchedPose& a, const MatchedPose& b) { return a.stamp_seconds < b.stamp_seconds; });
+  errors.reserve(pairs.size());
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const MatchedPose& m = pairs[i];
+    PoseError error;
+    error.stamp_seconds = m.stamp_seconds;
+    const Pose2 aligned = truth_T_estimate * m.estimate;
+    error.translation_meters = (aligned.translation() - m.truth.translation()).norm();
+    error.rotation_degrees = WrapAngle(aligned.theta() - m.truth.theta()) * 180.0 / M_PI;
+    if (i > 0) {
+      const Pose2 step_estimate = Between(pairs[i - 1].estimate, m.estimate);
+      const Pose2 step_truth = Between(pairs[i - 1].truth, m.truth);
+      const Eigen::Vector2d difference = step_estimate.translation() - step_truth.translation();
+      error.has_step = true;
+      error.step_reference_meters = step_truth.translation().norm();
+      error.step_translation_meters = difference.norm();
+      error.step_along_meters =
+          error.step_reference_meters > 0.0 ? difference.dot(step_truth.translation()) / error.step_reference_meters : 0.0;
+      error.step_rotation_degrees = WrapAngle(step_estimate.theta() - step_truth.theta()) * 180.0 / M_PI;
+    }
+    errors.push_back(error);
+  }
+  return errors;
+}
+
+std::vector<size_t> LargestStepErrors(const std::vector<PoseError>& errors, size_t count) {
+  std::vector<size_t> steps;
+  for (size_t i = 0; i < errors.size(); ++i) {
+    if (errors[i].has_step) steps.push_back(i);
+  }
+  std::stable_sort(steps.begin(), steps.end(), [&errors](size_t a, size_t b) {
+    return errors[a].step_translation_meters > errors[b].step_translation_meters;
+  });
+  if (steps.size() > count) steps.resize(count);
+  return steps;
+}
+
+Status WritePoseErrors(const std::string& path, const std::vector<PoseError>& errors) {
+  std::FILE* file = nullptr;
+  HETSLAM_RETURN_IF_ERROR(OpenForWriting(path, "w", &file));
+  std::fprintf(file,
+               "# stamp translation_m rotation_deg step_reference_m step_translation_m step_along_m "
+               "step_rotation_deg has_step\n"
+               "# translation and rotation after the SE(2) alignment (the ATE's), estimate minus reference; the\n"
+               "# step from the previous line's pose: the reference's length, the estimate's step minus the\n"
+               "# reference's (its size, and its part along the reference's step: negative = short), the\n"
+               "# heading's change minus the reference's; has_step is 0 on the first line (no step)\n");
+  for (const PoseError& e : errors) {
+    std::fprintf(file, "%.6f %.6f %.4f %.6f %.6f %.6f %.4f %d\n", e.stamp_seconds, e.translation_meters,
+                 e.rotation_degrees, e.step_reference_meters, e.step_translation_meters, e.step_along_meters,
+                 e.step_rotation_degrees, e.has_step ? 1 : 0);
+  }
+  return CommitWrittenFile(file, path);
 }
 
 }  // namespace hetslam

@@ -7,9 +7,11 @@
 #ifndef HETSLAM_CORE_TRAJECTORY_METRICS_H_
 #define HETSLAM_CORE_TRAJECTORY_METRICS_H_
 
+#include <string>
 #include <vector>
 
 #include "core/se2.h"
+#include "core/status.h"
 #include "core/trajectory_io.h"
 
 namespace hetslam {
@@ -72,6 +74,45 @@ struct StartFrameDrift {
 StartFrameDrift ComputeStartFrameDrift(const std::vector<StampedPose2>& estimate,
                                        const std::vector<StampedPose2>& truth,
                                        double match_tolerance_seconds = 1e-3);
+
+// One matched pose's errors against a reference or the truth (ComputePoseErrors): where a
+// trajectory departs from it, pose by pose, which the ATE's summary hides (a single short step
+// along a corridor, and everything after it shifted).
+struct PoseError {
+  double stamp_seconds = 0.0;  // the estimate's
+  // After the ATE's alignment (AlignTrajectory of the whole trajectory): the position's distance
+  // (m) and the heading, estimate minus reference (degrees, signed).
+  double translation_meters = 0.0;
+  double rotation_degrees = 0.0;
+  // The step from the previous matched pose in time (none for the first): the reference's
+  // length (m), and the estimate's relative motion against the reference's as the relations
+  // metric scores it (core/relations.h): |t_est - t_ref| (m) of the two steps, each in its
+  // own start pose's frame, and wrap(theta_est - theta_ref) (degrees, signed). A step's
+  // `step_along_meters` is the part of t_est - t_ref along the reference's step: negative when
+  // the estimate stepped short of it.
+  bool has_step = false;
+  double step_reference_meters = 0.0;
+  double step_translation_meters = 0.0;
+  double step_along_meters = 0.0;
+  double step_rotation_degrees = 0.0;
+};
+
+// Every pose of `estimate` matched to `truth` as for the ATE (nearest stamp within the
+// tolerance), in time order, with its aligned errors and its step's errors. Empty when no pose
+// matches.
+std::vector<PoseError> ComputePoseErrors(const std::vector<StampedPose2>& estimate,
+                                         const std::vector<StampedPose2>& truth,
+                                         double match_tolerance_seconds = 1e-3);
+
+// The indices of the `count` steps of `errors` with the largest step_translation_meters (ties
+// by time), largest first: where to look first.
+std::vector<size_t> LargestStepErrors(const std::vector<PoseError>& errors, size_t count);
+
+// Writes `errors` as a table: '#' lines naming and explaining the columns, then one line a pose,
+// `stamp translation_m rotation_deg step_reference_m step_translation_m step_along_m
+// step_rotation_deg has_step` (the step columns 0 and has_step 0 where there is no step: the
+// first pose). An error names the file.
+Status WritePoseErrors(const std::string& path, const std::vector<PoseError>& errors);
 
 }  // namespace hetslam
 

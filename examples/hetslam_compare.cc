@@ -13,7 +13,9 @@
 //      delta = ref_i^-1 * ref_j, scored on the trajectory with the relations metric of
 //      Kümmerle et al. 2009 (EvaluateRelations: |t(est) - t(delta)| in m,
 //      |wrap(theta(est) - theta(delta))| in deg, mean ± sample std), for j = the next matched
-//      pose, and for j = the first matched pose at least --rpe_gap seconds after i.
+//      pose, and for j = the first matched pose at least --rpe_gap seconds after i;
+//  (c) the --worst_steps largest step errors (ComputePoseErrors, LargestStepErrors): where the
+//      trajectory departs from the reference; --errors_out writes every pose's errors.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -37,6 +39,15 @@ DEFINE_string(reference, "",
 DEFINE_double(match_tolerance, 0.001,
               "A trajectory pose and a reference pose are associated (nearest timestamp) only when "
               "their timestamps differ by at most this many seconds (>= 0).");
+DEFINE_string(errors_out, "",
+              "Optional: write every matched pose's errors to this file, one line a pose in time order: the "
+              "aligned position and heading errors (as the ATE aligns) and the step from the previous pose "
+              "against the reference's step (its length, the error's size, its part along the step: negative "
+              "= the trajectory stepped short, the heading change's error). Finds where a trajectory departs "
+              "from the reference.");
+DEFINE_int32(worst_steps, 5,
+             "Print this many steps with the largest step errors (when, the reference's step, the error and "
+             "its part along the step, the aligned error after it); 0 = none.");
 DEFINE_double(rpe_gap, 10.0,
               "Second relative-pose-error set: each matched pose is paired with the first matched "
               "pose at least this many seconds later (> 0).");
@@ -55,6 +66,9 @@ bool ValidateFlags(std::string* error) {
   if (!(FLAGS_match_tolerance >= 0.0) || !std::isfinite(FLAGS_match_tolerance)) {
     return (*error = "--match_tolerance must be a finite number >= 0 (got " + std::to_string(FLAGS_match_tolerance) +
                      ")"), false;
+  }
+  if (FLAGS_worst_steps < 0) {
+    return (*error = "--worst_steps must be >= 0 (got " + std::to_string(FLAGS_worst_steps) + ")"), false;
   }
   if (!(FLAGS_rpe_gap > 0.0) || !std::isfinite(FLAGS_rpe_gap)) {
     return (*error = "--rpe_gap must be a finite number > 0 (got " + std::to_string(FLAGS_rpe_gap) + ")"), false;
@@ -147,6 +161,23 @@ int Run() {
   char label[64];
   std::snprintf(label, sizeof(label), "RPE over >= %g s", FLAGS_rpe_gap);
   PrintRelativeError(label, EvaluateRelations(trajectory, gapped, options));
+
+  if (FLAGS_worst_steps == 0 && FLAGS_errors_out.empty()) return 0;
+  const std::vector<PoseError> errors = ComputePoseErrors(trajectory, reference, FLAGS_match_tolerance);
+  const std::vector<size_t> worst = LargestStepErrors(errors, static_cast<size_t>(FLAGS_worst_steps));
+  if (!worst.empty()) std::printf("largest step errors (from the previous matched pose):\n");
+  for (const size_t i : worst) {
+    const PoseError& e = errors[i];
+    std::printf("  t = %.3f -> %.3f s: reference step %.3f m, error %.3f m (%+.3f m along the step), heading %+.3f deg; "
+                "aligned error there %.3f m\n",
+                errors[i - 1].stamp_seconds, e.stamp_seconds, e.step_reference_meters, e.step_translation_meters,
+                e.step_along_meters, e.step_rotation_degrees, e.translation_meters);
+  }
+  if (!FLAGS_errors_out.empty()) {
+    status = WritePoseErrors(FLAGS_errors_out, errors);
+    if (!status.ok()) return Fail(status.message());
+    std::printf("wrote %s (%zu poses)\n", FLAGS_errors_out.c_str(), errors.size());
+  }
   return 0;
 }
 
@@ -157,7 +188,8 @@ int main(int argc, char** argv) {
   gflags::SetUsageMessage(
       "agreement of a trajectory with a reference trajectory (not ground truth): ATE after SE(2)\n"
       "alignment and relative pose errors.\n"
-      "  hetslam_compare --trajectory=FILE --reference=FILE [--match_tolerance=SECONDS] [--rpe_gap=SECONDS]");
+      "  hetslam_compare --trajectory=FILE --reference=FILE [--match_tolerance=SECONDS] [--rpe_gap=SECONDS]\n"
+      "                  [--worst_steps=N] [--errors_out=FILE]");
   hetslam::PrintProgramHelpIfAsked(argc, argv, __FILE__);
   gflags::ParseCommandLineFlags(&argc, &argv, /*remove_flags=*/true);
   if (argc > 1) {

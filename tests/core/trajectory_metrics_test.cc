@@ -1,8 +1,11 @@
 #include "core/trajectory_metrics.h"
 
 #include <cmath>
+#include <fstream>
+#include <string>
 #include <vector>
 
+#include "gmock/gmock.h"
 #include "gtest/gtest.h"
 
 namespace hetslam {
@@ -75,6 +78,88 @@ TEST(StartFrameDriftTest, OnlyPosesWithATruthPoseAtTheirStampCount) {
   EXPECT_EQ(ComputeStartFrameDrift(estimate, truth).matched, 0);
   EXPECT_EQ(ComputeStartFrameDrift(estimate, truth, 0.25).matched, 21);
   EXPECT_EQ(ComputeStartFrameDrift({}, truth).matched, 0);
+}
+
+// The straight truth with every pose from `from` on shifted `shift` metres back along x (one
+// step from from - 1 to from `shift` short), given in reverse time order.
+std::vector<StampedPose2> OneShortStep(const std::vector<StampedPose2>& truth, int from, double shift) {
+  std::vector<StampedPose2> estimate;
+  for (int k = static_cast<int>(truth.size()) - 1; k >= 0; --k) {
+    const double x = truth[k].pose.x() - (k >= from ? shift : 0.0);
+    estimate.push_back({truth[k].stamp_seconds, Pose2(x, truth[k].pose.y(), truth[k].pose.theta())});
+  }
+  return estimate;
+}
+
+TEST(PoseErrorsTest, AShortStepIsFoundWhereItHappensAndTheAlignmentSharesItsShift) {
+  const std::vector<StampedPose2> truth = StraightTruth(Pose2::Identity());
+  const std::vector<PoseError> errors = ComputePoseErrors(OneShortStep(truth, 10, 0.3), truth);
+  ASSERT_EQ(errors.size(), 21u);
+  for (size_t i = 0; i < errors.size(); ++i) {
+    EXPECT_DOUBLE_EQ(errors[i].stamp_seconds, 0.5 * i);  // in time order
+    EXPECT_EQ(errors[i].has_step, i > 0);
+    if (i == 0) continue;
+    EXPECT_NEAR(errors[i].step_reference_meters, 0.5, 1e-12);
+    EXPECT_NEAR(errors[i].step_rotation_degrees, 0.0, 1e-12);
+    EXPECT_NEAR(errors[i].step_translation_meters, i == 10 ? 0.3 : 0.0, 1e-12) << i;
+    EXPECT_NEAR(errors[i].step_along_meters, i == 10 ? -0.3 : 0.0, 1e-12) << i;
+  }
+  // All on one line: the alignment is a shift along x of 0.3 * 11 / 21 m (the mean offset),
+  // leaving 0.3 * 11 / 21 before the short step and 0.3 * 10 / 21 from it on.
+  EXPECT_NEAR(errors[0].translation_meters, 0.3 * 11 / 21, 1e-9);
+  EXPECT_NEAR(errors[9].translation_meters, 0.3 * 11 / 21, 1e-9);
+  EXPECT_NEAR(errors[10].translation_meters, 0.3 * 10 / 21, 1e-9);
+  EXPECT_NEAR(errors[20].translation_meters, 0.3 * 10 / 21, 1e-9);
+  EXPECT_THAT(LargestStepErrors(errors, 1), ::testing::ElementsAre(10u));
+  EXPECT_EQ(LargestStepErrors(errors, 100).size(), 20u);  // every step, none for the first pose
+  EXPECT_TRUE(LargestStepErrors(errors, 0).empty());
+}
+
+TEST(PoseErrorsTest, AStepIsBetweenMatchedPosesAndItsHeadingErrorIsSigned) {
+  const std::vector<StampedPose2> truth = StraightTruth(Pose2(2.0, -1.0, 0.4));
+  std::vector<StampedPose2> estimate;
+  for (size_t k = 0; k < truth.size(); ++k) {
+    // Turned +1 degree on the step to pose 4, the rest of the path following; pose 7 has no
+    // truth within the tolerance (its step is from pose 6 to pose 8).
+    const double yaw = k >= 4 ? 1.0 / kDegrees : 0.0;
+    const double stamp = truth[k].stamp_seconds + (k == 7 ? 0.1 : 0.0);
+    estimate.push_back({stamp, Pose2(0.5 * k, 0.0, yaw)});
+  }
+  const std::vector<PoseError> errors = ComputePoseErrors(estimate, truth);
+  ASSERT_EQ(errors.size(), 20u);
+  EXPECT_NEAR(errors[4].step_rotation_degrees, 1.0, 1e-9);
+  EXPECT_NEAR(errors[5].step_rotation_degrees, 0.0, 1e-9);
+  EXPECT_DOUBLE_EQ(errors[7].stamp_seconds, 4.0);  // pose 8
+  EXPECT_NEAR(errors[7].step_reference_meters, 1.0, 1e-9);
+  EXPECT_TRUE(ComputePoseErrors({}, truth).empty());
+}
+
+TEST(PoseErrorsTest, WrittenOneLineAPoseAfterAHeaderAndAnUnwritablePathIsAnErrorNamingIt) {
+  const std::vector<StampedPose2> truth = StraightTruth(Pose2::Identity());
+  const std::vector<PoseError> errors = ComputePoseErrors(OneShortStep(truth, 10, 0.3), truth);
+  const std::string path = ::testing::TempDir() + "/trajectory_metrics_test_errors.txt";
+  ASSERT_TRUE(WritePoseErrors(path, errors).ok());
+  std::ifstream in(path);
+  std::string line;
+  int comments = 0, rows = 0;
+  std::vector<std::string> row10;
+  while (std::getline(in, line)) {
+    if (line.rfind("#", 0) == 0) {
+      ++comments;
+      continue;
+    }
+    if (rows == 10) row10 = {line};
+    ++rows;
+  }
+  EXPECT_GE(comments, 1);
+  EXPECT_EQ(rows, 21);
+  ASSERT_EQ(row10.size(), 1u);
+  EXPECT_THAT(row10[0], ::testing::StartsWith("5.000000 "));
+  EXPECT_THAT(row10[0], ::testing::HasSubstr(" 0.500000 0.300000 -0.300000 "));
+  EXPECT_THAT(row10[0], ::testing::EndsWith(" 1"));
+  const Status status = WritePoseErrors("/nonexistent-dir/errors.txt", errors);
+  EXPECT_FALSE(status.ok());
+  EXPECT_THAT(status.message(), ::testing::HasSubstr("/nonexistent-dir/errors.txt"));
 }
 
 }  // namespace
