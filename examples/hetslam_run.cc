@@ -867,7 +867,10 @@ int Run() {
   // Each loop closure's match against the truth, the trajectory taken out (its submap placed by
   // its own nodes' truth): what the matches got wrong, apart from the drift.
   std::vector<ConstraintTruthError> closure_errors;
+  // The front end alone against the truth: whether the loop closures made the trajectory better.
+  AbsoluteTrajectoryError frontend_ate;
   if (!truth.empty() && options.loop_closure) {
+    frontend_ate = ComputeAbsoluteTrajectoryError(estimator->LocalTrajectory(), truth);
     closure_errors = ConstraintTruthErrors(estimator->graph(), {{options.robot, truth}});
     written.push_back(WriteConstraintTruthErrors((out / "loop_closures_truth.txt").string(), closure_errors, {}));
   }
@@ -923,6 +926,15 @@ int Run() {
                   "rotation rmse %.2f deg (max %.2f deg)\n",
                   truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
                   ate.rotation_rmse_degrees, ate.rotation_max_degrees);
+      if (frontend_ate.matched >= 3) {
+        std::printf("  the front end alone, before loop closure (frontend_trajectory.txt): rmse %.3f m (max %.3f m), "
+                    "rotation rmse %.2f deg; the loop closures %s\n",
+                    frontend_ate.translation_rmse_meters, frontend_ate.translation_max_meters,
+                    frontend_ate.rotation_rmse_degrees,
+                    ate.translation_rmse_meters < frontend_ate.translation_rmse_meters    ? "improved it"
+                    : ate.translation_rmse_meters > frontend_ate.translation_rmse_meters ? "made it worse"
+                                                                                           : "did not change it");
+      }
       // What the alignment hides: how far the map's frame turned and moved from the start.
       const StartFrameDrift drift = ComputeStartFrameDrift(trajectory, truth);
       std::printf("drift from the start frame vs %s (no alignment; what a teammate's relative pose inherits): "

@@ -32,8 +32,10 @@
 # With several seeds a summary table follows, one row per scenario and robot over the seeds:
 # how many runs were scored, the worst ATE rmse and its seed, the mean ATE rmse, the worst
 # rotation rmse and its seed, the mean real-time factor, and the worst start-frame drift in
-# metres and degrees (worst and means over the scored runs only; a run that failed shows as
-# fewer scored runs than seeds, and in the exit status).
+# metres and degrees, and the worst ATE rmse of the front end alone (before loop closure,
+# frontend_trajectory.txt: whether the closures helped; - without loop closure) (worst and means
+# over the scored runs only; a run that failed shows as fewer scored runs than seeds, and in the
+# exit status).
 # Exit status: 0 when every robot was mapped and scored for every seed, 1 otherwise, 2 on a
 # usage error (including a HETSLAM_SEEDS entry that is not a non-negative integer, or repeated).
 set -uo pipefail
@@ -118,7 +120,7 @@ for seed in "${seeds[@]}"; do
       start=$(now)
       if ! "$build/examples/hetslam_run" --log="$log" --out="$out" --progress_every=0 "${extra[@]}" >"$out.log" 2>&1; then
         printf '%-22s %-6s %4s FAILED: hetslam_run, see %s\n' "$name" "$robot" "$seed" "$out.log"
-        echo "$name $robot $seed - - - - -" >>"$runs"
+        echo "$name $robot $seed - - - - - -" >>"$runs"
         status=1
         continue
       fi
@@ -133,13 +135,17 @@ for seed in "${seeds[@]}"; do
       rotation=$(sed -n 's/.*rotation rmse \([0-9.]*\) deg.*/\1/p' <<<"$error")
       # "drift from the start frame ...: at the end ...; largest 0.228 m (t = 38.2 s), 0.88 deg (t = 39.2 s)"
       drift=$(sed -n 's/^drift from the start frame .*; largest \([0-9.]*\) m (t = [-0-9.]* s), \([0-9.]*\) deg .*/\1 \2/p' "$out.log")
+      # "  the front end alone, before loop closure (frontend_trajectory.txt): rmse 0.017 m (max ...": only
+      # with loop closure
+      frontend=$(sed -n 's/^  the front end alone, before loop closure .*: rmse \([0-9.]*\) m .*/\1/p' "$out.log")
       if [ -z "$error" ] || [ -z "$ate" ] || [ -z "$rotation" ] || [ -z "$drift" ]; then
         error="not scored, see $out.log"
-        echo "$name $robot $seed - - - - -" >>"$runs"
+        echo "$name $robot $seed - - - - - -" >>"$runs"
         status=1
       else
-        echo "$name $robot $seed $ate $rotation $rtf $drift" >>"$runs"
+        echo "$name $robot $seed $ate $rotation $rtf $drift ${frontend:--}" >>"$runs"
         error="$error; start-frame drift at most $(awk '{print $1 " m, " $2 " deg"}' <<<"$drift")"
+        [ -n "$frontend" ] && error="$error; front end alone $frontend m"
       fi
       printf '%-22s %-6s %4s %6s %7s %7s %7sx  %s\n' "$name" "$robot" "$seed" "$scans" "$duration" "$wall" "$rtf" "$error"
     done
@@ -149,8 +155,8 @@ done
 if [ ${#seeds[@]} -gt 1 ]; then
   echo
   echo "summary over ${#seeds[@]} seeds (worst and mean over the scored runs):"
-  printf '%-22s %-6s %6s %11s %5s %10s %13s %5s %8s %13s %15s\n' scenario robot scored worst_ATE_m seed \
-    mean_ATE_m worst_rot_deg seed mean_RTF worst_drift_m worst_drift_deg
+  printf '%-22s %-6s %6s %11s %5s %10s %13s %5s %8s %13s %15s %17s\n' scenario robot scored worst_ATE_m seed \
+    mean_ATE_m worst_rot_deg seed mean_RTF worst_drift_m worst_drift_deg worst_front_end_m
   awk -v num_seeds=${#seeds[@]} '
     $4 == "sim" { not_generated = not_generated " " $1 " (seed " $3 ")"; next }
     {
@@ -165,6 +171,7 @@ if [ ${#seeds[@]} -gt 1 ]; then
       sum_rtf[key] += $6
       if (scored[key] == 1 || $7 > worst_drift_m[key]) worst_drift_m[key] = $7
       if (scored[key] == 1 || $8 > worst_drift_deg[key]) worst_drift_deg[key] = $8
+      if ($9 != "-" && (!(key in worst_front) || $9 > worst_front[key])) worst_front[key] = $9
     }
     END {
       for (i = 1; i <= num_keys; ++i) {
@@ -174,10 +181,10 @@ if [ ${#seeds[@]} -gt 1 ]; then
           printf "%-22s %-6s %6s  no scored run\n", scenario[key], robot[key], "0/" num_seeds
           continue
         }
-        printf "%-22s %-6s %6s %11.3f %5s %10.3f %13.2f %5s %7.1fx %13.3f %15.2f\n", scenario[key],
+        printf "%-22s %-6s %6s %11.3f %5s %10.3f %13.2f %5s %7.1fx %13.3f %15.2f %17s\n", scenario[key],
                robot[key], n "/" num_seeds, worst_ate[key], worst_ate_seed[key],
                sum_ate[key] / n, worst_rot[key], worst_rot_seed[key], sum_rtf[key] / n,
-               worst_drift_m[key], worst_drift_deg[key]
+               worst_drift_m[key], worst_drift_deg[key], (key in worst_front ? sprintf("%.3f", worst_front[key]) : "-")
       }
       if (not_generated != "") print "hetslam_sim failed for:" not_generated
     }' "$runs"
