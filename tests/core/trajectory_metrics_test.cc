@@ -119,8 +119,8 @@ TEST(PoseErrorsTest, AStepIsBetweenMatchedPosesAndItsHeadingErrorIsSigned) {
   const std::vector<StampedPose2> truth = StraightTruth(Pose2(2.0, -1.0, 0.4));
   std::vector<StampedPose2> estimate;
   for (size_t k = 0; k < truth.size(); ++k) {
-    // Turned +1 degree on the step to pose 4, the rest of the path following; pose 7 has no
-    // truth within the tolerance (its step is from pose 6 to pose 8).
+    // The heading 1 degree up from pose 4 on (a turn on the step to pose 4); pose 7 has no
+    // truth within the tolerance (the step to pose 8 is from pose 6).
     const double yaw = k >= 4 ? 1.0 / kDegrees : 0.0;
     const double stamp = truth[k].stamp_seconds + (k == 7 ? 0.1 : 0.0);
     estimate.push_back({stamp, Pose2(0.5 * k, 0.0, yaw)});
