@@ -183,6 +183,18 @@ DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score
               "places the scan poorly along that direction: the closure's information along it is scaled by (drop "
               "ratio / this), its standard deviation there capped by --loop_weak_sigma, and a wide-search result is "
               "dropped. 0 = off.");
+DEFINE_double(intra_sigma, hetslam::SubmapGraphOptions().intra_translation_sigma_meters,
+              "Pose graph: standard deviation (metres) of each scan's constraint to the submaps it went into (the "
+              "front end's own chain); with --intra_rotation_sigma_deg what the graph trusts the front end to against "
+              "the loop closures (--loop_sigma). Smaller: a stiffer chain, the closures pull less. In (0, 1000].");
+DEFINE_double(intra_rotation_sigma_deg, hetslam::SubmapGraphOptions().intra_rotation_sigma_radians * 180.0 / M_PI,
+              "Pose graph: standard deviation (degrees) of the heading of each scan's constraint to its submaps (see "
+              "--intra_sigma).");
+DEFINE_double(loop_sigma, hetslam::SubmapGraphOptions().loop_translation_sigma_meters,
+              "Pose graph: standard deviation (metres) of a loop closure (along a degenerate closure's weak direction "
+              "up to --loop_weak_sigma), Huber-robust beyond 3 of them. In (0, 1000].");
+DEFINE_double(loop_rotation_sigma_deg, hetslam::SubmapGraphOptions().loop_rotation_sigma_radians * 180.0 / M_PI,
+              "Pose graph: standard deviation (degrees) of a loop closure's heading (see --loop_sigma).");
 DEFINE_double(loop_weak_sigma, 2.0, "Largest standard deviation (metres) of a degenerate loop closure along its weak "
               "direction (see --loop_degenerate_drop_ratio); the consistency check ignores that direction.");
 DEFINE_double(map_min_hit_share, 0.2, "The written maps (map.pgm, walls.pgm, planner.pgm and the structure in map.png) "
@@ -394,6 +406,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"wall_weight", "--wall_weight"},
       {"retire_revisited_share", "--retire_revisited_share"},
       {"solve_min_new_node_share", "--solve_min_new_node_share"},
+      {"constraint sigmas", "--intra_sigma, --intra_rotation_sigma_deg, --loop_sigma, --loop_rotation_sigma_deg"},
   };
   std::string flags;
   for (const auto& [field, flag] : kFlagOf) {
@@ -512,6 +525,10 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->degenerate_max_drop_ratio = FLAGS_loop_degenerate_drop_ratio;
   loop->max_submaps_per_search = FLAGS_loop_max_submaps;
   loop->refine_on_all_points = FLAGS_refine_on_all_points;
+  estimator->graph.intra_translation_sigma_meters = FLAGS_intra_sigma;
+  estimator->graph.intra_rotation_sigma_radians = FLAGS_intra_rotation_sigma_deg * M_PI / 180.0;
+  estimator->graph.loop_translation_sigma_meters = FLAGS_loop_sigma;
+  estimator->graph.loop_rotation_sigma_radians = FLAGS_loop_rotation_sigma_deg * M_PI / 180.0;
   estimator->graph.loop_weak_translation_sigma_meters = FLAGS_loop_weak_sigma;
   estimator->graph.map_min_hit_share = FLAGS_map_min_hit_share;
   estimator->graph.wall_min_length_meters = FLAGS_wall_min_length;

@@ -79,8 +79,9 @@ bool SubmapGraphOptions::IsValid(std::string* error) const {
   std::ostringstream msg;
   for (double sigma : {intra_translation_sigma_meters, intra_rotation_sigma_radians, loop_translation_sigma_meters,
                        loop_rotation_sigma_radians, loop_loss_scale}) {
-    if (!(sigma > 0)) {
-      msg << "constraint sigmas and loop_loss_scale must be > 0; ";
+    if (!(sigma > 0 && sigma <= 1e3)) {
+      msg << "constraint sigmas (intra_*, loop_translation_*, loop_rotation_*) and loop_loss_scale must be in "
+             "(0, 1000]; ";
       break;
     }
   }

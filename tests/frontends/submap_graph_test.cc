@@ -3,7 +3,9 @@
 // nor gets it removed; across the corridor it is a closure like any other.
 #include <cmath>
 #include <algorithm>
+#include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "frontends/submap_graph.h"
@@ -43,6 +45,22 @@ ConstraintCandidate Closure(const NodeId& node, const Pose2& submap_T_node, cons
   closure.weak_direction = weak;
   closure.weak_information_fraction = 0.0;
   return closure;
+}
+
+TEST(SubmapGraphTest, ConstraintSigmasMustBePositiveAndFinite) {
+  std::string error;
+  EXPECT_TRUE(SubmapGraphOptions().IsValid(&error)) << error;
+  for (const double bad : {0.0, -0.01, 1e4, std::numeric_limits<double>::infinity(),
+                           std::numeric_limits<double>::quiet_NaN()}) {
+    for (double SubmapGraphOptions::*sigma :
+         {&SubmapGraphOptions::intra_translation_sigma_meters, &SubmapGraphOptions::intra_rotation_sigma_radians,
+          &SubmapGraphOptions::loop_translation_sigma_meters, &SubmapGraphOptions::loop_rotation_sigma_radians}) {
+      SubmapGraphOptions options;
+      options.*sigma = bad;
+      EXPECT_FALSE(options.IsValid(&error)) << bad;
+      EXPECT_NE(error.find("constraint sigmas"), std::string::npos) << error;
+    }
+  }
 }
 
 TEST(SubmapGraphTest, ClosureAgreesIgnoresTheWeakDirection) {
