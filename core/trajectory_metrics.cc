@@ -176,8 +176,9 @@ std::vector<PoseError> ComputePoseErrors(const std::vector<StampedPose2>& estima
       error.has_step = true;
       error.step_reference_meters = step_truth.translation().norm();
       error.step_translation_meters = difference.norm();
-      error.step_along_meters =
-          error.step_reference_meters > 0.0 ? difference.dot(step_truth.translation()) / error.step_reference_meters : 0.0;
+      error.step_along_meters = error.step_reference_meters > 0.0
+                                    ? difference.dot(step_truth.translation()) / error.step_reference_meters
+                                    : 0.0;
       error.step_rotation_degrees = WrapAngle(step_estimate.theta() - step_truth.theta()) * 180.0 / M_PI;
     }
     errors.push_back(error);

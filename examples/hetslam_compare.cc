@@ -168,8 +168,8 @@ int Run() {
   if (!worst.empty()) std::printf("largest step errors (from the previous matched pose):\n");
   for (const size_t i : worst) {
     const PoseError& e = errors[i];
-    std::printf("  t = %.3f -> %.3f s: reference step %.3f m, error %.3f m (%+.3f m along the step), heading %+.3f deg; "
-                "aligned error there %.3f m\n",
+    std::printf("  t = %.3f -> %.3f s: reference step %.3f m, error %.3f m (%+.3f m along the step), "
+                "heading %+.3f deg; aligned error there %.3f m\n",
                 errors[i - 1].stamp_seconds, e.stamp_seconds, e.step_reference_meters, e.step_translation_meters,
                 e.step_along_meters, e.step_rotation_degrees, e.translation_meters);
   }

@@ -185,14 +185,15 @@ DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score
               "dropped. 0 = off.");
 DEFINE_double(intra_sigma, hetslam::SubmapGraphOptions().intra_translation_sigma_meters,
               "Pose graph: standard deviation (metres) of each scan's constraint to the submaps it went into (the "
-              "front end's own chain); with --intra_rotation_sigma_deg what the graph trusts the front end to against "
-              "the loop closures (--loop_sigma). Smaller: a stiffer chain, the closures pull less. In (0, 1000].");
+              "front end's own chain). With --intra_rotation_sigma_deg, how far the graph trusts the front end "
+              "against the loop closures (--loop_sigma): smaller, a stiffer chain that the closures pull less. In "
+              "(0, 1000].");
 DEFINE_double(intra_rotation_sigma_deg, hetslam::SubmapGraphOptions().intra_rotation_sigma_radians * 180.0 / M_PI,
               "Pose graph: standard deviation (degrees) of the heading of each scan's constraint to its submaps (see "
               "--intra_sigma).");
 DEFINE_double(loop_sigma, hetslam::SubmapGraphOptions().loop_translation_sigma_meters,
-              "Pose graph: standard deviation (metres) of a loop closure (along a degenerate closure's weak direction "
-              "up to --loop_weak_sigma), Huber-robust beyond 3 of them. In (0, 1000].");
+              "Pose graph: standard deviation (metres) of a loop closure (along a degenerate closure's weak "
+              "direction up to --loop_weak_sigma), Huber-robust beyond 3 of them. In (0, 1000].");
 DEFINE_double(loop_rotation_sigma_deg, hetslam::SubmapGraphOptions().loop_rotation_sigma_radians * 180.0 / M_PI,
               "Pose graph: standard deviation (degrees) of a loop closure's heading (see --loop_sigma).");
 DEFINE_double(loop_weak_sigma, 2.0, "Largest standard deviation (metres) of a degenerate loop closure along its weak "
@@ -944,13 +945,16 @@ int Run() {
                   truth_name.c_str(), ate.matched, ate.translation_rmse_meters, ate.translation_max_meters,
                   ate.rotation_rmse_degrees, ate.rotation_max_degrees);
       if (frontend_ate.matched >= 3) {
+        // Compared as printed (to the millimetre).
+        const long corrected_mm = std::lround(1e3 * ate.translation_rmse_meters);
+        const long frontend_mm = std::lround(1e3 * frontend_ate.translation_rmse_meters);
+        const char* verdict = corrected_mm < frontend_mm   ? "improved it"
+                              : corrected_mm > frontend_mm ? "made it worse"
+                                                           : "did not change it (to the millimetre)";
         std::printf("  the front end alone, before loop closure (frontend_trajectory.txt): rmse %.3f m (max %.3f m), "
                     "rotation rmse %.2f deg; the loop closures %s\n",
                     frontend_ate.translation_rmse_meters, frontend_ate.translation_max_meters,
-                    frontend_ate.rotation_rmse_degrees,
-                    ate.translation_rmse_meters < frontend_ate.translation_rmse_meters    ? "improved it"
-                    : ate.translation_rmse_meters > frontend_ate.translation_rmse_meters ? "made it worse"
-                                                                                           : "did not change it");
+                    frontend_ate.rotation_rmse_degrees, verdict);
       }
       // What the alignment hides: how far the map's frame turned and moved from the start.
       const StartFrameDrift drift = ComputeStartFrameDrift(trajectory, truth);

@@ -145,17 +145,19 @@ DEFINE_double(revisit_points_min_travel, 0.5, "Each robot's attached scans (see 
               "--revisit_points_min_turn_deg=0: every attached scan keeps its points.");
 DEFINE_double(revisit_points_min_turn_deg, 15.0, "See --revisit_points_min_travel (degrees).");
 DEFINE_double(intra_sigma, hetslam::SubmapGraphOptions().intra_translation_sigma_meters,
-              "Every robot's pose graph: standard deviation (metres) of each scan's constraint to the submaps it went into (the "
-              "front end's own chain); with --intra_rotation_sigma_deg what the graph trusts the front end to against "
-              "the loop closures (--loop_sigma). Smaller: a stiffer chain, the closures pull less. In (0, 1000].");
+              "Every robot's pose graph: standard deviation (metres) of each scan's constraint to the submaps it "
+              "went into (the front end's own chain). With --intra_rotation_sigma_deg, how far the graph trusts the "
+              "front end against the loop closures (--loop_sigma): smaller, a stiffer chain that the closures pull "
+              "less. In (0, 1000].");
 DEFINE_double(intra_rotation_sigma_deg, hetslam::SubmapGraphOptions().intra_rotation_sigma_radians * 180.0 / M_PI,
-              "Every robot's pose graph: standard deviation (degrees) of the heading of each scan's constraint to its submaps (see "
-              "--intra_sigma).");
+              "Every robot's pose graph: standard deviation (degrees) of the heading of each scan's constraint to "
+              "its submaps (see --intra_sigma).");
 DEFINE_double(loop_sigma, hetslam::SubmapGraphOptions().loop_translation_sigma_meters,
-              "Every robot's pose graph: standard deviation (metres) of a loop closure (along a degenerate closure's weak direction "
-              "up to --loop_weak_sigma), Huber-robust beyond 3 of them. In (0, 1000].");
+              "Every robot's pose graph: standard deviation (metres) of a loop closure (along a degenerate closure's "
+              "weak direction up to --loop_weak_sigma), Huber-robust beyond 3 of them. In (0, 1000].");
 DEFINE_double(loop_rotation_sigma_deg, hetslam::SubmapGraphOptions().loop_rotation_sigma_radians * 180.0 / M_PI,
-              "Every robot's pose graph: standard deviation (degrees) of a loop closure's heading (see --loop_sigma).");
+              "Every robot's pose graph: standard deviation (degrees) of a loop closure's heading (see "
+              "--loop_sigma).");
 DEFINE_double(map_min_hit_share, 0.2, "Every robot's rendered maps (its map.pgm, the merged map, and the maps the "
               "map-overlap checks compare) leave out the noise tail behind walls: an occupied cell hit fewer times than "
               "this share of a neighbour's hits, with never-observed space beyond it (see hetslam_run --help). In "
