@@ -127,8 +127,9 @@ struct ScanMatchResult {
   int candidates_scored = 0;     // branch-and-bound work
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // J^T J of the scan cost at `pose`
   // The score's profile around `pose` (with a refinement; zero without), in the refinement's
-  // units (with wall_weight_in_refinement, L + (w - 1) L_wall): the drop of a direction is the
-  // objective (bilinear) at `pose` minus its best at shifts of ±1 to ±3 profile steps
+  // units (with wall_weight_in_refinement, L + (w - 1) L_wall), on the refinement's points
+  // (every k-th of them when they outnumber the searched ones, see Match): the drop of a
+  // direction is the objective (bilinear) at `pose` minus its best at shifts of ±1 to ±3 profile steps
   // (ScanMatcherOptions::profile_step_meters) along it; of sixteen directions 11.25° apart, the
   // one with the smallest drop (unit, map frame; its angle refined by a parabola through its
   // neighbours' drops), that drop and the largest. A weak drop near
@@ -176,8 +177,10 @@ class ScanMatcher {
   // `try_narrow_first`: allow the narrow first try (when its windows are set); callers pass
   // false when the prediction is not trusted to be that close (large recent motion).
   // `refinement_points` (non-empty, with empty `weights`): the same scan thinned otherwise
-  // (LocalSlamOptions::refine_on_middle_beams), for the refinement of the pose the search
-  // found and its `information` and score profile; `score` stays on `points_robot`.
+  // (LocalSlamOptions::refine_on_middle_beams) or not at all (refine_on_all_points), for the
+  // refinement of the pose the search found and its `information` and score profile (the
+  // profile on every k-th of them when they outnumber `points_robot`, as many as those at
+  // most); `score` stays on `points_robot`.
   ScanMatchResult Match(const LaserMap& map, const Pose2& predicted,
                         const std::vector<Eigen::Vector2f>& points_robot,
                         const std::vector<float>& weights = {}, bool try_narrow_first = true,

@@ -795,5 +795,71 @@ TEST(ScanMatcherRefinementPointsTest, EveryPointRefinesWithoutTheFirstPointsTurn
       << "first " << first_mean << ", last " << last_mean << ", every point " << all_mean << " deg";
 }
 
+// With more refinement points than searched ones (LocalSlamOptions::refine_on_all_points), the
+// score profile takes every k-th refinement point, as many as the searched ones at most: points
+// from the whole scan. In a corridor (walls at y = +-1.2 m, 30 m long) a dense scan's match is
+// flat along the walls; with a wall across it 3 m ahead (a dead end), which a quarter of the
+// beams see, it is not. The profile on the thinned points tells the two apart as the profile
+// on all of them does, with the same drops to 10%, and the pose is the refinement's.
+TEST(ScanMatcherRefinementPointsTest, TheProfileOnEveryKthPointSeesTheWholeScan) {
+  const double degree = M_PI / 180.0;
+  for (const bool dead_end : {false, true}) {
+    SCOPED_TRACE(dead_end ? "dead end" : "open corridor");
+    sim::World world;
+    world.AddWall(Eigen::Vector2d(-15.0, -1.2), Eigen::Vector2d(15.0, -1.2));
+    world.AddWall(Eigen::Vector2d(-15.0, 1.2), Eigen::Vector2d(15.0, 1.2));
+    if (dead_end) world.AddWall(Eigen::Vector2d(3.0, -1.2), Eigen::Vector2d(3.0, 1.2));
+    std::mt19937 rng(11);
+    // 1440 beams from straight behind (-180°), counterclockwise; 1 cm range noise.
+    const auto fine_scan = [&world, &rng](const Pose2& world_T_robot) {
+      std::normal_distribution<double> noise(0.0, 0.01);
+      std::vector<Eigen::Vector2f> points;
+      for (int i = 0; i < 1440; ++i) {
+        const double angle = -M_PI + i * M_PI / 720.0;
+        double range = 0.0;
+        if (!world.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, 8.0, &range)) continue;
+        const double r = range + noise(rng);
+        points.emplace_back(static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle)));
+      }
+      return points;
+    };
+    LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
+    for (double x = -1.0; x <= 1.0; x += 0.5) {
+      const Pose2 pose(x, 0.1, 0.05);
+      map.InsertScan(pose, Eigen::Vector2d::Zero(), fine_scan(pose));
+    }
+    const Pose2 truth(0.2, -0.1, 0.1);
+    const std::vector<Eigen::Vector2f> scan = fine_scan(truth);
+    const std::vector<Eigen::Vector2f> voxels = VoxelFilter(scan, 0.2f);
+    ASSERT_GT(scan.size(), 4 * voxels.size());
+    const ScanMatcher matcher{ScanMatcherOptions()};
+    const Pose2 predicted = truth * Pose2(0.0, 0.03, 0.01);
+    // Searched on the voxels, refined on every point: the profile on every k-th point.
+    const ScanMatchResult thinned = matcher.MatchWithinWindow(map, predicted, voxels, 0.3, 0.2, {}, 0.0, &scan);
+    // Searched and refined on every point: the profile on all of them.
+    const ScanMatchResult all = matcher.MatchWithinWindow(map, predicted, scan, 0.3, 0.2, {}, 0.0, &scan);
+    ASSERT_TRUE(thinned.converged && all.converged) << thinned.message << all.message;
+    for (const ScanMatchResult* result : {&thinned, &all}) {
+      const double ratio = result->weak_direction_score_drop / result->strong_direction_score_drop;
+      if (dead_end) {
+        EXPECT_GT(ratio, 0.12) << "weak " << result->weak_direction_score_drop;
+      } else {
+        EXPECT_LT(ratio, 0.05) << "weak " << result->weak_direction_score_drop;
+        EXPECT_LT(std::abs(std::atan(result->weak_direction.y() / result->weak_direction.x())), 2.0 * degree)
+            << result->weak_direction.transpose();
+      }
+    }
+    EXPECT_NEAR(all.weak_direction_score_drop, thinned.weak_direction_score_drop,
+                0.1 * all.strong_direction_score_drop);
+    EXPECT_NEAR(all.strong_direction_score_drop, thinned.strong_direction_score_drop,
+                0.1 * all.strong_direction_score_drop);
+    EXPECT_NEAR(truth.y(), thinned.pose.y(), 0.01) << thinned.pose;
+    EXPECT_NEAR(truth.theta(), thinned.pose.theta(), 0.2 * degree) << thinned.pose;
+    if (dead_end) {
+      EXPECT_NEAR(truth.x(), thinned.pose.x(), 0.01) << thinned.pose;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hetslam
