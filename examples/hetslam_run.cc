@@ -113,9 +113,10 @@ DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the f
 DEFINE_bool(refine_on_all_points, false, "The search places each scan on the first beam of every --matching_voxel "
             "voxel; the refinement of its pose (front end and loop closures) uses every beam. No choice within a "
             "voxel: its first beam lies nearest the side the sweep enters by, which turned the simulated robots' "
-            "front ends +0.04 to +2.25 deg a run (-0.57 to +0.51 with this). Off by default: the simulated corridor's "
-            "and office loop's corrected trajectories get worse, and FR079 takes 21-31% longer (ACES, since "
-            "--speed_change_sigma, 0.095 -> 0.163 m; README, Teams). Takes precedence over --refine_on_middle_beams.");
+            "front ends +0.04 to +2.25 deg a run (-0.57 to +0.51 with this). Off by default: the simulated office "
+            "loop's corrected trajectory gets worse, ACES (since --speed_change_sigma) 0.095 -> 0.163 m, and the real "
+            "logs take 5-16% longer (README, \"The score profile on every k-th point\"). Takes precedence over "
+            "--refine_on_middle_beams.");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
 DEFINE_bool(no_loop_closure, false, "Run the scan-matching front end alone against one global map (no submaps, no "

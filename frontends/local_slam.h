@@ -70,15 +70,17 @@ struct LocalSlamOptions {
   // Used when the scan carries no matching weights.
   bool refine_on_middle_beams = false;
   // The search keeps each voxel's first point; with this the refinement (and the match's
-  // information, a mean over the points, and its score profile) uses every point of the scan.
+  // information, a mean over the points, and its score profile, on every k-th point: as many as
+  // were searched) uses every point of the scan.
   // No choice within a voxel, so none of the first point's turn: of a voxel's beams the first
   // lies nearest the side the sweep enters by (a surface's end, or a point that range noise
   // carried across), and the simulated robots' front ends turned +0.04 to +2.25 degrees a run on
   // all 55 runs of seeds 1-5 (-0.3 to -1.7 with each voxel's last point; -0.57 to +0.51 with
-  // this). Off by default: wheeled_corridor's and the office loop's corrected trajectories get
-  // worse, and FR079 takes 21-31% longer (ACES, since ParticleFilterOptions::speed_change_sigma_mps
-  // weighs its corridor scan, 0.095 -> 0.163 m; README, Teams, "The refinement on every
-  // point"). Takes precedence over refine_on_middle_beams.
+  // this). Off by default: the office loop's corrected trajectory gets worse (0.038 -> 0.046 m in
+  // its original handedness), ACES (since ParticleFilterOptions::speed_change_sigma_mps weighs
+  // its corridor scan) 0.095 -> 0.163 m, and the real logs take 5-16% longer (README, "The
+  // refinement on every point", "The score profile on every k-th point"). Takes precedence over
+  // refine_on_middle_beams.
   // Used when the scan carries no matching weights.
   bool refine_on_all_points = false;
   // Scans with fewer valid points are not matched or inserted (counted as skipped).
