@@ -199,6 +199,13 @@ DEFINE_double(loop_rotation_sigma_deg, hetslam::SubmapGraphOptions().loop_rotati
               "Pose graph: standard deviation (degrees) of a loop closure's heading (see --loop_sigma).");
 DEFINE_double(loop_weak_sigma, 2.0, "Largest standard deviation (metres) of a degenerate loop closure along its weak "
               "direction (see --loop_degenerate_drop_ratio); the consistency check ignores that direction.");
+DEFINE_double(loop_weak_direction_snap_deg,
+              hetslam::LoopCloserOptions().matcher.weak_direction_snap_radians * 180.0 / M_PI,
+              "A degenerate loop closure's weak direction (the score profile's flattest of 16 directions, 11.25 "
+              "degrees apart) is replaced by the direction of the scan's surfaces when the two are within this many "
+              "degrees: a corridor's closure lies up to metres off along its walls, and a direction a few degrees "
+              "off turns part of that into a wrong claim across them. In [0, 90]; 0 = off (README, \"Degenerate "
+              "closures along the walls\").");
 DEFINE_double(map_min_hit_share, 0.2, "The written maps (map.pgm, walls.pgm, planner.pgm and the structure in map.png) "
               "leave out the noise tail behind walls, which no ray ever clears: an occupied cell hit fewer times than "
               "this share of a neighbour's hits, with never-observed space on its far side from that neighbour, is "
@@ -382,6 +389,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"degenerate_max_drop_ratio", "--degenerate_drop_ratio"},
       {"loop: degenerate_max_drop_ratio", "--loop_degenerate_drop_ratio"},
       {"loop_weak_translation_sigma_meters", "--loop_weak_sigma"},
+      {"weak_direction_snap_radians", "--loop_weak_direction_snap_deg"},
       {"map_min_hit_share", "--map_min_hit_share"},
       {"wall_min_length_meters", "--wall_min_length"},
       {"revisit_points_min_travel_meters", "--revisit_points_min_travel, --revisit_points_min_turn_deg"},
@@ -525,6 +533,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   loop->agreeing_min_score = FLAGS_loop_agreeing_min_score;
   loop->wide_search_spacing_meters = FLAGS_loop_wide_spacing;
   loop->degenerate_max_drop_ratio = FLAGS_loop_degenerate_drop_ratio;
+  loop->matcher.weak_direction_snap_radians = FLAGS_loop_weak_direction_snap_deg * M_PI / 180.0;
   loop->max_submaps_per_search = FLAGS_loop_max_submaps;
   loop->refine_on_all_points = FLAGS_refine_on_all_points;
   estimator->graph.intra_translation_sigma_meters = FLAGS_intra_sigma;

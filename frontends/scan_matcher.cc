@@ -1035,6 +1035,29 @@ std::vector<Eigen::Vector2f> ProfilePoints(const std::vector<Eigen::Vector2f>& r
   return thinned;
 }
 
+// The axis of a scan's surfaces (robot frame, unit), when it has one: the length-weighted mean
+// of the doubled angles of the segments between each point and the next one at least 0.1 m
+// on in beam order, segments over 0.5 m (a gap, another surface) left out. In a corridor,
+// along a single wall, every segment runs along the walls. Empty without segments.
+std::optional<Eigen::Vector2d> WallAxis(const std::vector<Eigen::Vector2f>& points) {
+  double c = 0.0, s = 0.0;
+  size_t j = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    j = std::max(j, i + 1);
+    while (j < points.size() && (points[j] - points[i]).norm() < 0.1f) ++j;
+    if (j >= points.size()) break;
+    const Eigen::Vector2d d = (points[j] - points[i]).cast<double>();
+    const double length = d.norm();
+    if (length > 0.5) continue;
+    const double phi = std::atan2(d.y(), d.x());
+    c += length * std::cos(2 * phi);
+    s += length * std::sin(2 * phi);
+  }
+  if (c == 0.0 && s == 0.0) return std::nullopt;
+  const double axis = 0.5 * std::atan2(s, c);
+  return Eigen::Vector2d(std::cos(axis), std::sin(axis));
+}
+
 // The weights of the wall channel's residuals: sqrt(wall_weight - 1) times each point's weight.
 std::vector<float> WallResidualWeights(const std::vector<float>& weights, size_t num_points, double wall_weight) {
   const float root = static_cast<float>(std::sqrt(wall_weight - 1.0));
@@ -1120,6 +1143,9 @@ bool ScanMatcherOptions::IsValid(std::string* error) const {
     msg << "angular_search_window_radians must be in [0, pi] (got " << angular_search_window_radians << "); ";
   if (!(angular_step_radians >= 0)) msg << "angular_step_radians must be >= 0; ";
   if (!(profile_step_meters > 0 && profile_step_meters <= 1)) msg << "profile_step_meters must be in (0, 1]; ";
+  if (!(weak_direction_snap_radians >= 0 && weak_direction_snap_radians <= 0.5 * M_PI)) {
+    msg << "weak_direction_snap_radians must be in [0, pi/2]; ";
+  }
   if (!(min_angular_step_radians > 0 && min_angular_step_radians <= max_angular_step_radians))
     msg << "need 0 < min_angular_step_radians <= max_angular_step_radians; ";
   if (branch_and_bound_depth < 0 || branch_and_bound_depth > 10)
@@ -1548,6 +1574,15 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     const double offset = curvature > 0 ? std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5) : 0.0;
     const double angle = (weakest + offset) * M_PI / kDirections;
     result.weak_direction = Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    if (options_.weak_direction_snap_radians > 0) {
+      if (const std::optional<Eigen::Vector2d> axis = WallAxis(profile)) {
+        Eigen::Vector2d along = Eigen::Rotation2Dd(result.pose.theta()) * *axis;
+        if (along.dot(result.weak_direction) < 0) along = -along;
+        if (std::acos(std::min(1.0, along.dot(result.weak_direction))) <= options_.weak_direction_snap_radians) {
+          result.weak_direction = along;
+        }
+      }
+    }
     result.weak_direction_score_drop = drops[weakest];
     result.strong_direction_score_drop = *std::max_element(drops.begin(), drops.end());
   }

@@ -104,6 +104,11 @@ struct ScanMatcherOptions {
   // towards the labelled patches, where the search's cell-wise scores barely do.
   bool wall_weight_in_refinement = false;
   double profile_step_meters = 0.1;  // see ScanMatchResult::weak_direction_score_drop
+  // The score profile's flat direction (ScanMatchResult::weak_direction) replaced by the
+  // direction of the scan's surfaces (WallAxis) when the two are within this angle: the
+  // profile's sixteen directions are 11.25° apart, and a degenerate loop closure 1 m off along
+  // a corridor claims sin(error) of it across. 0 = off.
+  double weak_direction_snap_radians = 0.0;
   // The refinement's stopping rule (Ceres' max_num_iterations and function_tolerance: it stops
   // when a step changes the cost by less than this fraction). On Intel a fifth of the
   // refinements run to the iteration limit, their last steps moving the pose by well under a
