@@ -14,15 +14,18 @@ namespace {
 
 using testing_sim::RoomWithPillar;  // no symmetry within the search window
 
-// A 360-beam scan (1° steps) from `world_T_robot`, robot frame, with Gaussian range noise.
+// A scan of `beams` beams over a full turn from straight behind (-180°, counterclockwise;
+// 360: 1° steps) from `world_T_robot`, robot frame, with Gaussian range noise, returns up to
+// `max_range` metres.
 std::vector<Eigen::Vector2f> SimulateScan(const sim::World& world, const Pose2& world_T_robot, double noise_std,
-                                          std::mt19937* rng) {
+                                          std::mt19937* rng, int beams = 360, double max_range = 20.0) {
   std::normal_distribution<double> noise(0.0, noise_std);
   std::vector<Eigen::Vector2f> points;
-  for (int i = 0; i < 360; ++i) {
-    const double angle = -M_PI + i * M_PI / 180.0;
+  const double half = 0.5 * beams;
+  for (int i = 0; i < beams; ++i) {
+    const double angle = -M_PI + i * M_PI / half;
     double range = 0.0;
-    if (!world.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, 20.0, &range)) continue;
+    if (!world.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, max_range, &range)) continue;
     const double r = range + (noise_std > 0 ? noise(*rng) : 0.0);
     points.emplace_back(static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle)));
   }
@@ -751,16 +754,7 @@ TEST(ScanMatcherRefinementPointsTest, EveryPointRefinesWithoutTheFirstPointsTurn
   std::mt19937 rng(7);
   // 1440 beams (0.25 degrees, as fine as the simulated robots' lasers), 1 cm range noise.
   const auto fine_scan = [&world, &rng](const Pose2& world_T_robot) {
-    std::normal_distribution<double> noise(0.0, 0.01);
-    std::vector<Eigen::Vector2f> points;
-    for (int i = 0; i < 1440; ++i) {
-      const double angle = -M_PI + i * M_PI / 720.0;
-      double range = 0.0;
-      if (!world.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, 20.0, &range)) continue;
-      const double r = range + noise(rng);
-      points.emplace_back(static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle)));
-    }
-    return points;
+    return SimulateScan(world, world_T_robot, 0.01, &rng, 1440);
   };
   LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
   for (const Pose2& pose : {Pose2(0, 0, 0), Pose2(-1.5, -0.5, 0.8), Pose2(1.0, -1.0, -2.0), Pose2(2.0, 1.2, 2.5)}) {
@@ -810,18 +804,9 @@ TEST(ScanMatcherRefinementPointsTest, TheProfileOnEveryKthPointSeesTheWholeScan)
     world.AddWall(Eigen::Vector2d(-15.0, 1.2), Eigen::Vector2d(15.0, 1.2));
     if (dead_end) world.AddWall(Eigen::Vector2d(3.0, -1.2), Eigen::Vector2d(3.0, 1.2));
     std::mt19937 rng(11);
-    // 1440 beams from straight behind (-180°), counterclockwise; 1 cm range noise.
+    // 1440 beams from straight behind (-180°), counterclockwise, up to 8 m; 1 cm range noise.
     const auto fine_scan = [&world, &rng](const Pose2& world_T_robot) {
-      std::normal_distribution<double> noise(0.0, 0.01);
-      std::vector<Eigen::Vector2f> points;
-      for (int i = 0; i < 1440; ++i) {
-        const double angle = -M_PI + i * M_PI / 720.0;
-        double range = 0.0;
-        if (!world.CastRay(world_T_robot.translation(), world_T_robot.theta() + angle, 8.0, &range)) continue;
-        const double r = range + noise(rng);
-        points.emplace_back(static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle)));
-      }
-      return points;
+      return SimulateScan(world, world_T_robot, 0.01, &rng, 1440, 8.0);
     };
     LaserMap map{OccupancyGridOptions(), LikelihoodFieldOptions()};
     for (double x = -1.0; x <= 1.0; x += 0.5) {
