@@ -435,6 +435,17 @@ int OccupancyGrid::DropSmallOccupiedPieces(double min_extent_meters, int link_ce
   return static_cast<int>(small.size());
 }
 
+int OccupancyGrid::ForgetCells(const std::vector<CellIndex>& cells) {
+  CHECK(!frozen_) << "ForgetCells on a frozen grid";
+  int forgotten = 0;
+  for (const CellIndex& c : cells) {
+    if (!geometry_.Contains(c) || State(c) == CellState::kUnknown) continue;
+    ForgetCell(c);
+    ++forgotten;
+  }
+  return forgotten;
+}
+
 void OccupancyGrid::ForgetCell(const CellIndex& c) {
   const int32_t hit = hit_index_.Get(c.x, c.y);
   if (hit >= 0) {

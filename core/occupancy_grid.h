@@ -149,6 +149,10 @@ class OccupancyGrid {
   // not a post (a table leg is hit at several heights too). Returns the number of cells dropped;
   // min_extent_meters <= 0 drops none. CHECK-fails on a frozen grid or a negative link_cells.
   int DropSmallOccupiedPieces(double min_extent_meters, int link_cells);
+  // Makes the given cells unknown again, as the two above do (hit point, label and heights
+  // forgotten); cells outside the grid or unknown already are skipped. Returns how many were
+  // observed. CHECK-fails on a frozen grid.
+  int ForgetCells(const std::vector<CellIndex>& cells);
   // Not kept by a frozen grid (CHECK-fails there): a finished submap is read by state.
   float LogOdds(int linear_index) const;
   bool IsOccupied(int linear_index) const { return State(linear_index) == CellState::kOccupied; }

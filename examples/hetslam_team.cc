@@ -38,7 +38,9 @@ DEFINE_string(manifest, "", "Team manifest (`team.txt`, HSTEAM 1): one `robot na
               "the team's common frame. `tag` lines give the tag sizes (their world poses are used only to "
               "evaluate). Required.");
 DEFINE_string(out, "", "Output folder (created if missing): <robot>/trajectory.txt (t x y theta, common frame), "
-              "<robot>/map.pgm + .yaml, merged_map.pgm + .yaml + .png, constraints.txt, frames.txt. Required.");
+              "<robot>/map.pgm + .yaml, <robot>/walls.pgm + .yaml (when it found walls: cells its laser hit at several heights, "
+              "less those a teammate saw through, --wall_seen_through), merged_map.pgm + .yaml + .png, "
+              "constraints.txt, frames.txt. Required.");
 DEFINE_bool(lenient, false, "Skip malformed log lines with a count instead of stopping at the first one.");
 DEFINE_bool(use_images, true, "Detect AprilTags in the camera images; false leaves the robots only their maps to find "
             "each other by (--overlap_search).");
@@ -162,6 +164,12 @@ DEFINE_double(map_min_hit_share, 0.2, "Every robot's rendered maps (its map.pgm,
               "map-overlap checks compare) leave out the noise tail behind walls: an occupied cell hit fewer times than "
               "this share of a neighbour's hits, with never-observed space beyond it (see hetslam_run --help). In "
               "[0, 1]; 0 keeps every hit cell.");
+DEFINE_double(wall_seen_through, hetslam::TeamEstimatorOptions().wall_seen_through_meters,
+              "Walls stand from floor to ceiling, so a laser at any height sees them: a cell a robot's laser hit at "
+              "several heights (its walls.pgm) is left out when a teammate of its frame saw free space where that laser "
+              "met it and met no surface of its own within this many metres (a shelf's lower face that a humanoid's low "
+              "laser took for a wall, and a UAV flew over to the shelf's upper part behind it). Negative: each robot's "
+              "walls as it found them alone.");
 DEFINE_int32(progress_every, 0, "Print progress every N seconds of data (0 = never).");
 
 namespace hetslam {
@@ -191,6 +199,7 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
     matcher->max_ceres_iterations = FLAGS_refine_max_iterations;
     matcher->refine_function_tolerance = FLAGS_refine_function_tolerance;
   }
+  team->wall_seen_through_meters = FLAGS_wall_seen_through;
   team->wrong_tag_id_rate = FLAGS_wrong_tag_id_rate;
   team->fault_seed = FLAGS_fault_seed;
   team->min_image_interval_seconds = FLAGS_min_image_interval;
@@ -421,6 +430,7 @@ int Run() {
   std::filesystem::create_directories(out, ec);
   if (ec) return Fail("cannot create output folder '" + FLAGS_out + "': " + ec.message()), 1;
   std::vector<Status> written;
+  std::vector<int> walls_seen_through(team.num_robots(), 0);
   for (int r = 0; r < team.num_robots(); ++r) {
     const std::filesystem::path dir = out / robots[r].name;
     std::filesystem::create_directories(dir, ec);
@@ -428,6 +438,10 @@ int Run() {
     written.push_back(WriteTrajectory((dir / "trajectory.txt").string(), team.CommonTrajectory(r)));
     const std::unique_ptr<OccupancyGrid> map = team.RenderRobotMapInCommonFrame(r);
     if (map->observed_max().x >= map->observed_min().x) written.push_back(WriteMapPgmYaml(*map, (dir / "map").string()));
+    const std::unique_ptr<OccupancyGrid> walls = team.RenderRobotWallsInCommonFrame(r, &walls_seen_through[r]);
+    if (walls->observed_max().x >= walls->observed_min().x) {
+      written.push_back(WriteMapPgmYaml(*walls, (dir / "walls").string()));
+    }
   }
   const std::unique_ptr<OccupancyGrid> merged = team.RenderMergedMap(MapMergeOptions());
   written.push_back(WriteMapPgmYaml(*merged, (out / "merged_map").string()));
@@ -490,6 +504,12 @@ int Run() {
       char text[160];
       std::snprintf(text, sizeof(text), "; its first scan's heading in its finished first submap %+.3f deg "
                     "(--rematch_first_node)", *stats.first_node_rematch_radians / kDeg);
+      tilt += text;
+    }
+    if (walls_seen_through[r] > 0) {
+      char text[160];
+      std::snprintf(text, sizeof(text), "; %d wall cells a teammate saw through left out of its walls.pgm",
+                    walls_seen_through[r]);
       tilt += text;
     }
     std::printf("%s: %d nodes, %s%s\n", robots[r].name.c_str(), team.graph().num_nodes(r), frame.c_str(), tilt.c_str());

@@ -630,9 +630,9 @@ std::vector<StampedPose2> OnlineEstimator::LocalTrajectory() const {
   return trajectory;
 }
 
-std::unique_ptr<OccupancyGrid> OnlineEstimator::RenderMap(SubmapGraph::Layer layer) const {
+std::unique_ptr<OccupancyGrid> OnlineEstimator::RenderMap(SubmapGraph::Layer layer, const Pose2& frame_T_robot) const {
   return graph_->RenderMap(options_.robot, WithFieldMargin(options_.local.grid, options_.local.field), layer,
-                           suspended_obstacles_);
+                           suspended_obstacles_, frame_T_robot);
 }
 
 }  // namespace hetslam

@@ -274,8 +274,10 @@ class OnlineEstimator {
   std::vector<StampedPose2> LocalTrajectory() const;
   // An occupancy grid of a layer of the map at the optimised poses: the structure localisation
   // uses (every inserted scan), the floor obstacles (also those seen while matching was
-  // suspended), or both for a planner.
-  std::unique_ptr<OccupancyGrid> RenderMap(SubmapGraph::Layer layer = SubmapGraph::Layer::kStructure) const;
+  // suspended), or both for a planner. In the robot's frame, or rendered in another frame
+  // where the robot's frame is at frame_T_robot (a team's common frame).
+  std::unique_ptr<OccupancyGrid> RenderMap(SubmapGraph::Layer layer = SubmapGraph::Layer::kStructure,
+                                           const Pose2& frame_T_robot = Pose2::Identity()) const;
   const SubmapGraph& graph() const { return *graph_; }
   // For constraints found by other means (a fiducial, a teammate): added like loop closures.
   SubmapGraph& mutable_graph() { return *graph_; }

@@ -23,9 +23,6 @@ constexpr int kNodeGroup = 0;
 constexpr int kSubmapGroup = 1;
 // Floor-obstacle points this close (cells) to mapped structure are left out of the obstacle layers.
 constexpr int kStructureClearanceCells = 2;
-// Wall cells this close (cells) join one piece of wall: a one-cell gap a sparse scan leaves
-// between hits does not split a wall (SubmapGraphOptions::wall_min_length_meters).
-constexpr int kWallPieceLinkCells = 2;
 
 // Square-root information of a loop closure submap_T_node (residual in the measured node's
 // frame, factors/relative_pose_cost.h): the loop sigmas, and along a weak direction w (submap
@@ -830,18 +827,19 @@ std::vector<StampedPose2> SubmapGraph::Trajectory(int robot_id) const {
 }
 
 std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const OccupancyGridOptions& grid_options,
-                                                     Layer layer, const std::vector<AnchoredPoints>& extra) const {
+                                                     Layer layer, const std::vector<AnchoredPoints>& extra,
+                                                     const Pose2& frame_T_robot) const {
   auto grid = std::make_unique<OccupancyGrid>(grid_options);
   const auto it = robots_.find(robot_id);
   if (it == robots_.end()) return grid;
   std::vector<Eigen::Vector2f> points_robot;  // a node's points, decoded
   if (layer == Layer::kWalls) {
     // The structure with its label layer first; then only the points on its wall cells.
-    const std::unique_ptr<OccupancyGrid> all = RenderMap(robot_id, grid_options, Layer::kStructure);
+    const std::unique_ptr<OccupancyGrid> all = RenderMap(robot_id, grid_options, Layer::kStructure, {}, frame_T_robot);
     std::vector<Eigen::Vector2d> walls;
     for (const Node& node : it->second.nodes) {
       const NodeScan& scan = node.scan;
-      const Pose2 world_T_node = NodePoseOf(it->second, node);
+      const Pose2 world_T_node = frame_T_robot * NodePoseOf(it->second, node);
       walls.clear();
       scan.DecodePoints(&points_robot);
       const Pose2::PointTransform to_world(world_T_node);
@@ -866,7 +864,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     for (const Node& node : it->second.nodes) {
       const NodeScan& scan = node.scan;
       if (scan.num_points() == 0) continue;
-      const Pose2 world_T_node = NodePoseOf(it->second, node);
+      const Pose2 world_T_node = frame_T_robot * NodePoseOf(it->second, node);
       const Eigen::Vector2d sensor = world_T_node * scan.sensor_robot;
       lo = lo.cwiseMin(sensor);
       hi = hi.cwiseMax(sensor);
@@ -884,7 +882,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
     for (const Node& node : it->second.nodes) {
       const NodeScan& scan = node.scan;
       if (scan.num_points() == 0) continue;
-      const Pose2 world_T_node = NodePoseOf(it->second, node);
+      const Pose2 world_T_node = frame_T_robot * NodePoseOf(it->second, node);
       points_world.clear();
       labels.clear();
       scan.DecodePoints(&points_robot);
@@ -902,7 +900,7 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
   // Floor obstacles, over the structure for a planner. A floor-obstacle point within a cell of
   // occupied structure is the bottom of a wall or of furniture seen by a beam tilted down (the
   // map knows better than the one scan): it is left out.
-  std::unique_ptr<OccupancyGrid> structure = RenderMap(robot_id, grid_options, Layer::kStructure);
+  std::unique_ptr<OccupancyGrid> structure = RenderMap(robot_id, grid_options, Layer::kStructure, {}, frame_T_robot);
   const GridGeometry& g = structure->geometry();
   auto near_structure = [&](const Eigen::Vector2d& world) {
     const CellIndex c = g.WorldToCell(world);
@@ -929,10 +927,10 @@ std::unique_ptr<OccupancyGrid> SubmapGraph::RenderMap(int robot_id, const Occupa
       if (world.allFinite() && !near_structure(world)) obstacles.push_back(world);
     }
   };
-  for (const Node& node : it->second.nodes) add(NodePoseOf(it->second, node), node.scan.floor_obstacles());
+  for (const Node& node : it->second.nodes) add(frame_T_robot * NodePoseOf(it->second, node), node.scan.floor_obstacles());
   for (const AnchoredPoints& points : extra) {
     if (points.node.robot != robot_id || points.node.index >= static_cast<int>(it->second.nodes.size())) continue;
-    add(NodePose(points.node) * points.node_T_scan, points.floor_obstacles);
+    add(frame_T_robot * NodePose(points.node) * points.node_T_scan, points.floor_obstacles);
   }
   if (layer == Layer::kPlanner) grid = std::make_unique<OccupancyGrid>(*structure);  // checks stay on the structure
   if (obstacles.empty()) return grid;

@@ -270,16 +270,22 @@ class SubmapGraph {
     Pose2 node_T_scan;
     std::vector<Eigen::Vector2f> floor_obstacles;  // scan frame (drawn from their hits alone: RenderMap)
   };
+  // Wall cells this close (cells, Chebyshev) join one piece of wall: a one-cell gap a sparse
+  // scan leaves between hits does not split a wall (SubmapGraphOptions::wall_min_length_meters).
+  static constexpr int kWallPieceLinkCells = 2;
   enum class Layer {
     kStructure,       // what localisation uses (map.pgm)
     kFloorObstacles,  // objects on the floor (paper §III-E)
     kPlanner,         // both: everything a planner must avoid
     kWalls,           // the structure points on wall cells (hit at several heights, paper §III-E)
   };
-  // An occupancy grid of `robot`'s scans at their optimised poses (robot frame): the layer's
-  // points of every node, and for floor obstacles also those of `extra`.
+  // An occupancy grid of `robot`'s scans at their optimised poses (robot frame; or another
+  // frame, the robot's at frame_T_robot in it: the scans rendered there, on that frame's cells,
+  // not a rendered grid resampled): the layer's points of every node, and for floor obstacles
+  // also those of `extra`.
   std::unique_ptr<OccupancyGrid> RenderMap(int robot, const OccupancyGridOptions& grid, Layer layer = Layer::kStructure,
-                                           const std::vector<AnchoredPoints>& extra = {}) const;
+                                           const std::vector<AnchoredPoints>& extra = {},
+                                           const Pose2& frame_T_robot = Pose2::Identity()) const;
   // The graph of one robot: its submaps then its nodes as vertices, intra then loop edges.
   PoseGraph2d ExportGraph(int robot) const;
   std::vector<LoopClosureReport> LoopClosures() const;

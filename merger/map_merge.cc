@@ -104,4 +104,38 @@ MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const P
   return agreement;
 }
 
+int DropWallsSeenThrough(const OccupancyGrid& teammate, const Pose2& walls_T_teammate,
+                         double min_surface_distance_meters, OccupancyGrid* walls) {
+  CHECK(min_surface_distance_meters >= 0) << "DropWallsSeenThrough: negative distance";
+  CHECK(!walls->frozen() && !teammate.frozen()) << "DropWallsSeenThrough reads hit points: grids not frozen";
+  const GridGeometry& wall_cells = walls->geometry();
+  const GridGeometry& mate = teammate.geometry();
+  const Pose2::PointTransform to_teammate(walls_T_teammate.inverse());
+  const int reach = static_cast<int>(std::ceil(min_surface_distance_meters / mate.resolution_meters()));
+  const double min_squared = min_surface_distance_meters * min_surface_distance_meters;
+  std::vector<CellIndex> seen_through;
+  const CellIndex lo = walls->observed_min(), hi = walls->observed_max();
+  for (int y = lo.y; y <= hi.y; ++y) {
+    for (int x = lo.x; x <= hi.x; ++x) {
+      const int i = wall_cells.LinearIndex({x, y});
+      if (!walls->IsOccupied(i)) continue;
+      // Where the robot's laser met the surface, in the teammate's map.
+      const Eigen::Vector2d q = to_teammate(walls->HitPoint(i));
+      const CellIndex c = mate.WorldToCell(q);
+      if (!mate.Contains(c) || teammate.State(c) != CellState::kFree) continue;
+      bool surface_near = false;
+      for (int dy = -reach; dy <= reach && !surface_near; ++dy) {
+        for (int dx = -reach; dx <= reach && !surface_near; ++dx) {
+          const CellIndex n{c.x + dx, c.y + dy};
+          if (!mate.Contains(n)) continue;
+          const int j = mate.LinearIndex(n);
+          surface_near = teammate.IsOccupied(j) && (teammate.HitPoint(j) - q).squaredNorm() < min_squared;
+        }
+      }
+      if (!surface_near) seen_through.push_back({x, y});
+    }
+  }
+  return walls->ForgetCells(seen_through);
+}
+
 }  // namespace hetslam

@@ -48,6 +48,20 @@ struct MapAgreement {
 };
 MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2& a_T_b, int tolerance_cells = 1);
 
+// Walls stand from the floor to the ceiling (the 2.5D assumption; paper §III-E): a laser at any
+// height sees them. A robot's wall layer holds the cells its own laser hit at several heights,
+// and a laser that sweeps only a low band (a humanoid's head at 0.5 m) cannot tell a wall from
+// the lower face of a shelf. A teammate whose laser, at its own height, passed through the place
+// where the robot's laser met that surface (the wall cell's mean hit point falls on a free cell
+// of the teammate's map) and met no surface of its own within min_surface_distance_meters of it
+// (the hit points of its occupied cells) has seen that it is not a wall. Every such cell of
+// `walls` (a wall layer, SubmapGraph::Layer::kWalls) becomes unknown; `teammate` is the
+// teammate's structure map, its frame at walls_T_teammate in the walls' frame. Both grids must
+// not be frozen (their hit points are read). Returns the number of cells dropped. The caller
+// drops the pieces this leaves too short to be walls (OccupancyGrid::DropSmallOccupiedPieces).
+int DropWallsSeenThrough(const OccupancyGrid& teammate, const Pose2& walls_T_teammate,
+                         double min_surface_distance_meters, OccupancyGrid* walls);
+
 }  // namespace hetslam
 
 #endif  // HETSLAM_MERGER_MAP_MERGE_H_

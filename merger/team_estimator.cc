@@ -160,6 +160,7 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   for (const auto& [id, size] : tag_sizes_meters) {
     if (!(size > 0)) msg << "tag " << id << " size must be > 0; ";
   }
+  if (!std::isfinite(wall_seen_through_meters)) msg << "wall_seen_through_meters must be finite; ";
   if (!(attitude_max_age_seconds >= 0 && min_image_interval_seconds >= 0 && skip_image_within_meters >= 0 &&
         skip_image_within_radians >= 0))
     msg << "attitude age, image interval and skip bounds must be >= 0; ";
@@ -1304,20 +1305,38 @@ std::vector<StampedPose2> TeamEstimator::CommonTrajectory(int robot) const {
 }
 
 std::unique_ptr<OccupancyGrid> TeamEstimator::RenderRobotMapInCommonFrame(int robot) const {
-  std::unique_ptr<OccupancyGrid> own = robots_.at(robot).estimator->RenderMap();
-  const Pose2 common_T_robot = CommonTRobot(robot);
-  if (common_T_robot.ToVector() == Pose2::Identity().ToVector()) return own;
-  // One observation per cell into an empty grid keeps every cell's state (occupied, free).
-  auto resampled = std::make_unique<OccupancyGrid>(own->options());
-  MergeMapAsOneObservation(*own, common_T_robot, MapMergeOptions(), resampled.get());
-  return resampled;
+  return robots_.at(robot).estimator->RenderMap(SubmapGraph::Layer::kStructure, CommonTRobot(robot));
+}
+
+std::unique_ptr<OccupancyGrid> TeamEstimator::RenderRobotWallsInCommonFrame(int robot, int* seen_through) const {
+  // Rendered where the robot's map goes (the common frame, or its own), its teammates' maps
+  // there too: every grid on that frame's cells, the hit points where the scans put them.
+  const Pose2 frame_T_robot = CommonTRobot(robot);
+  std::unique_ptr<OccupancyGrid> walls = robots_.at(robot).estimator->RenderMap(SubmapGraph::Layer::kWalls, frame_T_robot);
+  int dropped = 0;
+  if (options_.wall_seen_through_meters >= 0) {
+    for (const int teammate : Group(robot)) {
+      Pose2 robot_T_teammate;
+      if (teammate == robot || !RelativePose(robot, teammate, &robot_T_teammate)) continue;
+      const std::unique_ptr<OccupancyGrid> seen =
+          robots_[teammate].estimator->RenderMap(SubmapGraph::Layer::kStructure, frame_T_robot * robot_T_teammate);
+      dropped += DropWallsSeenThrough(*seen, Pose2::Identity(), options_.wall_seen_through_meters, walls.get());
+    }
+    if (dropped > 0) {
+      walls->DropSmallOccupiedPieces(graph_->options().wall_min_length_meters, SubmapGraph::kWallPieceLinkCells);
+    }
+  }
+  if (seen_through != nullptr) *seen_through = dropped;
+  return walls;
 }
 
 std::unique_ptr<OccupancyGrid> TeamEstimator::RenderMergedMap(const MapMergeOptions& merge) const {
   std::unique_ptr<OccupancyGrid> merged = robots_.at(0).estimator->RenderMap();
   for (int r = 1; r < num_robots(); ++r) {
     if (!InCommonFrame(r)) continue;
-    MergeMapAsOneObservation(*robots_[r].estimator->RenderMap(), CommonTRobot(r), merge, merged.get());
+    // Rendered in the common frame, on its cells: merged cell for cell.
+    MergeMapAsOneObservation(*robots_[r].estimator->RenderMap(SubmapGraph::Layer::kStructure, CommonTRobot(r)),
+                             Pose2::Identity(), merge, merged.get());
   }
   return merged;
 }

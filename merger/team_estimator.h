@@ -240,6 +240,12 @@ struct TeamEstimatorOptions {
   int overlap_confirm_new_nodes = 1;
   int max_iterations_per_solve = 20;
   int max_iterations_final = 50;
+  // Walls seen through by a teammate (RenderRobotWallsInCommonFrame, merger/map_merge.h
+  // DropWallsSeenThrough): a robot's wall cell is dropped when a teammate of its frame saw free
+  // space where the robot's laser met it and met no surface of its own this near (metres; 1.5
+  // cells: two maps of one wall, merged, meet within a few cm). Negative: walls as each robot
+  // found them alone.
+  double wall_seen_through_meters = 0.075;
 
   // Fault injection (see the header).
   double wrong_tag_id_rate = 0.0;
@@ -378,10 +384,17 @@ class TeamEstimator {
   // in it).
   std::vector<StampedPose2> CommonTrajectory(int robot) const;
   // The robot's map (OnlineEstimator::RenderMap) in the common frame (its own when not in it):
-  // resampled cell by cell, each cell keeping its state.
+  // its scans rendered there, on the common frame's cells.
   std::unique_ptr<OccupancyGrid> RenderRobotMapInCommonFrame(int robot) const;
+  // The robot's wall layer (SubmapGraph::Layer::kWalls: cells its laser hit at several
+  // heights) in the common frame (its own when not in it), without the cells a teammate of its
+  // frame saw through at its own height (options().wall_seen_through_meters; a shelf's
+  // lower face that a humanoid's low laser took for a wall, and a UAV flew over), and without the
+  // pieces that leaves shorter than the graph's wall_min_length_meters. `seen_through` (may be
+  // null): how many cells the teammates dropped, before the short pieces.
+  std::unique_ptr<OccupancyGrid> RenderRobotWallsInCommonFrame(int robot, int* seen_through) const;
   // Robot 0's map with every other robot of the common frame merged in as one observation
-  // (merger/map_merge.h), in the common frame.
+  // (merger/map_merge.h), in the common frame (each rendered there, merged cell for cell).
   std::unique_ptr<OccupancyGrid> RenderMergedMap(const MapMergeOptions& merge) const;
 
   // What a picture of the merged map shows (merger/map_picture.h), in the common frame: the

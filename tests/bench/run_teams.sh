@@ -30,6 +30,9 @@
 # row per team and seed, run/merged_map.pgm scored as a map.pgm (walls + furniture; precision
 # and recall within one cell, hetslam_layers --help) after aligning the first robot's trajectory
 # (the common frame) to its truth; its output in run/merged_layers/, then worst / mean per team.
+# And each robot's own run/<robot>/map.pgm and walls.pgm (the walls without the cells a
+# teammate saw through: hetslam_team --wall_seen_through), aligned by its own trajectory, worst /
+# mean per team and robot (hetslam_layers' output in run/<robot>/layers.csv).
 # Last, every map-overlap link withdrawn because the joined group's tags contradicted it (the
 # robots were in one frame wrongly until then; the first-link column shows the link after it).
 # Exit status: 0 when every run finished, 1 otherwise, 2 on a usage error.
@@ -141,6 +144,31 @@ if [ -x "$build/examples/hetslam_layers" ]; then
   done
 fi
 
+# Each robot's own outputs in the team run (OUT/<robot>/map.pgm and walls.pgm, in the common
+# frame; the walls without the cells a teammate saw through), aligned by that robot's trajectory.
+robot_rows=$(mktemp)
+trap 'rm -f "$rows" "$merged_rows" "$robot_rows"' EXIT
+if [ -x "$build/examples/hetslam_layers" ]; then
+  for team in "${teams[@]}"; do
+    for seed in "${seeds[@]}"; do
+      dir="$out_root/$team/seed-$seed"
+      for robot in $(awk '$1 == "robot" { print $2 }' "$dir/sim/team.txt" 2>/dev/null); do
+        run="$dir/run/$robot"
+        [ -f "$run/trajectory.txt" ] || continue
+        if "$build/examples/hetslam_layers" --run_dir="$run" --truth_layers="$dir/sim/truth_layers" \
+            --truth="$dir/sim/$robot/log.txt" --out_csv="$run/layers.csv" >"$run/layers.log" 2>&1; then
+          awk -F, -v team="$team" -v seed="$seed" -v robot="$robot" \
+            '($1 == "map" || $1 == "walls") && $3 == "scored" { print team, seed, robot, $1, $4, $5 }' \
+            "$run/layers.csv" >>"$robot_rows"
+        else
+          echo "run_teams.sh: hetslam_layers failed on $run, see $run/layers.log" >&2
+          status=1
+        fi
+      done
+    done
+  done
+fi
+
 fmt() { if [ "$1" = "-" ]; then printf '%-16s' "-"; else printf '%-16s' "$(printf '%.3f m %.2f°' "$1" "$2")"; fi; }
 printf '%-11s %4s %-12s %-16s %-16s %-16s %-16s\n' team seed pair first_link second_constraint final final_as_built
 while read -r team seed pair f1 f2 s1 s2 e1 e2 b1 b2; do
@@ -167,6 +195,15 @@ if [ -s "$merged_rows" ]; then
          if (!($1 in wp) || $3 < wp[$1]) wp[$1] = $3; if (!($1 in wr) || $4 < wr[$1]) wr[$1] = $4 }
        END { for (i = 1; i <= k; ++i) { t = order[i]
                printf "%-11s worst / mean over %d: precision %.3f / %.3f, recall %.3f / %.3f\n", t, n[t], wp[t], sp[t] / n[t], wr[t], sr[t] / n[t] } }' "$merged_rows"
+fi
+if [ -s "$robot_rows" ]; then
+  echo
+  echo "each robot's map.pgm (walls + furniture) and walls.pgm (walls) in the team run, within one cell,"
+  echo "worst / mean over the seeds:"
+  awk '{ k = $1 " " $3 " " $4; if (!(k in n)) order[++m] = k; n[k]++; sp[k] += $5; sr[k] += $6
+         if (!(k in wp) || $5 < wp[k]) wp[k] = $5; if (!(k in wr) || $6 < wr[k]) wr[k] = $6 }
+       END { for (i = 1; i <= m; ++i) { k = order[i]; split(k, f, " ")
+               printf "%-11s %-8s %-6s precision %.3f / %.3f, recall %.3f / %.3f (%d seeds)\n", f[1], f[2], f[3], wp[k], sp[k] / n[k], wr[k], sr[k] / n[k], n[k] } }' "$robot_rows"
 fi
 # Links undone: a map-overlap link the joined group's tags contradicted later (the robots were
 # in one frame wrongly until then).

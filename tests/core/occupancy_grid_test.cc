@@ -231,6 +231,26 @@ TEST(OccupancyGridTest, DropWeakOccupiedCellsForgetsTheNoiseTailBehindAWall) {
 // Pieces of structure: a wall 1 m long with a one-cell gap in it (one piece: cells two apart
 // join), and a post of one cell 1 m away from it. With a minimum extent of 0.25 m the post goes
 // (its diagonal is 0.07 m) and the whole wall, gap and all, stays.
+TEST(OccupancyGridTest, ForgetCellsMakesObservedCellsUnknownAndCountsThem) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  std::vector<Eigen::Vector2d> points;
+  for (double y = -0.5; y <= 0.5; y += 0.01) points.push_back({1.02, y});
+  grid.InsertScan(Eigen::Vector2d::Zero(), points, nullptr);
+  const GridGeometry& g = grid.geometry();
+  const CellIndex wall = g.WorldToCell({1.02, 0.0}), free_cell = g.WorldToCell({0.5, 0.0}),
+                  unknown = g.WorldToCell({-0.5, 0.3}), outside{-100000, 5};
+  ASSERT_EQ(CellState::kOccupied, grid.State(wall));
+  ASSERT_EQ(CellState::kFree, grid.State(free_cell));
+  ASSERT_EQ(CellState::kUnknown, grid.State(unknown));
+  // Unknown and outside cells are skipped, not counted; the observed ones forget everything.
+  EXPECT_EQ(2, grid.ForgetCells({wall, free_cell, unknown, outside}));
+  EXPECT_EQ(CellState::kUnknown, grid.State(wall));
+  EXPECT_EQ(CellState::kUnknown, grid.State(free_cell));
+  EXPECT_EQ(0, grid.HitCount(g.LinearIndex(wall)));
+  EXPECT_EQ(CellState::kOccupied, grid.State(g.WorldToCell({1.02, 0.2})));  // the rest of the wall stays
+  EXPECT_EQ(0, grid.ForgetCells({wall}));
+}
+
 TEST(OccupancyGridTest, DropSmallOccupiedPiecesKeepsWallsAndDropsPosts) {
   OccupancyGrid grid{OccupancyGridOptions()};
   const Eigen::Vector2d sensor(0.0, 0.0);

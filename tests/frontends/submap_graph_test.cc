@@ -331,6 +331,47 @@ TEST(SubmapGraphTest, FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver) {
   EXPECT_NE(CellState::kOccupied, planner->StateAt({1.0, 0.0}));
 }
 
+// A team renders each robot's map in the common frame (RenderMap's frame_T_robot): the scans
+// are placed there, so the same cells come out where the frame puts them, without resampling a
+// rendered grid (which moved cells of a map turned by 150 degrees up to a cell). The graph of
+// FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver rendered in a frame where the robot's sits
+// at (1, -2) turned by 90 degrees: every layer's cells where the frame puts the robot's.
+TEST(SubmapGraphTest, RenderedInAnotherFrameTheCellsAreWhereTheFramePutsThem) {
+  SubmapGraph graph{SubmapGraphOptions()};
+  for (int i = 0; i < 4; ++i) {
+    LocalResult result;
+    result.inserted = true;
+    result.stamp_seconds = i;
+    result.local_pose = Pose2::Identity();
+    if (i == 0) result.new_submaps.push_back({0, Pose2::Identity()});
+    result.insertions.push_back({0, result.local_pose});
+    for (int k = -20; k <= 20; ++k) result.points.all.emplace_back(3.02f, 0.02f * k);  // the wall
+    result.points.labels.assign(result.points.all.size(), PointLabel::kStructure);
+    for (int k = -2; k <= 2; ++k) result.points.floor_obstacles.emplace_back(2.22f, 0.02f * k);
+    graph.AddNode(0, std::move(result));
+  }
+  const Pose2 frame_T_robot(1.0, -2.0, M_PI / 2);
+  for (const SubmapGraph::Layer layer : {SubmapGraph::Layer::kStructure, SubmapGraph::Layer::kFloorObstacles,
+                                         SubmapGraph::Layer::kPlanner}) {
+    const std::unique_ptr<OccupancyGrid> own = graph.RenderMap(0, OccupancyGridOptions(), layer);
+    const std::unique_ptr<OccupancyGrid> turned = graph.RenderMap(0, OccupancyGridOptions(), layer, {}, frame_T_robot);
+    int occupied = 0;
+    for (double x = 0.52; x < 3.2; x += 0.05) {
+      for (double y = -0.48; y < 0.5; y += 0.05) {
+        const Eigen::Vector2d p(x, y);
+        occupied += own->StateAt(p) == CellState::kOccupied ? 1 : 0;
+        EXPECT_EQ(own->StateAt(p) == CellState::kOccupied, turned->StateAt(frame_T_robot * p) == CellState::kOccupied)
+            << "layer " << static_cast<int>(layer) << " at (" << x << ", " << y << ")";
+      }
+    }
+    EXPECT_GE(occupied, 2) << "layer " << static_cast<int>(layer);  // the obstacle: two cells
+  }
+  const std::unique_ptr<OccupancyGrid> turned = graph.RenderMap(0, OccupancyGridOptions(), SubmapGraph::Layer::kStructure,
+                                                                {}, frame_T_robot);
+  EXPECT_EQ(CellState::kOccupied, turned->StateAt(frame_T_robot * Eigen::Vector2d(3.02, 0.0)));
+  EXPECT_EQ(CellState::kFree, turned->StateAt(frame_T_robot * Eigen::Vector2d(1.5, 0.0)));
+}
+
 // Issue #15, revisits: the share of a finished submap's occupied cells that other finished
 // submaps hold too (within the likelihood field's sigma, 0.1 m), at the graph's poses.
 std::shared_ptr<const LaserMap> FrozenWalls(const std::vector<std::pair<Eigen::Vector2f, Eigen::Vector2f>>& walls) {

@@ -137,5 +137,62 @@ TEST(CompareMapsTest, CountsAgreeingAndConflictingWallCells) {
   EXPECT_EQ(1.0, apart.ConflictFraction());
 }
 
+// Walls seen through by a teammate (DropWallsSeenThrough). Our robot's wall layer holds a
+// surface along x = 2 (y in [-1, 1]) and one along x = -2 (a wall, seen by the teammate too).
+// The teammate, at another height, sees the surface at x = 2 as free and meets its own surface
+// `behind` metres further (a shelf's lower face 0.1 m in front of its upper part), and sees the
+// wall at x = -2 where we do, 2 cm off (a merge is a few cm off).
+void SurfaceAt(double x, const Eigen::Vector2d& sensor, OccupancyGrid* grid, double y_min = -1.0,
+               double y_max = 1.0) {
+  std::vector<Eigen::Vector2d> points;
+  for (double y = y_min; y <= y_max + 1e-9; y += 0.025) points.emplace_back(x, y);
+  grid->InsertScan(sensor, points, nullptr);
+}
+
+TEST(DropWallsSeenThroughTest, ASurfaceATeammateSawThroughIsNoWall) {
+  OccupancyGrid walls{OccupancyGridOptions()};
+  SurfaceAt(2.01, Eigen::Vector2d::Zero(), &walls);
+  SurfaceAt(-2.01, Eigen::Vector2d::Zero(), &walls);
+  const Eigen::Vector2d shelf_face(2.01, 0.0), wall(-2.01, 0.0);
+  ASSERT_EQ(CellState::kOccupied, StateAt(walls, shelf_face));
+  ASSERT_EQ(CellState::kOccupied, StateAt(walls, wall));
+
+  // The teammate's map, in a frame 0.3 m along x from ours: its surfaces at its x = 1.81 (our
+  // 2.11: 0.1 m behind our x = 2.01) and -2.29 (our -1.99).
+  OccupancyGrid teammate{OccupancyGridOptions()};
+  for (int i = 0; i < 3; ++i) {
+    SurfaceAt(1.81, {-0.3, 0.0}, &teammate);
+    SurfaceAt(-2.29, {-0.3, 0.0}, &teammate);
+  }
+  const Pose2 walls_T_teammate(0.3, 0.0, 0.0);
+  ASSERT_EQ(CellState::kFree, StateAt(teammate, walls_T_teammate.inverse() * shelf_face));
+
+  const int dropped = DropWallsSeenThrough(teammate, walls_T_teammate, 0.075, &walls);
+  // Every cell of the surface at x = 2 (its hit points on free cells of the teammate, its
+  // surface 0.1 m away), none of the wall (the teammate's surface 2 cm from it).
+  EXPECT_GE(dropped, 40);
+  EXPECT_EQ(CellState::kUnknown, StateAt(walls, shelf_face));
+  EXPECT_EQ(CellState::kUnknown, StateAt(walls, {2.01, 0.9}));
+  EXPECT_EQ(CellState::kOccupied, StateAt(walls, wall));
+  EXPECT_EQ(CellState::kOccupied, StateAt(walls, {-2.01, 0.9}));
+  EXPECT_EQ(CellState::kOccupied, StateAt(walls, {-2.01, -0.9}));
+}
+
+TEST(DropWallsSeenThroughTest, ASurfaceATeammateMetNearbyOrNeverSawStays) {
+  OccupancyGrid walls{OccupancyGridOptions()};
+  SurfaceAt(2.01, Eigen::Vector2d::Zero(), &walls);
+  // The teammate saw only the part y < 0, 6 cm behind ours (within 0.075 m: the same wall,
+  // merged a little off); the part y > 0 is unknown to it.
+  OccupancyGrid teammate{OccupancyGridOptions()};
+  SurfaceAt(2.07, Eigen::Vector2d::Zero(), &teammate, -1.0, -0.1);
+  ASSERT_EQ(CellState::kFree, StateAt(teammate, {2.01, -0.5}));
+  ASSERT_EQ(CellState::kUnknown, StateAt(teammate, {2.01, 0.5}));
+  EXPECT_EQ(0, DropWallsSeenThrough(teammate, Pose2::Identity(), 0.075, &walls));
+  // With a smaller distance than the 6 cm the part it saw goes, the unknown part stays.
+  EXPECT_GE(DropWallsSeenThrough(teammate, Pose2::Identity(), 0.04, &walls), 15);  // y in [-1, -0.1]: 18 cells
+  EXPECT_EQ(CellState::kUnknown, StateAt(walls, {2.01, -0.5}));
+  EXPECT_EQ(CellState::kOccupied, StateAt(walls, {2.01, 0.5}));
+}
+
 }  // namespace
 }  // namespace hetslam
