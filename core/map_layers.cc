@@ -13,34 +13,43 @@
 namespace hetslam {
 namespace {
 
+// Whether `to` has an occupied cell within k cells (in x and in y) of cell c of its grid. The
+// neighbourhood may reach past the edge of `to`: a cell just outside still matches the occupied
+// cell on the edge. `inside_matches`: c on an unknown cell of `to` (inside a true footprint)
+// matches.
+bool NearOccupied(const GridLayer& to, const CellIndex& c, int k, bool inside_matches) {
+  const GridGeometry& h = to.geometry;
+  if (inside_matches && h.Contains(c) && to.at(c) == CellState::kUnknown) return true;
+  for (int ny = std::max(0, c.y - k); ny <= std::min(h.height() - 1, c.y + k); ++ny) {
+    for (int nx = std::max(0, c.x - k); nx <= std::min(h.width() - 1, c.x + k); ++nx) {
+      if (to.at({nx, ny}) == CellState::kOccupied) return true;
+    }
+  }
+  return false;
+}
+
+// Calls f(cell of `to` under its centre) for every occupied cell of `from`, with from's frame
+// at to_T_from in to's.
+template <typename F>
+void ForEachOccupied(const GridLayer& from, const Pose2& to_T_from, const GridLayer& to, F f) {
+  const GridGeometry& g = from.geometry;
+  for (int y = 0; y < g.height(); ++y) {
+    for (int x = 0; x < g.width(); ++x) {
+      if (from.at({x, y}) == CellState::kOccupied) f(to.geometry.WorldToCell(to_T_from * g.CellCenter({x, y})));
+    }
+  }
+}
+
 // Counts the occupied cells of `from` and those whose centre, mapped by `to_T_from` into the
-// frame of `to`, falls within k cells (in x and in y) of an occupied cell of `to`. The
-// neighbourhood may reach past the edge of `to`: a cell just outside still matches the
-// occupied cell on the edge.
-// `inside_matches`: a cell falling on an unknown cell of `to` (inside a true footprint) matches.
+// frame of `to`, falls within k cells of an occupied cell of `to` (NearOccupied).
 void CountMatches(const GridLayer& from, const Pose2& to_T_from, const GridLayer& to, int k, bool inside_matches,
                   int* occupied, int* matched) {
   *occupied = 0;
   *matched = 0;
-  const GridGeometry& g = from.geometry;
-  const GridGeometry& h = to.geometry;
-  for (int y = 0; y < g.height(); ++y) {
-    for (int x = 0; x < g.width(); ++x) {
-      if (from.at({x, y}) != CellState::kOccupied) continue;
-      ++*occupied;
-      const CellIndex c = h.WorldToCell(to_T_from * g.CellCenter({x, y}));
-      bool found = inside_matches && h.Contains(c) && to.at(c) == CellState::kUnknown;
-      for (int ny = std::max(0, c.y - k); ny <= std::min(h.height() - 1, c.y + k) && !found; ++ny) {
-        for (int nx = std::max(0, c.x - k); nx <= std::min(h.width() - 1, c.x + k); ++nx) {
-          if (to.at({nx, ny}) == CellState::kOccupied) {
-            found = true;
-            break;
-          }
-        }
-      }
-      if (found) ++*matched;
-    }
-  }
+  ForEachOccupied(from, to_T_from, to, [&](const CellIndex& c) {
+    ++*occupied;
+    if (NearOccupied(to, c, k, inside_matches)) ++*matched;
+  });
 }
 
 double Ratio(int numerator, int denominator) {
@@ -130,6 +139,24 @@ Status UnionOfLayers(const std::vector<GridLayer>& layers, const std::vector<std
   return Status::Ok();
 }
 
+int CountCellsOnFloorObstacles(const GridLayer& run, const Pose2& world_T_map, const GridLayer& floor_obstacles,
+                               const GridLayer& structure, const LayerScoreOptions& options) {
+  std::string error;
+  CHECK(options.IsValid(&error)) << "invalid LayerScoreOptions: " << error;
+  CHECK(floor_obstacles.geometry.width() == structure.geometry.width() &&
+        floor_obstacles.geometry.height() == structure.geometry.height())
+      << "the true layers are on one grid";
+  const int k = options.tolerance_cells;
+  int on = 0;
+  ForEachOccupied(run, world_T_map, floor_obstacles, [&](const CellIndex& c) {
+    if (NearOccupied(floor_obstacles, c, k, /*inside_matches=*/false) &&
+        !NearOccupied(structure, c, k, /*inside_matches=*/true)) {
+      ++on;
+    }
+  });
+  return on;
+}
+
 namespace {
 
 // The union of `stems` read from `dir` (an error names a missing or malformed file).
@@ -179,6 +206,16 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
     }
     result.layers.push_back(std::move(layer));
   }
+  // The localisation map against the true floor obstacles (when both are there).
+  const RunLayerResult& map = result.layers.front();
+  const fs::path obstacles_yaml = fs::path(truth_dir) / (std::string(kFloorObstaclesLayer) + ".yaml");
+  if (map.present && fs::exists(obstacles_yaml)) {
+    GridLayer run, obstacles, structure;
+    HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml(map.run_path, &run));
+    HETSLAM_RETURN_IF_ERROR(ReadUnion(truth_dir, {kFloorObstaclesLayer}, &obstacles));
+    HETSLAM_RETURN_IF_ERROR(ReadUnion(truth_dir, map.spec.truth_stems, &structure));
+    result.map_on_floor_obstacles = CountCellsOnFloorObstacles(run, world_T_map, obstacles, structure, options);
+  }
   if (std::none_of(result.layers.begin(), result.layers.end(),
                    [](const RunLayerResult& l) { return l.present; })) {
     return Status::Error("'" + run_dir + "' holds none of the run layers (" + looked_for + ")");
@@ -223,6 +260,12 @@ std::string FormatRunLayersTable(const RunLayersReport& report) {
     }
     out << line;
   }
+  if (report.map_on_floor_obstacles >= 0) {
+    out << "map.pgm on true floor obstacles: " << report.map_on_floor_obstacles << " of "
+        << report.layers.front().score.run_occupied_cells
+        << " occupied cells (within the tolerance of a floor obstacle, not of walls or furniture; the "
+           "localisation map should hold none)\n";
+  }
   return out.str();
 }
 
@@ -247,6 +290,11 @@ Status WriteRunLayersCsv(const RunLayersReport& report, const std::string& path)
       csv << FormatNumber("%.6f", layer.seen.recall()) << "," << layer.seen.truth_occupied_cells << ","
           << layer.seen.truth_found_cells << "\n";
     }
+  }
+  if (report.map_on_floor_obstacles >= 0) {
+    csv << "map_on_floor_obstacles," << kFloorObstaclesLayer << ",counted,,,"
+        << report.layers.front().score.run_occupied_cells << "," << report.map_on_floor_obstacles << ",,,"
+        << report.options.tolerance_cells << ",,,\n";
   }
   const std::string text = csv.str();
   return WriteFileBytes(path, text.data(), text.size());

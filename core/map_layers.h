@@ -82,6 +82,14 @@ struct LayerScore {
 LayerScore ScoreLayer(const GridLayer& run, const Pose2& world_T_map, const GridLayer& truth,
                       const LayerScoreOptions& options);
 
+// The occupied cells of `run` (map frame) on a true floor obstacle: within the tolerance of an
+// occupied cell of `floor_obstacles` and not within it of an occupied (or inside-footprint) cell
+// of `structure` (walls ∪ furniture: an obstacle against a wall cannot be told from the wall at
+// that tolerance). Paper §III-E: floor obstacles break the 2.5D assumption and must stay out of
+// the map localisation uses (map.pgm), so this should be 0. The two true layers on one grid.
+int CountCellsOnFloorObstacles(const GridLayer& run, const Pose2& world_T_map, const GridLayer& floor_obstacles,
+                               const GridLayer& structure, const LayerScoreOptions& options);
+
 // The union of layers on one grid: a cell is occupied when it is occupied in any layer, else
 // unknown when unknown in any (inside a footprint), free otherwise. An error when `layers` is empty or the grids differ (size, resolution, origin
 // beyond 1e-6 of a cell); `names` (one per layer) name them in the message.
@@ -105,6 +113,9 @@ struct RunLayersReport {
   Pose2 world_T_map;
   LayerScoreOptions options;
   std::vector<RunLayerResult> layers;  // StandardRunLayers() order, absent ones included
+  // map.pgm's occupied cells on a true floor obstacle (CountCellsOnFloorObstacles); -1 when
+  // map.pgm or the true floor_obstacles layer is absent.
+  int map_on_floor_obstacles = -1;
 };
 
 // Scores every layer of StandardRunLayers() present in `run_dir` against the true layers of
@@ -125,7 +136,9 @@ std::string FormatRunLayersTable(const RunLayersReport& report);
 // The report as CSV with the header
 //   layer,truth,status,precision,recall,run_occupied,run_correct,truth_occupied,truth_found,
 //   tolerance_cells,seen_recall,seen_occupied,seen_found
-// (the last three empty without seen layers)
+// (the last three empty without seen layers), and, when map.pgm and the true floor obstacles are
+// there, a last row `map_on_floor_obstacles,floor_obstacles,counted,,,N,M,,,k,,,`: map.pgm's N
+// occupied cells, M of them on a true floor obstacle (RunLayersReport::map_on_floor_obstacles)
 // (truth = the true layers joined by '+', status = scored or absent, empty numbers and
 // "nan" precision/recall where there is nothing to count). An error names the file.
 Status WriteRunLayersCsv(const RunLayersReport& report, const std::string& path);

@@ -29,7 +29,8 @@ DEFINE_string(run_dir, "",
               "present, each as X.pgm + X.yaml (map_server): map (all structure used for "
               "localisation; scored against walls + furniture), walls (against walls), "
               "floor_obstacles (against floor_obstacles), planner (against all three true "
-              "layers). Required.");
+              "layers). Also counts map.pgm's cells on a true floor obstacle (not next to walls or "
+              "furniture): the localisation map should hold none. Required.");
 DEFINE_string(truth_layers, "",
               "Folder of the true layers, world frame: a simulated team dataset's "
               "DIR/truth_layers (walls, furniture, floor_obstacles .pgm + .yaml). Required.");
@@ -55,7 +56,9 @@ DEFINE_string(out_csv, "",
               "Optional CSV file receiving one row per run layer (absent ones too): layer, truth, "
               "status, precision, recall, run_occupied, run_correct, truth_occupied, truth_found, "
               "tolerance_cells, seen_recall, seen_occupied, seen_found (the last three empty "
-              "without --seen_layers).");
+              "without --seen_layers); then, with map.pgm and a true floor_obstacles layer, a row "
+              "map_on_floor_obstacles whose run_occupied and run_correct columns are map.pgm's "
+              "occupied cells and those on a true floor obstacle.");
 
 namespace hetslam {
 namespace {

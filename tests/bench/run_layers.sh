@@ -20,6 +20,8 @@
 #   walls_P       walls.pgm against walls: precision
 #   fo_P fo_R     floor_obstacles.pgm against floor_obstacles: precision, recall
 #   fo_seenR      floor_obstacles.pgm: recall of the obstacle cells the robot's laser returned from
+#   fo_in_map     map.pgm's cells on a true floor obstacle (not next to walls or furniture): the
+#                 localisation map should hold none (the summary gives the largest)
 # ("-" where the run has no such layer or the truth no such cell). Then one row per scenario and
 # robot over the seeds: worst and mean of each column.
 # Exit status: 0 when every robot was scored, 1 otherwise, 2 on a usage error.
@@ -53,7 +55,7 @@ fi
 status=0
 rows=$(mktemp) || exit 1
 trap 'rm -f "$rows"' EXIT
-printf '%-22s %-6s %4s %7s %7s %7s %7s %7s %8s\n' scenario robot seed map_P map_R walls_P fo_P fo_R fo_seenR
+printf '%-22s %-6s %4s %7s %7s %7s %7s %7s %8s %9s\n' scenario robot seed map_P map_R walls_P fo_P fo_R fo_seenR fo_in_map
 # The CSV's value of a layer's column (precision 4, recall 5, seen_recall 11), "-" when empty or nan.
 value() { awk -F, -v layer="$2" -v column="$3" '$1 == layer && $3 == "scored" { v = $column } END {
   if (v == "" || v == "nan") print "-"; else printf "%.3f", v }' "$1"; }
@@ -75,10 +77,11 @@ while IFS= read -r truth; do
       continue
     fi
     csv=$slam/layers.csv
-    row="$(value "$csv" map 4) $(value "$csv" map 5) $(value "$csv" walls 4) $(value "$csv" floor_obstacles 4) $(value "$csv" floor_obstacles 5) $(value "$csv" floor_obstacles 11)"
+    in_map=$(awk -F, '$1 == "map_on_floor_obstacles" { v = $7 } END { print (v == "" ? "-" : v) }' "$csv")
+    row="$(value "$csv" map 4) $(value "$csv" map 5) $(value "$csv" walls 4) $(value "$csv" floor_obstacles 4) $(value "$csv" floor_obstacles 5) $(value "$csv" floor_obstacles 11) $in_map"
     echo "$name $robot $seed $row" >>"$rows"
     # shellcheck disable=SC2086
-    printf '%-22s %-6s %4s %7s %7s %7s %7s %7s %8s\n' "$name" "$robot" "$seed" $row
+    printf '%-22s %-6s %4s %7s %7s %7s %7s %7s %8s %9s\n' "$name" "$robot" "$seed" $row
   done
 done < <(find "$out_root" -type d -name truth_layers | sort)
 
@@ -88,12 +91,13 @@ if [ ! -s "$rows" ]; then
 fi
 echo
 echo "over the seeds: worst / mean of each column"
-printf '%-22s %-6s %5s %13s %13s %13s %13s %13s %13s\n' scenario robot runs map_P map_R walls_P fo_P fo_R fo_seenR
+printf '%-22s %-6s %5s %13s %13s %13s %13s %13s %13s %9s\n' scenario robot runs map_P map_R walls_P fo_P fo_R fo_seenR fo_in_map
 sort -k1,1 -k2,2 -k3,3n "$rows" | awk '
   { key = $1 " " $2; if (!(key in runs)) order[++n] = key; runs[key]++
     for (c = 4; c <= 9; ++c) if ($c != "-") {
       if (!((key, c) in worst) || $c < worst[key, c]) worst[key, c] = $c
-      sum[key, c] += $c; count[key, c]++ } }
+      sum[key, c] += $c; count[key, c]++ }
+    if ($10 != "-" && (!(key in most) || $10 + 0 > most[key])) most[key] = $10 + 0 }
   END { for (i = 1; i <= n; ++i) { key = order[i]; split(key, k, " ")
       line = sprintf("%-22s %-6s %5d", k[1], k[2], runs[key])
       for (c = 4; c <= 9; ++c) {
@@ -101,5 +105,5 @@ sort -k1,1 -k2,2 -k3,3n "$rows" | awk '
         if ((key, c) in worst) cell = sprintf("%.3f / %.3f", worst[key, c], sum[key, c] / count[key, c])
         line = line sprintf(" %13s", cell)
       }
-      print line } }'
+      print line sprintf(" %9s", (key in most) ? most[key] : "-") } }'
 exit $status

@@ -285,8 +285,36 @@ TEST_F(ScoreRunLayersTest, ScoresThePresentLayersAndNamesTheAbsentOnes) {
       "map,walls+furniture,scored,0.909091,1.000000,55,50,50,50,1,,,\n"
       "walls,walls,absent,,,,,,,1,,,\n"
       "floor_obstacles,floor_obstacles,absent,,,,,,,1,,,\n"
-      "planner,walls+furniture+floor_obstacles,absent,,,,,,,1,,,\n",
+      "planner,walls+furniture+floor_obstacles,absent,,,,,,,1,,,\n"
+      "map_on_floor_obstacles,floor_obstacles,counted,,,55,5,,,1,,,\n",
       csv);
+  // The 5 floor-obstacle cells the map should have left out are counted on their own too.
+  EXPECT_EQ(5, report.map_on_floor_obstacles);
+  EXPECT_THAT(table, HasSubstr("map.pgm on true floor obstacles: 5 of 55 occupied cells"));
+}
+
+// Floor obstacles in the localisation map (paper §III-E): a run cell counts when it is within
+// the tolerance of a true floor obstacle and not of a wall or furniture cell; an obstacle
+// against a wall cannot be told from the wall at that tolerance.
+TEST(CountCellsOnFloorObstaclesTest, CountsCellsOnObstaclesAwayFromStructure) {
+  GridLayer structure = EmptyLayer(), obstacles = EmptyLayer();
+  MarkRow(&structure, 2, 0, 39);   // a wall
+  MarkRow(&obstacles, 3, 10, 12);  // a box against it
+  MarkRow(&obstacles, 20, 5, 8);   // a box in the open
+  GridLayer run = EmptyLayer();
+  MarkRow(&run, 2, 0, 39);   // the wall: not counted
+  MarkRow(&run, 3, 10, 12);  // the box against the wall: next to the wall, not counted
+  MarkRow(&run, 21, 5, 6);   // half the open box, a cell off: counted
+  MarkRow(&run, 25, 30, 31); // elsewhere: not counted (wrong, but not a floor obstacle)
+  EXPECT_EQ(2, CountCellsOnFloorObstacles(run, Pose2(), obstacles, structure, LayerScoreOptions()));
+  LayerScoreOptions exact;
+  exact.tolerance_cells = 0;
+  EXPECT_EQ(0, CountCellsOnFloorObstacles(run, Pose2(), obstacles, structure, exact));
+  // A map frame 1 m along x from the world's: the open box's cells 20 columns further in it.
+  GridLayer shifted = EmptyLayer();
+  MarkRow(&shifted, 21, 25, 26);
+  EXPECT_EQ(2, CountCellsOnFloorObstacles(shifted, Pose2(-1.0, 0.0, 0.0), obstacles, structure, LayerScoreOptions()));
+  EXPECT_EQ(0, CountCellsOnFloorObstacles(shifted, Pose2(), obstacles, structure, LayerScoreOptions()));
 }
 
 TEST_F(ScoreRunLayersTest, SeenLayersGiveTheRecallOfWhatTheRobotSaw) {
