@@ -309,7 +309,9 @@ TEST(CountCellsOnFloorObstaclesTest, CountsCellsOnObstaclesAwayFromStructure) {
   EXPECT_EQ(2, CountCellsOnFloorObstacles(run, Pose2(), obstacles, structure, LayerScoreOptions()));
   LayerScoreOptions exact;
   exact.tolerance_cells = 0;
-  EXPECT_EQ(0, CountCellsOnFloorObstacles(run, Pose2(), obstacles, structure, exact));
+  // Without tolerance the open box's cells a cell off are not on it, and the box against the
+  // wall is no longer next to the wall's cells: its 3 cells count.
+  EXPECT_EQ(3, CountCellsOnFloorObstacles(run, Pose2(), obstacles, structure, exact));
   // A map frame 1 m along x from the world's: the open box's cells 20 columns further in it.
   GridLayer shifted = EmptyLayer();
   MarkRow(&shifted, 21, 25, 26);
