@@ -296,14 +296,9 @@ TEST(SubmapGraphTest, RenderedMapLeavesOutTheNoiseTailBehindAWall) {
   EXPECT_EQ(CellState::kFree, cleaned->StateAt({1.0, 0.2}));
 }
 
-// Floor obstacles are drawn from their hits alone (paper §III-E): a beam that ends on a box's
-// top passed over its front face higher than the box, so it does not clear it. Four scans from
-// the origin see a wall 3 m ahead; the first also a 10 cm box's front face at x = 2.0 m, the
-// other three the box's top behind it, at x = 2.2 m. The front face stays a floor obstacle
-// (rays cast from the later scans cleared it), and in the planner layer too, where the
-// structure's beams saw its cells free.
-TEST(SubmapGraphTest, FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver) {
-  SubmapGraph graph{SubmapGraphOptions()};
+// Four scans from the origin of a wall 3 m ahead and a 10 cm box: the first sees the box's
+// front face at x = first_box_x, the other three its top at x = 2.2 m.
+void AddScansOfAWallAndABox(float first_box_x, SubmapGraph* graph) {
   for (int i = 0; i < 4; ++i) {
     LocalResult result;
     result.inserted = true;
@@ -313,10 +308,21 @@ TEST(SubmapGraphTest, FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver) {
     result.insertions.push_back({0, result.local_pose});
     for (int k = -20; k <= 20; ++k) result.points.all.emplace_back(3.02f, 0.02f * k);  // the wall
     result.points.labels.assign(result.points.all.size(), PointLabel::kStructure);
-    const float x = i == 0 ? 2.02f : 2.22f;
+    const float x = i == 0 ? first_box_x : 2.22f;
     for (int k = -2; k <= 2; ++k) result.points.floor_obstacles.emplace_back(x, 0.02f * k);
-    graph.AddNode(0, std::move(result));
+    graph->AddNode(0, std::move(result));
   }
+}
+
+// Floor obstacles are drawn from their hits alone (paper §III-E): a beam that ends on a box's
+// top passed over its front face higher than the box, so it does not clear it. Four scans from
+// the origin see a wall 3 m ahead; the first also a 10 cm box's front face at x = 2.0 m, the
+// other three the box's top behind it, at x = 2.2 m. The front face stays a floor obstacle
+// (rays cast from the later scans cleared it), and in the planner layer too, where the
+// structure's beams saw its cells free.
+TEST(SubmapGraphTest, FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver) {
+  SubmapGraph graph{SubmapGraphOptions()};
+  AddScansOfAWallAndABox(2.02f, &graph);
   const std::unique_ptr<OccupancyGrid> obstacles =
       graph.RenderMap(0, OccupancyGridOptions(), SubmapGraph::Layer::kFloorObstacles);
   const std::unique_ptr<OccupancyGrid> planner = graph.RenderMap(0, OccupancyGridOptions(), SubmapGraph::Layer::kPlanner);
@@ -333,23 +339,12 @@ TEST(SubmapGraphTest, FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver) {
 
 // A team renders each robot's map in the common frame (RenderMap's frame_T_robot): the scans
 // are placed there, so the same cells come out where the frame puts them, without resampling a
-// rendered grid (which moved cells of a map turned by 150 degrees up to a cell). The graph of
-// FloorObstaclesKeepTheFaceBeamsToTheTopPassedOver rendered in a frame where the robot's sits
-// at (1, -2) turned by 90 degrees: every layer's cells where the frame puts the robot's.
+// rendered grid (which moved cells of a map turned by 150 degrees up to a cell). A wall and a
+// box rendered in a frame where the robot's sits at (1, -2) turned by 90 degrees: every
+// layer's cells where the frame puts the robot's.
 TEST(SubmapGraphTest, RenderedInAnotherFrameTheCellsAreWhereTheFramePutsThem) {
   SubmapGraph graph{SubmapGraphOptions()};
-  for (int i = 0; i < 4; ++i) {
-    LocalResult result;
-    result.inserted = true;
-    result.stamp_seconds = i;
-    result.local_pose = Pose2::Identity();
-    if (i == 0) result.new_submaps.push_back({0, Pose2::Identity()});
-    result.insertions.push_back({0, result.local_pose});
-    for (int k = -20; k <= 20; ++k) result.points.all.emplace_back(3.02f, 0.02f * k);  // the wall
-    result.points.labels.assign(result.points.all.size(), PointLabel::kStructure);
-    for (int k = -2; k <= 2; ++k) result.points.floor_obstacles.emplace_back(2.22f, 0.02f * k);
-    graph.AddNode(0, std::move(result));
-  }
+  AddScansOfAWallAndABox(2.22f, &graph);
   const Pose2 frame_T_robot(1.0, -2.0, M_PI / 2);
   for (const SubmapGraph::Layer layer : {SubmapGraph::Layer::kStructure, SubmapGraph::Layer::kFloorObstacles,
                                          SubmapGraph::Layer::kPlanner}) {
