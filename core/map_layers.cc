@@ -214,6 +214,8 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
     HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml(map.run_path, &run));
     HETSLAM_RETURN_IF_ERROR(ReadUnion(truth_dir, {kFloorObstaclesLayer}, &obstacles));
     HETSLAM_RETURN_IF_ERROR(ReadUnion(truth_dir, map.spec.truth_stems, &structure));
+    GridLayer all;  // (only to check that the true layers lie on one grid)
+    HETSLAM_RETURN_IF_ERROR(UnionOfLayers({obstacles, structure}, {kFloorObstaclesLayer, "walls + furniture"}, &all));
     result.map_on_floor_obstacles = CountCellsOnFloorObstacles(run, world_T_map, obstacles, structure, options);
   }
   if (std::none_of(result.layers.begin(), result.layers.end(),
