@@ -9,6 +9,48 @@
 namespace hetslam {
 namespace {
 
+// The 2.5D projection (paper §III-D) of hand-computed beams: a laser mounted 0.1 m ahead of and
+// 0.5 m above the body origin, the body rolled 20° and pitched 30° (nose down), its origin 0.3 m
+// above the floor: p = R_y(30°) R_x(20°) (mount + range · beam) + (0, 0, 0.3). The values below
+// were worked out by hand (cos 20° = 0.93969262, sin 20° = 0.34202014, cos 30° = 0.86602540),
+// e.g. the 90° beam of 1 m: (0.1, 1, 0.5) -> R_x: (0.1, 0.76868255, 0.81186645) -> R_y:
+// (0.49253577, 0.76868255, 0.65309697) -> +0.3 m: z = 0.95309697. The NaN beam is left out.
+TEST(ProjectScanTest, HandComputedBeamsAtAKnownRollPitchAndHeight) {
+  LaserScan scan;
+  scan.angles_radians = {0.0, M_PI / 2, M_PI / 4, -M_PI / 2};
+  scan.ranges_meters = {2.0, 1.0, std::numeric_limits<double>::quiet_NaN(), 1.0};
+  scan.range_max_meters = 10.0;
+  scan.robot_T_sensor = Eigen::Isometry3d(Eigen::Translation3d(0.1, 0.0, 0.5));
+  BodyAttitude attitude;
+  attitude.roll_radians = 20.0 * M_PI / 180.0;
+  attitude.pitch_radians = 30.0 * M_PI / 180.0;
+  attitude.base_height_meters = 0.3;
+  const std::vector<ProjectedPoint> points = ProjectScan(scan, attitude);
+  ASSERT_EQ(3u, points.size());
+  const struct {
+    int beam;
+    double x, y, z;
+  } expected[] = {
+      {0, 2.05357651, -0.17101007, -0.34310115},  // below the floor: this beam met the floor first
+      {1, 0.49253577, 0.76868255, 0.95309697},   // the raised (+y) side
+      {3, 0.15051563, -1.11070269, 0.36070071},  // the lowered (-y) side
+  };
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(expected[k].beam, points[k].beam_index);
+    EXPECT_NEAR(expected[k].x, points[k].p_robot.x(), 1e-6) << "beam " << expected[k].beam;
+    EXPECT_NEAR(expected[k].y, points[k].p_robot.y(), 1e-6) << "beam " << expected[k].beam;
+    EXPECT_NEAR(expected[k].z, points[k].z_meters, 1e-6) << "beam " << expected[k].beam;
+  }
+  // Level and at rest: the plain 2D end points of the mounted laser, at its height.
+  const std::vector<ProjectedPoint> level = ProjectScan(scan, BodyAttitude());
+  ASSERT_EQ(3u, level.size());
+  EXPECT_NEAR(2.1, level[0].p_robot.x(), 1e-6);
+  EXPECT_NEAR(0.0, level[0].p_robot.y(), 1e-6);
+  EXPECT_NEAR(0.5, level[0].z_meters, 1e-6);
+  EXPECT_NEAR(0.1, level[1].p_robot.x(), 1e-6);
+  EXPECT_NEAR(1.0, level[1].p_robot.y(), 1e-6);
+}
+
 // Points every `spacing` metres along y = 0.1 from x = spacing / 2 to 1 - spacing / 2 (five 0.2 m
 // voxels), in increasing x, or in decreasing x (the other direction of the scan's beams).
 std::vector<Eigen::Vector2f> PointsAlongASegment(bool increasing, float spacing = 0.01f) {
