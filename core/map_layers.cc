@@ -184,6 +184,7 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
   result.options = options;
   result.seen_dir = seen_dir;
   std::string looked_for;
+  GridLayer map_run, map_truth;  // map.pgm and walls ∪ furniture, kept for the floor-obstacle count
   for (const RunLayerSpec& spec : StandardRunLayers()) {
     RunLayerResult layer;
     layer.spec = spec;
@@ -203,6 +204,10 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
         HETSLAM_RETURN_IF_ERROR(ReadUnion(seen_dir, spec.truth_stems, &seen));
         layer.seen = ScoreLayer(run, world_T_map, seen, options);
       }
+      if (result.layers.empty()) {  // map.pgm, the first of StandardRunLayers()
+        map_run = std::move(run);
+        map_truth = std::move(truth);
+      }
     }
     result.layers.push_back(std::move(layer));
   }
@@ -210,13 +215,11 @@ Status ScoreRunLayers(const std::string& run_dir, const std::string& truth_dir,
   const RunLayerResult& map = result.layers.front();
   const fs::path obstacles_yaml = fs::path(truth_dir) / (std::string(kFloorObstaclesLayer) + ".yaml");
   if (map.present && fs::exists(obstacles_yaml)) {
-    GridLayer run, obstacles, structure;
-    HETSLAM_RETURN_IF_ERROR(ReadMapPgmYaml(map.run_path, &run));
+    GridLayer obstacles;
     HETSLAM_RETURN_IF_ERROR(ReadUnion(truth_dir, {kFloorObstaclesLayer}, &obstacles));
-    HETSLAM_RETURN_IF_ERROR(ReadUnion(truth_dir, map.spec.truth_stems, &structure));
     GridLayer all;  // (only to check that the true layers lie on one grid)
-    HETSLAM_RETURN_IF_ERROR(UnionOfLayers({obstacles, structure}, {kFloorObstaclesLayer, "walls + furniture"}, &all));
-    result.map_on_floor_obstacles = CountCellsOnFloorObstacles(run, world_T_map, obstacles, structure, options);
+    HETSLAM_RETURN_IF_ERROR(UnionOfLayers({obstacles, map_truth}, {kFloorObstaclesLayer, "walls + furniture"}, &all));
+    result.map_on_floor_obstacles = CountCellsOnFloorObstacles(map_run, world_T_map, obstacles, map_truth, options);
   }
   if (std::none_of(result.layers.begin(), result.layers.end(),
                    [](const RunLayerResult& l) { return l.present; })) {

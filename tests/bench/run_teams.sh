@@ -117,9 +117,12 @@ for team in "${teams[@]}"; do
   done
 done
 
-# The merged map as the run's map.pgm, aligned by the first robot of the manifest.
+# The merged map as the run's map.pgm, aligned by the first robot of the manifest; then each
+# robot's own outputs in the team run (OUT/<robot>/map.pgm and walls.pgm, in the common frame;
+# the walls without the cells a teammate saw through), aligned by that robot's trajectory.
 merged_rows=$(mktemp)
-trap 'rm -f "$rows" "$merged_rows"' EXIT
+robot_rows=$(mktemp)
+trap 'rm -f "$rows" "$merged_rows" "$robot_rows"' EXIT
 if [ -x "$build/examples/hetslam_layers" ]; then
   for team in "${teams[@]}"; do
     for seed in "${seeds[@]}"; do
@@ -140,19 +143,7 @@ if [ -x "$build/examples/hetslam_layers" ]; then
         echo "run_teams.sh: hetslam_layers failed on the merged map, see $scored/layers.log" >&2
         status=1
       fi
-    done
-  done
-fi
-
-# Each robot's own outputs in the team run (OUT/<robot>/map.pgm and walls.pgm, in the common
-# frame; the walls without the cells a teammate saw through), aligned by that robot's trajectory.
-robot_rows=$(mktemp)
-trap 'rm -f "$rows" "$merged_rows" "$robot_rows"' EXIT
-if [ -x "$build/examples/hetslam_layers" ]; then
-  for team in "${teams[@]}"; do
-    for seed in "${seeds[@]}"; do
-      dir="$out_root/$team/seed-$seed"
-      for robot in $(awk '$1 == "robot" { print $2 }' "$dir/sim/team.txt" 2>/dev/null); do
+      for robot in $(awk '$1 == "robot" { print $2 }' "$dir/sim/team.txt"); do
         run="$dir/run/$robot"
         [ -f "$run/trajectory.txt" ] || continue
         if "$build/examples/hetslam_layers" --run_dir="$run" --truth_layers="$dir/sim/truth_layers" \
