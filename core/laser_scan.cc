@@ -1,5 +1,6 @@
 #include "core/laser_scan.h"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -101,6 +102,23 @@ std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& poi
     for (const Eigen::Vector2f& p : points) {
       uint64_t key;
       if (voxel_key(p, &key) && seen.insert(key).second) kept.push_back(p);
+    }
+    return kept;
+  }
+  if (keep == VoxelPoint::kFirstAndLast) {
+    std::unordered_map<uint64_t, int> voxel_of_key;  // key -> voxel (order of its first point)
+    std::vector<std::array<size_t, 2>> ends;         // each voxel's first and last point
+    for (size_t i = 0; i < points.size(); ++i) {
+      uint64_t key;
+      if (!voxel_key(points[i], &key)) continue;
+      const auto [it, inserted] = voxel_of_key.emplace(key, static_cast<int>(ends.size()));
+      if (inserted) ends.push_back({i, i});
+      ends[it->second][1] = i;
+    }
+    kept.reserve(2 * ends.size());
+    for (const auto& [first, last] : ends) {
+      kept.push_back(points[first]);
+      if (last != first) kept.push_back(points[last]);
     }
     return kept;
   }

@@ -79,6 +79,10 @@ enum class VoxelPoint {
   // middle ones for an even n. The same point whichever way the beams run; the (n / 2)-th alone
   // would be the last of two, as one-sided as the first where beams are sparse (two a voxel).
   kMiddle,
+  // Its first and its last (one point where it has one): where a surface ends in a voxel, its
+  // end is kept whichever side of the scan the voxel lies on, and a point inside the surface
+  // besides. Up to twice kFirst's points.
+  kFirstAndLast,
 };
 
 // Keeps one point (`keep`) of every square voxel of side `voxel_size_meters`, so that dense
@@ -88,7 +92,8 @@ enum class VoxelPoint {
 // in a voxel (a wall's end, an occlusion), the kept point is the end itself on one side of the
 // scan and a point inside the surface on the other. Matched, such points turn the pose a
 // little towards that side, the same way scan after scan (measured: 1.2 degrees in 60 s on a
-// simulated rover's front end). The middle beam has no side.
+// simulated rover's front end). The middle beam has no side; the first and the last have
+// both.
 std::vector<Eigen::Vector2f> VoxelFilter(const std::vector<Eigen::Vector2f>& points, float voxel_size_meters,
                                          VoxelPoint keep = VoxelPoint::kFirst);
 

@@ -124,11 +124,12 @@ bool RunsIntoUnobservedGround(const LaserMap& map, const Pose2& world_T_robot, c
 }
 
 // The refinement's points from the points the matching ones were thinned from
-// (LocalSlamOptions::refine_on_all_points: all of them; refine_on_middle_beams: each matching
-// voxel's middle point).
+// (LocalSlamOptions::refine_on_all_points: all of them; refine_on_voxel_ends: each matching
+// voxel's first and last point; refine_on_middle_beams: its middle point).
 std::vector<Eigen::Vector2f> RefinementPoints(const LocalSlamOptions& options, std::vector<Eigen::Vector2f> points) {
   if (options.refine_on_all_points) return points;
-  return VoxelFilter(points, static_cast<float>(options.matching_voxel_meters), VoxelPoint::kMiddle);
+  return VoxelFilter(points, static_cast<float>(options.matching_voxel_meters),
+                     options.refine_on_voxel_ends ? VoxelPoint::kFirstAndLast : VoxelPoint::kMiddle);
 }
 
 int LeaveOutFrontierPoints(const LocalSlamOptions& options, const LaserMap& map, const Pose2& predicted,
@@ -426,7 +427,8 @@ ScanPoints PrepareScanPoints(const LocalSlamOptions& options, const LaserScan& s
   points.matching = options.matching_voxel_meters > 0
                         ? VoxelFilter(points.all, static_cast<float>(options.matching_voxel_meters))
                         : points.all;
-  if ((options.refine_on_all_points || options.refine_on_middle_beams) && options.matching_voxel_meters > 0 &&
+  if ((options.refine_on_all_points || options.refine_on_voxel_ends || options.refine_on_middle_beams) &&
+      options.matching_voxel_meters > 0 &&
       !points.matching.empty()) {
     points.refinement = RefinementPoints(options, points.all);
   }
@@ -513,7 +515,7 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
     }
     result.structure_floor_obstacles =
         AddFloorObstaclesOnMappedStructure(options_, *target.map, predicted_submap, &points);
-    // The refinement's own points (refine_on_middle_beams), for a scan without matching weights.
+    // The refinement's own points (refine_on_voxel_ends, ...), for a scan without matching weights.
     const std::vector<Eigen::Vector2f>* refinement =
         points.refinement.empty() || !points.matching_weights.empty() ? nullptr : &points.refinement;
     if (prediction.covariance.has_value()) {

@@ -67,6 +67,7 @@ struct LocalSlamOptions {
   // search itself stays on the first points: with the middle ones it picked the wrong one of
   // two modes 1.2 m apart along an ACES corridor (4 m off at the end). Off by default: the simulated office loop's corrected
   // trajectory (not its front end) and wheeled_corridor's are worse with it (README, Teams).
+  // refine_on_voxel_ends (below) takes precedence over it.
   // Used when the scan carries no matching weights.
   bool refine_on_middle_beams = false;
   // The search keeps each voxel's first point; with this the refinement (and the match's
@@ -83,6 +84,22 @@ struct LocalSlamOptions {
   // refine_on_middle_beams.
   // Used when the scan carries no matching weights.
   bool refine_on_all_points = false;
+  // The search keeps each voxel's first point; with this the refinement (and the match's
+  // information and score profile) uses each voxel's first and last point (core/laser_scan.h
+  // VoxelPoint::kFirstAndLast): where a surface ends in a voxel, its end on whichever side of
+  // the scan, at most twice the searched points. The first point alone turned every simulated
+  // front end the same way (+0.04 to +2.25 degrees a run), the last alone the other way.
+  // Measured against the default (README, "The refinement on each voxel's first and last
+  // beam"): the simulated robots' worst heading from their start over seeds 1-5 1.13 -> 0.56
+  // degrees, team_three's drone-nao frames 0.233 m / 1.09 deg -> 0.104 m / 0.43 deg after the
+  // second constraint, team_overlap's 0.063 -> 0.019 m, ACES 0.095 -> 0.086 m and MIT CSAIL
+  // 0.157 -> 0.118 m against GMapping, Intel and FR079 as before, about 3% of FR079's time. Off by
+  // default: under tests/bench/run_sensitivity.sh's ten stopping rules Intel (0.087 m) and ACES
+  // (0.66 m) each end far off on one (none by default), humanoid_explore's wall precision is
+  // 0.944 on its worst seed (0.952), and the office loop 0.039-0.062 m (0.029-0.038).
+  // refine_on_all_points takes precedence over it, and it over refine_on_middle_beams.
+  // Used when the scan carries no matching weights.
+  bool refine_on_voxel_ends = false;
   // Scans with fewer valid points are not matched or inserted (counted as skipped).
   int min_points = 20;
   // With a known body attitude (a tilting head, a UAV), the scan is projected under the 2.5D
@@ -277,9 +294,9 @@ struct ScanPoints {
   int floor_points = 0;              // removed as floor hits (with the low floor obstacles)
   std::vector<Eigen::Vector2f> floor_obstacles;  // robot frame; not in `all`
   std::vector<Eigen::Vector2f> matching;
-  // The refinement's points (LocalSlamOptions::refine_on_middle_beams: the voxels of
-  // `matching`, each by its middle point; refine_on_all_points: the points `matching` was
-  // thinned from); empty = `matching`'s.
+  // The refinement's points (LocalSlamOptions::refine_on_voxel_ends: the voxels of `matching`,
+  // each by its first and last point; refine_on_middle_beams: each by its middle point;
+  // refine_on_all_points: the points `matching` was thinned from); empty = `matching`'s.
   std::vector<Eigen::Vector2f> refinement;
   BodyAttitude attitude;             // of the projection (all 0 when not projected)
   // The floor this scan saw (FitFloorLine on its floor-band hits), when it could be fitted.

@@ -191,10 +191,15 @@ if [ -s "$robot_rows" ]; then
   echo
   echo "each robot's map.pgm (walls + furniture) and walls.pgm (walls) in the team run, within one cell,"
   echo "worst / mean over the seeds:"
-  awk '{ k = $1 " " $3 " " $4; if (!(k in n)) order[++m] = k; n[k]++; sp[k] += $5; sr[k] += $6
-         if (!(k in wp) || $5 < wp[k]) wp[k] = $5; if (!(k in wr) || $6 < wr[k]) wr[k] = $6 }
+  # A map with no cell of the layer has no precision (hetslam_layers writes nan): left out of
+  # the precision's worst and mean, and counted.
+  awk '{ k = $1 " " $3 " " $4; if (!(k in n)) order[++m] = k; n[k]++; sr[k] += $6
+         if (!(k in wr) || $6 < wr[k]) wr[k] = $6
+         if (tolower($5) ~ /nan/) { empty[k]++ } else { np[k]++; sp[k] += $5; if (!(k in wp) || $5 < wp[k]) wp[k] = $5 } }
        END { for (i = 1; i <= m; ++i) { k = order[i]; split(k, f, " ")
-               printf "%-11s %-8s %-6s precision %.3f / %.3f, recall %.3f / %.3f (%d seeds)\n", f[1], f[2], f[3], wp[k], sp[k] / n[k], wr[k], sr[k] / n[k], n[k] } }' "$robot_rows"
+               p = (k in wp) ? sprintf("%.3f / %.3f", wp[k], sp[k] / np[k]) : "-"
+               note = (k in empty) ? sprintf("; no cell on %d, precision over the others", empty[k]) : ""
+               printf "%-11s %-8s %-6s precision %s, recall %.3f / %.3f (%d seeds%s)\n", f[1], f[2], f[3], p, wr[k], sr[k] / n[k], n[k], note } }' "$robot_rows"
 fi
 # Links undone: a map-overlap link the joined group's tags contradicted later (the robots were
 # in one frame wrongly until then).

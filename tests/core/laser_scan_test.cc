@@ -1,5 +1,6 @@
 #include "core/laser_scan.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -109,6 +110,42 @@ TEST(VoxelFilterTest, TheMiddleOfTwoPointsIsTheirMidpoint) {
   EXPECT_NEAR(0.55f, MeanX(VoxelFilter(PointsAlongASegment(false, 0.1f), 0.2f)), 1e-4f);  // 0.15, 0.35, ...
   EXPECT_NEAR(0.5f, MeanX(VoxelFilter(PointsAlongASegment(true, 0.1f), 0.2f, VoxelPoint::kMiddle)), 1e-4f);
   EXPECT_NEAR(0.5f, MeanX(VoxelFilter(PointsAlongASegment(false, 0.1f), 0.2f, VoxelPoint::kMiddle)), 1e-4f);
+}
+
+// Each voxel's first and last point, the voxels in the order of their first point; a voxel of
+// one point gives it once.
+TEST(VoxelFilterTest, TheFirstAndLastPointOfEachVoxel) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // Voxel (0, 0): four points; voxel (2, 0): one; voxel (-1, -1): three; a NaN point between.
+  const std::vector<Eigen::Vector2f> points = {{0.01f, 0.01f}, {0.45f, 0.05f}, {0.02f, 0.02f}, {0.03f, 0.03f},
+                                               {nan, 0.0f},    {0.04f, 0.04f}, {-0.05f, -0.1f}, {-0.1f, -0.1f},
+                                               {-0.15f, -0.1f}};
+  const std::vector<Eigen::Vector2f> ends = VoxelFilter(points, 0.2f, VoxelPoint::kFirstAndLast);
+  ASSERT_EQ(5u, ends.size());
+  EXPECT_EQ(points[0], ends[0]);
+  EXPECT_EQ(points[5], ends[1]);
+  EXPECT_EQ(points[1], ends[2]);
+  EXPECT_EQ(points[6], ends[3]);
+  EXPECT_EQ(points[8], ends[4]);
+  EXPECT_TRUE(VoxelFilter({}, 0.2f, VoxelPoint::kFirstAndLast).empty());
+  EXPECT_TRUE(VoxelFilter({{nan, nan}}, 0.2f, VoxelPoint::kFirstAndLast).empty());
+}
+
+// Along a surface the first and the last points of the voxels are the same set whichever way
+// the beams run: both ends of every voxel's stretch, dense or sparse.
+TEST(VoxelFilterTest, TheFirstAndLastPointsDoNotShiftWithTheDirectionOfTheBeams) {
+  for (const float spacing : {0.01f, 0.1f}) {
+    std::vector<Eigen::Vector2f> up = VoxelFilter(PointsAlongASegment(true, spacing), 0.2f, VoxelPoint::kFirstAndLast);
+    std::vector<Eigen::Vector2f> down =
+        VoxelFilter(PointsAlongASegment(false, spacing), 0.2f, VoxelPoint::kFirstAndLast);
+    ASSERT_EQ(10u, up.size()) << "spacing " << spacing;
+    ASSERT_EQ(up.size(), down.size()) << "spacing " << spacing;
+    const auto by_x = [](const Eigen::Vector2f& a, const Eigen::Vector2f& b) { return a.x() < b.x(); };
+    std::sort(up.begin(), up.end(), by_x);
+    std::sort(down.begin(), down.end(), by_x);
+    for (size_t k = 0; k < up.size(); ++k) EXPECT_EQ(up[k], down[k]) << "spacing " << spacing << ", point " << k;
+    EXPECT_NEAR(0.5f, MeanX(up), 1e-4f) << "spacing " << spacing;
+  }
 }
 
 }  // namespace

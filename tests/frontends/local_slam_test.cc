@@ -682,29 +682,35 @@ TEST(PrepareScanPointsTest, DensifyFillsGapsAlongASurfaceOnly) {
   EXPECT_GT(on_side_wall, 150);
 }
 
-// The refinement's points (refine_on_middle_beams): the matching voxels, each by its middle
-// beam; none without the option (the default) or without voxels (the refinement then uses
-// `matching`).
-TEST(PrepareScanPointsTest, TheRefinementTakesEachMatchingVoxelsMiddleBeam) {
+// The refinement's points: none by default (the refinement then uses `matching`) or without
+// voxels; with refine_on_voxel_ends the matching voxels, each by its first and last beam; with
+// refine_on_middle_beams, each by its middle beam.
+TEST(PrepareScanPointsTest, TheRefinementTakesEachMatchingVoxelsEndsOrMiddleBeam) {
   LaserScan scan;
   scan.angles_radians = EvenlySpacedAngles(91, 0.0, M_PI / 180);
   scan.range_max_meters = 30.0;
   for (double angle : scan.angles_radians) scan.ranges_meters.push_back(1.0 / std::sin(angle + 0.3));
   LocalSlamOptions options;
   EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty()) << "off by default";
+  options.refine_on_voxel_ends = true;
+  const ScanPoints ends = PrepareScanPoints(options, scan);
+  ASSERT_EQ(91u, ends.all.size());
+  EXPECT_EQ(VoxelFilter(ends.all, 0.2f), ends.matching);
+  EXPECT_EQ(VoxelFilter(ends.all, 0.2f, VoxelPoint::kFirstAndLast), ends.refinement);
+  EXPECT_GT(ends.refinement.size(), ends.matching.size());
+  EXPECT_LE(ends.refinement.size(), 2 * ends.matching.size());
+  options.refine_on_voxel_ends = false;
   options.refine_on_middle_beams = true;
   const ScanPoints points = PrepareScanPoints(options, scan);
-  ASSERT_EQ(91u, points.all.size());
   EXPECT_EQ(VoxelFilter(points.all, 0.2f), points.matching);
   EXPECT_EQ(VoxelFilter(points.all, 0.2f, VoxelPoint::kMiddle), points.refinement);
   EXPECT_EQ(points.matching.size(), points.refinement.size());
   EXPECT_NE(points.matching, points.refinement);
-  options.refine_on_middle_beams = false;
-  EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty());
-  options.refine_on_middle_beams = true;
+  options.refine_on_voxel_ends = true;
+  EXPECT_EQ(ends.refinement, PrepareScanPoints(options, scan).refinement) << "the ends before the middle beams";
   options.matching_voxel_meters = 0.0;
   EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty());
-  // refine_on_all_points: every point, before the middle beams.
+  // refine_on_all_points: every point, before the ends and the middle beams.
   options.matching_voxel_meters = 0.2;
   options.refine_on_all_points = true;
   const ScanPoints every = PrepareScanPoints(options, scan);
