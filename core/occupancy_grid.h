@@ -184,6 +184,15 @@ class OccupancyGrid {
   bool has_lines() const { return has_lines_; }
   static constexpr float kMinLineCoherence = 0.8f;
 
+  // The highest hit of a cell, in metres above the floor (InsertScan's `heights`, to its 2 cm
+  // steps): false when the cell has no hit with a height (no heights inserted, a 2D scan, the
+  // grid frozen, or a cell added by AddCellObservation).
+  bool HighestHit(const CellIndex& c, double* height_meters) const {
+    if (frozen_ || height_min_.width() == 0 || !geometry_.Contains(c) || height_min_.Get(c.x, c.y) == 255) return false;
+    *height_meters = 0.02 * height_max_.Get(c.x, c.y);
+    return true;
+  }
+
   // Bounding box (cells) of all observed cells; empty (max < min) before any insertion.
   CellIndex observed_min() const { return observed_min_; }
   CellIndex observed_max() const { return observed_max_; }

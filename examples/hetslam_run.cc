@@ -663,6 +663,13 @@ std::string Summary(const OnlineEstimator& estimator) {
                   s.floor_points, s.floor_obstacle_points, s.suspended_scans);
     out += line;
   }
+  if (s.lowest_ray_height_meters.has_value()) {
+    std::snprintf(line, sizeof(line),
+                  "heights: %d scans projected with an attitude (2.5D); the lowest ray passed %.2f m above the floor "
+                  "(what stands lower may lie under every ray: hetslam_team --overlap_height_margin_meters)\n",
+                  s.projected_scans, *s.lowest_ray_height_meters);
+    out += line;
+  }
   if (s.first_node_rematch_radians.has_value()) {
     std::snprintf(line, sizeof(line),
                   "frame: the first scan refined in the finished first submap: heading %+.3f deg there, the map turned "

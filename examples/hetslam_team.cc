@@ -89,6 +89,11 @@ DEFINE_int32(overlap_min_matches, 3, "Scans of different places (1.5 m apart) wh
              "map-overlap link. At least 2.");
 DEFINE_double(overlap_max_conflict, 0.10, "Largest share of compared occupied cells that may land on the other "
               "robot's free space for a map-overlap link. In [0, 1].");
+DEFINE_double(overlap_height_margin_meters, -1.0, "Robots whose lasers sweep different heights, opt-in: when >= 0, an "
+              "occupied cell whose highest hit lies more than this below the lowest ray of the other robots' lasers "
+              "is no conflict on their free space in the map-overlap check (their lasers may have passed over it: a "
+              "low box under a UAV's laser). Negative (default): every such cell conflicts, as does every cell of a "
+              "robot without 2.5D projection (no attitude). 0.1 is the measured setting (README).");
 DEFINE_double(overlap_confirm_seconds, 5.0, "A map-overlap pose that passes every check is held, not linked, until it "
               "passes again, as the only passing pose, at least this many seconds later (with the tags and maps as "
               "they are then); not held when the pose puts a tag both sides have confirmed at one place. 0 with "
@@ -221,6 +226,7 @@ bool OptionsFromFlags(TeamEstimatorOptions* team, OnlineEstimatorOptions* robot,
   team->overlap_search = FLAGS_overlap_search;
   team->overlap_min_matches = FLAGS_overlap_min_matches;
   team->overlap_max_conflict = FLAGS_overlap_max_conflict;
+  team->overlap_height_margin_meters = FLAGS_overlap_height_margin_meters;
   team->overlap_confirm_seconds = FLAGS_overlap_confirm_seconds;
   team->overlap_confirm_new_nodes = FLAGS_overlap_confirm_new_nodes;
   team->inter_min_score = FLAGS_inter_min_score;

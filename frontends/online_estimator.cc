@@ -295,6 +295,11 @@ Status OnlineEstimator::AddScan(const LaserReading& reading) {
   stats_.prepare_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - prepare_start).count();
   stats_.floor_points += points.floor_points;
   stats_.projected_scans += points.projected;
+  if (points.projected && attitude.has_value()) {
+    double lowest = points.floor_points > 0 ? 0.0 : SensorHeight(reading.scan, *attitude);
+    for (const float h : points.heights_meters) lowest = std::min(lowest, static_cast<double>(h));
+    stats_.lowest_ray_height_meters = std::min(stats_.lowest_ray_height_meters.value_or(lowest), std::max(lowest, 0.0));
+  }
   // The floor corrects the tilt of the attitude for the scans after this one.
   Eigen::Vector2d tilt_error;
   if (options_.floor_tilt_gain > 0 && attitude.has_value() && points.floor_line.has_value() &&

@@ -204,6 +204,11 @@ struct OnlineEstimatorStats {
   int suspended_scans = 0;          // the laser faced the floor: the EKF carried the pose
   int filtered_scans = 0;           // matched, not inserted: nothing new (the motion filter)
   int projected_scans = 0;          // projected with an attitude (2.5D)
+  // The lowest height above the floor that a ray of a projected scan passed through free space
+  // at: the laser's own height, or a lower end point's (0 once a beam met the floor). A surface
+  // whose hits all lie well below it may stand under every ray of the scans (a low box under a
+  // UAV's laser: merger/map_merge.h, CompareMaps). Unset before the first projected scan.
+  std::optional<double> lowest_ray_height_meters;
   int scans_without_attitude = 0;   // the stream has attitudes, but none near the scan: level
   int floor_tilt_updates = 0;       // scans whose floor line corrected the attitude's tilt
   Eigen::Vector2d floor_tilt_radians = Eigen::Vector2d::Zero();  // the (roll, pitch) correction now

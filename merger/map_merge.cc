@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -61,9 +62,10 @@ int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_
 
 namespace {
 
-// Occupied cells of `from` checked against `to`, with from's frame at to_T_from in to's.
+// Occupied cells of `from` checked against `to`, with from's frame at to_T_from in to's; a cell
+// whose highest hit is below `passed_over_below` (metres; -inf: none) does not conflict.
 void CountAgreement(const OccupancyGrid& from, const OccupancyGrid& to, const Pose2& to_T_from, int tolerance_cells,
-                    MapAgreement* agreement) {
+                    double passed_over_below, MapAgreement* agreement) {
   const CellIndex lo = from.observed_min(), hi = from.observed_max();
   const GridGeometry& source = from.geometry();
   const GridGeometry& target = to.geometry();
@@ -81,8 +83,11 @@ void CountAgreement(const OccupancyGrid& from, const OccupancyGrid& to, const Po
           near_occupied = target.Contains(n) && to.State(n) == CellState::kOccupied;
         }
       }
+      double highest_hit;
       if (near_occupied) {
         ++agreement->agreeing;
+      } else if (from.HighestHit({x, y}, &highest_hit) && highest_hit < passed_over_below) {
+        ++agreement->passed_over;  // `state` is free here, its rays maybe above
       } else {
         ++agreement->conflicting;  // `state` is free here
       }
@@ -97,10 +102,16 @@ double MapAgreement::ConflictFraction() const {
   return total > 0 ? static_cast<double>(conflicting) / static_cast<double>(total) : 1.0;
 }
 
-MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2& a_T_b, int tolerance_cells) {
+MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2& a_T_b, int tolerance_cells,
+                         const MapHeights& heights) {
+  CHECK(heights.margin_meters >= 0) << "CompareMaps: negative height margin " << heights.margin_meters;
+  // Hits below a map's lowest ray less the margin may stand under its rays.
+  const auto below = [&](const std::optional<double>& lowest_ray) {
+    return lowest_ray.has_value() ? *lowest_ray - heights.margin_meters : -std::numeric_limits<double>::infinity();
+  };
   MapAgreement agreement;
-  CountAgreement(b, a, a_T_b, tolerance_cells, &agreement);
-  CountAgreement(a, b, a_T_b.inverse(), tolerance_cells, &agreement);
+  CountAgreement(b, a, a_T_b, tolerance_cells, below(heights.a_lowest_ray_meters), &agreement);
+  CountAgreement(a, b, a_T_b.inverse(), tolerance_cells, below(heights.b_lowest_ray_meters), &agreement);
   return agreement;
 }
 

@@ -12,6 +12,7 @@
 #ifndef HETSLAM_MERGER_MAP_MERGE_H_
 #define HETSLAM_MERGER_MAP_MERGE_H_
 
+#include <optional>
 #include <string>
 
 #include "core/occupancy_grid.h"
@@ -40,13 +41,27 @@ int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_
 //    (one robot saw a wall where the other saw through),
 //  - neither on the other map's unknown cells or outside it.
 // Both directions are counted (a's walls in b's free space, b's walls in a's).
+// Robots whose lasers sweep different heights (paper §V: a UAV at 1.4 m, a wheeled robot at
+// 0.3 m) see different things: under the 2.5D assumption what stands on the floor reaches from
+// it up to its highest hit at least, so a laser passing below that height must have met it, but
+// one passing above may have flown over it (a low box, a table's legs). With the lasers' heights
+// (`heights`), an occupied cell with a recorded highest hit (OccupancyGrid::HighestHit) more than
+// margin_meters below the other map's lowest ray (OnlineEstimatorStats::lowest_ray_height_meters)
+// is not a conflict on that map's free space, only counted as passed_over; a cell without a
+// height, or a map without a lowest ray (a 2D laser), counts as above.
 struct MapAgreement {
   int agreeing = 0;
   int conflicting = 0;
+  int passed_over = 0;  // on free space the other's rays may have passed over (MapHeights)
   // conflicting / (agreeing + conflicting); 1 when neither.
   double ConflictFraction() const;
 };
-MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2& a_T_b, int tolerance_cells = 1);
+struct MapHeights {
+  std::optional<double> a_lowest_ray_meters, b_lowest_ray_meters;
+  double margin_meters = 0.1;
+};
+MapAgreement CompareMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2& a_T_b, int tolerance_cells = 1,
+                         const MapHeights& heights = MapHeights());
 
 // Walls stand from the floor to the ceiling (the 2.5D assumption; paper §III-E): a laser at any
 // height sees them. A robot's wall layer holds the cells its own laser hit at several heights,

@@ -195,6 +195,7 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   if (!(overlap_min_score >= 0 && overlap_min_score < 1 && overlap_max_conflict >= 0 && overlap_max_conflict <= 1))
     msg << "overlap_min_score must be in [0, 1), overlap_max_conflict in [0, 1]; ";
   if (!(overlap_min_mode_margin >= 0)) msg << "overlap_min_mode_margin must be >= 0; ";
+  if (std::isnan(overlap_height_margin_meters)) msg << "overlap_height_margin_meters must be a number (negative: off); ";
   if (!(overlap_confirm_seconds >= 0) || overlap_confirm_new_nodes < 0)
     msg << "overlap_confirm_seconds and overlap_confirm_new_nodes must be >= 0; ";
   if (overlap_min_matches < 2 || overlap_max_matches_per_attempt < 1 || overlap_min_agreeing_cells < 1)
@@ -928,6 +929,23 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
     return tags;
   };
   const std::vector<GroupTag> tags_a = group_tags(a), tags_b = group_tags(b);
+  // The groups' lowest rays: where a surface's hits all lie lower, the other group's lasers may
+  // have passed over it.
+  const auto lowest_ray = [&](int root) -> std::optional<double> {
+    std::optional<double> lowest;
+    for (int r : Group(root)) {
+      const std::optional<double>& ray = robots_[r].estimator->stats().lowest_ray_height_meters;
+      if (!ray.has_value()) return std::nullopt;
+      lowest = std::min(lowest.value_or(*ray), *ray);
+    }
+    return lowest;
+  };
+  MapHeights heights;
+  if (options_.overlap_height_margin_meters >= 0) {
+    heights.a_lowest_ray_meters = lowest_ray(a);
+    heights.b_lowest_ray_meters = lowest_ray(b);
+    heights.margin_meters = options_.overlap_height_margin_meters;
+  }
   std::vector<int> passing;
   std::vector<std::string> outcomes;
   // Per candidate: a tag id both groups have a confirmed place of, which the pose puts at one
@@ -936,12 +954,13 @@ void TeamEstimator::TryOverlapLink(double stamp_seconds, int a, int b) {
   for (size_t k = 0; k < candidates.size(); ++k) {
     ++stats_.overlap_map_checks;
     const Pose2& hypothesis = a_T_b[candidates[k].best];
-    const MapAgreement agreement = CompareMaps(*map_a, *map_b, hypothesis);
+    const MapAgreement agreement = CompareMaps(*map_a, *map_b, hypothesis, 1, heights);
     std::ostringstream outcome;
     outcome.precision(3);
     outcome << Text(hypothesis) << " from " << candidates[k].nodes << " query nodes (" << candidates[k].members.size()
             << " matches): " << agreement.agreeing << " map cells agree, " << agreement.conflicting << " conflict ("
             << 100.0 * agreement.ConflictFraction() << "%)";
+    if (agreement.passed_over > 0) outcome << ", " << agreement.passed_over << " under the other's lasers";
     bool tags_agree = true;
     for (const GroupTag& tag_a : tags_a) {
       for (const GroupTag& tag_b : tags_b) {

@@ -56,6 +56,30 @@ TEST(OccupancyGridTest, CellsHitAtSeveralHeightsAreWalls) {
   EXPECT_EQ(1, grid.LabelMask(grid.geometry().LinearIndex(grid.geometry().WorldToCell({2.0, 0.0}))) & 1);
 }
 
+// HighestHit: the highest height a cell was hit at (to InsertScan's 2 cm steps), false for a cell
+// hit only without heights (a 2D scan), a free cell, one outside the grid, and a frozen grid.
+TEST(OccupancyGridTest, HighestHitIsTheHighestHeightACellWasHitAt) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  const Eigen::Vector2d sensor(0.0, 0.0);
+  grid.InsertScan(sensor, {{1.5, 0.0}, {0.0, 1.5}}, nullptr);
+  const CellIndex box = grid.geometry().WorldToCell({1.5, 0.0});  // after the grid grew
+  const CellIndex flat = grid.geometry().WorldToCell({0.0, 1.5});
+  double height = -1.0;
+  EXPECT_FALSE(grid.HighestHit(box, &height));  // no heights yet
+  for (float h : {0.30f, 0.34f, 0.31f}) {
+    const std::vector<Eigen::Vector2d> point = {{1.5, 0.0}};
+    const std::vector<float> heights = {h};
+    grid.InsertScan(sensor, point, nullptr, nullptr, &heights);
+  }
+  ASSERT_TRUE(grid.HighestHit(box, &height));
+  EXPECT_NEAR(0.34, height, 1e-9);
+  EXPECT_FALSE(grid.HighestHit(flat, &height));  // hit by the 2D scan only
+  EXPECT_FALSE(grid.HighestHit(grid.geometry().WorldToCell({0.7, 0.0}), &height));  // free: rays only
+  EXPECT_FALSE(grid.HighestHit({-100000, 0}, &height));                           // outside the grid
+  grid.Freeze();
+  EXPECT_FALSE(grid.HighestHit(box, &height));  // a frozen grid keeps no heights
+}
+
 // One observation from outside the laser model (map merging): the cell turns observed with the
 // given log-odds, clamped, and the grid grows to hold it.
 TEST(OccupancyGridTest, AddCellObservationObservesOneCellAndGrows) {

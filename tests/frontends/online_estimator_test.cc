@@ -94,6 +94,7 @@ TEST(OnlineEstimatorTest, ClosesTheRingAndMatchesTruth) {
   const PipelineRun run = RunPipeline(Simulate(5), TestOptions());
   ASSERT_EQ(run.simulation.truth.size(), run.trajectory.size());
   EXPECT_EQ(0, run.stats.match_failures);
+  EXPECT_FALSE(run.stats.lowest_ray_height_meters.has_value());  // a 2D laser: no heights
   EXPECT_GT(run.graph.loop_closures_accepted, 5);
   const AbsoluteTrajectoryError ate = ComputeAbsoluteTrajectoryError(run.trajectory, run.simulation.truth);
   EXPECT_LT(ate.translation_rmse_meters, 0.08);
@@ -473,9 +474,14 @@ TEST(OnlineEstimatorOptionsTest, RejectsBadValues) {
 
 // The first `seconds` of the shipped humanoid_explore scenario (seed 1) as a measurement stream:
 // a walking humanoid whose head pitches, with MARG samples at 100 Hz, commands and scans at 10 Hz.
-MeasurementLog HumanoidStream(double seconds, const std::string& name = "humanoid_explore") {
+// The first robot of a shipped scenario (seed 1), `seconds` of it.
+MeasurementLog ShippedStream(const std::string& name, double seconds) {
   sim::TeamSimulationResult result = testing_sim::SimulateShippedScenario(name, 1, seconds);
   return MeasurementLogFromRobotLog(std::move(result.robots.front().log));
+}
+
+MeasurementLog HumanoidStream(double seconds, const std::string& name = "humanoid_explore") {
+  return ShippedStream(name, seconds);
 }
 
 std::vector<StampedPose2> RunStream(const std::vector<Measurement>& stream, OnlineEstimatorStats* stats = nullptr,
@@ -558,6 +564,9 @@ TEST(OnlineEstimatorStreamingTest, SuspendPredictResumeKeepsAStandingHumanoidInP
   EXPECT_GT(estimator.stats().suspended_scans, 20);
   EXPECT_GT(resumed, 10);
   EXPECT_GT(estimator.stats().floor_obstacle_points, 0);
+  // The head's rays reached the floor: nothing stands under them (merger/map_merge.h, MapHeights).
+  ASSERT_TRUE(estimator.stats().lowest_ray_height_meters.has_value());
+  EXPECT_EQ(0.0, *estimator.stats().lowest_ray_height_meters);
   const std::vector<StampedPose2> trajectory = estimator.Trajectory();
   ASSERT_EQ(static_cast<size_t>(scans), trajectory.size());  // every scan has a pose, suspended or not
   const Pose2 start = trajectory.front().pose;
@@ -566,6 +575,19 @@ TEST(OnlineEstimatorStreamingTest, SuspendPredictResumeKeepsAStandingHumanoidInP
     EXPECT_LT(moved.translation().norm(), 0.04) << "t=" << p.stamp_seconds;
     EXPECT_LT(std::abs(moved.theta()), 0.6 * M_PI / 180) << "t=" << p.stamp_seconds;
   }
+}
+
+// A UAV flying at 1.2-1.8 m (uav_flight) never sees the floor: its lowest ray is its lowest flight
+// height less what its tilt lowers the far end points by, well above a wheeled robot's 0.3 m
+// laser. A box under it is passed over (merger/map_merge.h, MapHeights).
+TEST(OnlineEstimatorStreamingTest, TheLowestRayOfAUavIsNearItsLowestFlightHeight) {
+  OnlineEstimatorStats stats;
+  RunStream(ShippedStream("uav_flight", 40.0).measurements, &stats);
+  EXPECT_EQ(0, stats.floor_points);
+  EXPECT_GT(stats.projected_scans, 100);
+  ASSERT_TRUE(stats.lowest_ray_height_meters.has_value());
+  EXPECT_GT(*stats.lowest_ray_height_meters, 0.6);
+  EXPECT_LE(*stats.lowest_ray_height_meters, 1.5);
 }
 
 // An accelerometer bias tilts the MARG filter's attitude for good (paper §III-A's filter cannot

@@ -137,6 +137,60 @@ TEST(CompareMapsTest, CountsAgreeingAndConflictingWallCells) {
   EXPECT_EQ(1.0, apart.ConflictFraction());
 }
 
+// Lasers at different heights (MapHeights). A wheeled robot's laser at 0.3 m and a UAV's at
+// 1.4 m map the same room (`RoomAt`: walls, hits at the laser's height); the wheeled robot also
+// meets a 0.4 m box the UAV flies over (the UAV's rays make its cells free), and the UAV meets a
+// surface at 1.4 m (a shelf) where the wheeled robot's rays found free space. With the lasers'
+// heights the box lies under the UAV's lowest ray: passed over, no conflict; the shelf, standing
+// on the floor as the 2.5D assumption has it, reaches down through the wheeled robot's rays, so
+// it conflicts as before. Without heights (or for a 2D laser) both conflict.
+OccupancyGrid RoomAt(float laser_height, const std::vector<Eigen::Vector2d>& extra) {
+  OccupancyGrid grid{OccupancyGridOptions()};
+  std::vector<Eigen::Vector2d> points;
+  for (double t = -2.0; t <= 2.0; t += 0.02) {
+    points.emplace_back(t, -1.5);
+    points.emplace_back(t, 1.5);
+  }
+  for (double t = -1.5; t <= 1.5; t += 0.02) {
+    points.emplace_back(-2.0, t);
+    points.emplace_back(2.0, t);
+  }
+  points.insert(points.end(), extra.begin(), extra.end());
+  const std::vector<float> heights(points.size(), laser_height);
+  for (int i = 0; i < 5; ++i) grid.InsertScan(Eigen::Vector2d(0.0, 0.0), points, nullptr, nullptr, &heights);
+  return grid;
+}
+
+TEST(CompareMapsTest, ASurfaceUnderTheOtherRobotsLasersIsPassedOverNotAConflict) {
+  std::vector<Eigen::Vector2d> box, shelf;
+  for (double t = 0.8; t <= 1.2; t += 0.02) box.emplace_back(t, 0.6);      // its front face
+  for (double t = -1.2; t <= -0.8; t += 0.02) shelf.emplace_back(t, -0.6);  // its front face
+  const OccupancyGrid wheeled = RoomAt(0.3f, box), uav = RoomAt(1.4f, shelf);
+  const Pose2 same(0.0, 0.0, 0.0);
+
+  const MapAgreement without = CompareMaps(wheeled, uav, same);
+  EXPECT_EQ(0, without.passed_over);
+  EXPECT_GE(without.conflicting, 2 * 8);  // the box's and the shelf's faces, 0.4 m each
+
+  MapHeights heights;
+  heights.a_lowest_ray_meters = 0.3;
+  heights.b_lowest_ray_meters = 1.4;
+  const MapAgreement with = CompareMaps(wheeled, uav, same, 1, heights);
+  EXPECT_EQ(without.agreeing, with.agreeing);
+  EXPECT_GE(with.passed_over, 8);  // the box, under the UAV's rays
+  EXPECT_EQ(without.conflicting, with.conflicting + with.passed_over);
+  EXPECT_GE(with.conflicting, 8);  // the shelf, above the wheeled robot's rays
+  EXPECT_LT(with.ConflictFraction(), without.ConflictFraction());
+
+  // A margin wider than the lasers' gap: the box counts as above the UAV's rays again.
+  heights.margin_meters = 1.2;
+  EXPECT_EQ(without.conflicting, CompareMaps(wheeled, uav, same, 1, heights).conflicting);
+  // The UAV without a lowest ray (a 2D laser, no heights): the box conflicts as before.
+  heights.margin_meters = 0.1;
+  heights.b_lowest_ray_meters.reset();
+  EXPECT_EQ(without.conflicting, CompareMaps(wheeled, uav, same, 1, heights).conflicting);
+}
+
 // Walls seen through by a teammate (DropWallsSeenThrough). Our robot's wall layer holds a
 // surface along x = 2 (y in [-1, 1]) and one along x = -2 (a wall, seen by the teammate too).
 // The teammate, at another height, sees the surface at x = 2 as free and meets its own surface

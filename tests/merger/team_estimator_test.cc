@@ -1,6 +1,7 @@
 #include "merger/team_estimator.h"
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <string>
 #include <vector>
@@ -414,6 +415,12 @@ TEST(TeamEstimatorTest, ErrorsAreReturned) {
   std::string error;
   options.wrong_tag_id_rate = 1.5;
   EXPECT_FALSE(options.IsValid(&error));
+  options = TestTeamOptions();
+  options.overlap_height_margin_meters = 0.1;  // on (off by default): valid
+  EXPECT_TRUE(options.IsValid(&error)) << error;
+  options.overlap_height_margin_meters = std::nan("");
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("overlap_height_margin_meters")) << error;
 }
 
 // ---- The anchored team graph itself (frontends/submap_graph.h with anchors) ----
