@@ -48,7 +48,10 @@ int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_
 // (`heights`), an occupied cell with a recorded highest hit (OccupancyGrid::HighestHit) more than
 // margin_meters below the other map's lowest ray (OnlineEstimatorStats::lowest_ray_height_meters)
 // is not a conflict on that map's free space, only counted as passed_over; a cell without a
-// height, or a map without a lowest ray (a 2D laser), counts as above.
+// height, or a map without a lowest ray (a 2D laser), counts as above. margin_meters must be
+// >= 0 (CHECK). A level laser meets a wall and a box at the same height, so every cell of a low
+// robot's map may agree but never conflict on a high one's free space (TeamEstimatorOptions::
+// overlap_height_margin_meters keeps it opt-in; README, "Lasers at different heights").
 struct MapAgreement {
   int agreeing = 0;
   int conflicting = 0;

@@ -195,7 +195,8 @@ bool TeamEstimatorOptions::IsValid(std::string* error) const {
   if (!(overlap_min_score >= 0 && overlap_min_score < 1 && overlap_max_conflict >= 0 && overlap_max_conflict <= 1))
     msg << "overlap_min_score must be in [0, 1), overlap_max_conflict in [0, 1]; ";
   if (!(overlap_min_mode_margin >= 0)) msg << "overlap_min_mode_margin must be >= 0; ";
-  if (std::isnan(overlap_height_margin_meters)) msg << "overlap_height_margin_meters must be a number (negative: off); ";
+  if (std::isnan(overlap_height_margin_meters))
+    msg << "overlap_height_margin_meters must be a number (negative: off); ";
   if (!(overlap_confirm_seconds >= 0) || overlap_confirm_new_nodes < 0)
     msg << "overlap_confirm_seconds and overlap_confirm_new_nodes must be >= 0; ";
   if (overlap_min_matches < 2 || overlap_max_matches_per_attempt < 1 || overlap_min_agreeing_cells < 1)

@@ -1,6 +1,7 @@
 #include "merger/map_merge.h"
 
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "gtest/gtest.h"
@@ -88,8 +89,9 @@ TEST(MapMergeTest, EmptyTeammateChangesNothing) {
   EXPECT_EQ(before, own.log_odds().Dense());
 }
 
-// Walls around a 4 m x 3 m room seen from its centre, with a 0.4 m square box in one corner.
-OccupancyGrid RoomMap() {
+// Walls around a 4 m x 3 m room seen from its centre (five scans), plus `extra` points; hit at
+// `laser_height` metres above the floor when given (a 2.5D projection's heights).
+OccupancyGrid RoomWith(const std::vector<Eigen::Vector2d>& extra, std::optional<float> laser_height = std::nullopt) {
   OccupancyGrid grid{OccupancyGridOptions()};
   std::vector<Eigen::Vector2d> points;
   for (double t = -2.0; t <= 2.0; t += 0.02) {
@@ -100,9 +102,19 @@ OccupancyGrid RoomMap() {
     points.emplace_back(-2.0, t);
     points.emplace_back(2.0, t);
   }
-  for (double t = 0.8; t <= 1.2; t += 0.02) points.emplace_back(t, 0.6);  // the box's front face
-  for (int i = 0; i < 5; ++i) grid.InsertScan(Eigen::Vector2d(0.0, 0.0), points, nullptr);
+  points.insert(points.end(), extra.begin(), extra.end());
+  const std::vector<float> heights(points.size(), laser_height.value_or(0.f));
+  for (int i = 0; i < 5; ++i) {
+    grid.InsertScan(Eigen::Vector2d(0.0, 0.0), points, nullptr, nullptr, laser_height ? &heights : nullptr);
+  }
   return grid;
+}
+
+// The room with a 0.4 m square box in one corner (its front face).
+OccupancyGrid RoomMap() {
+  std::vector<Eigen::Vector2d> box;
+  for (double t = 0.8; t <= 1.2; t += 0.02) box.emplace_back(t, 0.6);
+  return RoomWith(box);
 }
 
 int OccupiedCells(const OccupancyGrid& grid) {
@@ -138,34 +150,17 @@ TEST(CompareMapsTest, CountsAgreeingAndConflictingWallCells) {
 }
 
 // Lasers at different heights (MapHeights). A wheeled robot's laser at 0.3 m and a UAV's at
-// 1.4 m map the same room (`RoomAt`: walls, hits at the laser's height); the wheeled robot also
+// 1.4 m map the same room (`RoomWith`: walls, hits at the laser's height); the wheeled robot also
 // meets a 0.4 m box the UAV flies over (the UAV's rays make its cells free), and the UAV meets a
 // surface at 1.4 m (a shelf) where the wheeled robot's rays found free space. With the lasers'
 // heights the box lies under the UAV's lowest ray: passed over, no conflict; the shelf, standing
 // on the floor as the 2.5D assumption has it, reaches down through the wheeled robot's rays, so
 // it conflicts as before. Without heights (or for a 2D laser) both conflict.
-OccupancyGrid RoomAt(float laser_height, const std::vector<Eigen::Vector2d>& extra) {
-  OccupancyGrid grid{OccupancyGridOptions()};
-  std::vector<Eigen::Vector2d> points;
-  for (double t = -2.0; t <= 2.0; t += 0.02) {
-    points.emplace_back(t, -1.5);
-    points.emplace_back(t, 1.5);
-  }
-  for (double t = -1.5; t <= 1.5; t += 0.02) {
-    points.emplace_back(-2.0, t);
-    points.emplace_back(2.0, t);
-  }
-  points.insert(points.end(), extra.begin(), extra.end());
-  const std::vector<float> heights(points.size(), laser_height);
-  for (int i = 0; i < 5; ++i) grid.InsertScan(Eigen::Vector2d(0.0, 0.0), points, nullptr, nullptr, &heights);
-  return grid;
-}
-
 TEST(CompareMapsTest, ASurfaceUnderTheOtherRobotsLasersIsPassedOverNotAConflict) {
   std::vector<Eigen::Vector2d> box, shelf;
   for (double t = 0.8; t <= 1.2; t += 0.02) box.emplace_back(t, 0.6);      // its front face
   for (double t = -1.2; t <= -0.8; t += 0.02) shelf.emplace_back(t, -0.6);  // its front face
-  const OccupancyGrid wheeled = RoomAt(0.3f, box), uav = RoomAt(1.4f, shelf);
+  const OccupancyGrid wheeled = RoomWith(box, 0.3f), uav = RoomWith(shelf, 1.4f);
   const Pose2 same(0.0, 0.0, 0.0);
 
   const MapAgreement without = CompareMaps(wheeled, uav, same);
