@@ -33,6 +33,11 @@
 # And each robot's own run/<robot>/map.pgm and walls.pgm (the walls without the cells a
 # teammate saw through: hetslam_team --wall_seen_through), aligned by its own trajectory, worst /
 # mean per team and robot (hetslam_layers' output in run/<robot>/layers.csv).
+# Then every pose the map-overlap search checked against the two groups' maps (accepted, held or
+# refused), scored against the truth (right: within 0.3 m / 3 deg of the true relative pose of
+# the two robots' frames): per team, how many were right and the largest conflict share among
+# them, how many wrong and the smallest among them (the map check's margins either side of
+# hetslam_team --overlap_max_conflict), and how many wrong ones were accepted (wrong merges).
 # Last, every map-overlap link withdrawn because the joined group's tags contradicted it (the
 # robots were in one frame wrongly until then; the first-link column shows the link after it).
 # Exit status: 0 when every run finished, 1 otherwise, 2 on a usage error.
@@ -203,6 +208,48 @@ if [ -s "$robot_rows" ]; then
 fi
 # Links undone: a map-overlap link the joined group's tags contradicted later (the robots were
 # in one frame wrongly until then).
+echo
+# Every pose the map-overlap search checked against the two maps (constraints.txt rows of kind
+# map_overlap with a map check: accepted, held or refused), scored against the truth: the true
+# relative pose of the two robots' frames from their first TRUTH lines (each robot's frame is its
+# body at its first scan). Right: within 0.3 m and 3 deg of it (a wrong pose is metres off).
+echo "map-overlap poses checked against the maps, scored against the truth (right: within 0.3 m / 3 deg;"
+echo "conflict: the map check's share, hetslam_team --overlap_max_conflict; a wrong pose accepted is a wrong merge):"
+printf '%-12s %6s %-22s %6s %-22s %s\n' team right "worst conflict" wrong "least conflict" "wrong accepted"
+for team in "${teams[@]}"; do
+  for seed in "${seeds[@]}"; do
+    dir="$out_root/$team/seed-$seed"
+    [ -f "$dir/run/constraints.txt" ] || continue
+    # "robot x y yaw" of each robot's first TRUTH line, then the checked poses.
+    for log in "$dir"/sim/*/log.txt; do
+      robot=$(basename "$(dirname "$log")")
+      awk -v r="$robot" '$1 == "TRUTH" { print "start", r, $3, $4, $8; exit }' "$log"
+    done
+    awk -v seed="$seed" '$4 == "map_overlap" && /map cells agree/ { print "pose", seed, $0 }' "$dir/run/constraints.txt"
+  done | awk -v team="$team" '
+    function wrap(a) { while (a > 3.14159265358979) a -= 6.28318530717959; while (a < -3.14159265358979) a += 6.28318530717959; return a }
+    $1 == "start" { x[$2] = $3; y[$2] = $4; yaw[$2] = $5; next }
+    $1 == "pose" {
+      seed = $2; a = $4; b = $5
+      if (!(a in x) || !(b in x) || !match($0, /conflict \([0-9.e+-]+%\)/)) next
+      conflict = substr($0, RSTART + 10, RLENGTH - 12) + 0
+      # The true a_T_b: b'"'"'s start in a'"'"'s frame.
+      dx = x[b] - x[a]; dy = y[b] - y[a]; c = cos(yaw[a]); s = sin(yaw[a])
+      tx = c * dx + s * dy; ty = -s * dx + c * dy; tt = wrap(yaw[b] - yaw[a])
+      err = sqrt(($8 - tx) ^ 2 + ($9 - ty) ^ 2); aerr = wrap($10 - tt); if (aerr < 0) aerr = -aerr
+      if (err <= 0.3 && aerr <= 3 * 3.14159265358979 / 180) {
+        ++right; if (right == 1 || conflict > worst) { worst = conflict; worst_seed = seed }
+      } else {
+        ++wrong; if (wrong == 1 || conflict < least) { least = conflict; least_seed = seed }
+        if ($16 == "accepted") ++wrong_accepted
+      }
+    }
+    END {
+      w = right > 0 ? sprintf("%.3g%% (seed %s)", worst, worst_seed) : "-"
+      l = wrong > 0 ? sprintf("%.3g%% (seed %s)", least, least_seed) : "-"
+      printf "%-12s %6d %-22s %6d %-22s %d\n", team, right, w, wrong, l, wrong_accepted
+    }'
+done
 echo
 echo "map-overlap links withdrawn (\"split again\" in run.log):"
 withdrawn=0
