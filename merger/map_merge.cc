@@ -86,7 +86,8 @@ void CountAgreement(const OccupancyGrid& from, const OccupancyGrid& to, const Po
       double highest_hit;
       if (near_occupied) {
         ++agreement->agreeing;
-      } else if (from.HighestHit({x, y}, &highest_hit) && highest_hit < passed_over_below) {
+      } else if (std::isfinite(passed_over_below) && from.HighestHit({x, y}, &highest_hit) &&
+                 highest_hit < passed_over_below) {
         ++agreement->passed_over;  // `state` is free here, its rays maybe above
       } else {
         ++agreement->conflicting;  // `state` is free here

@@ -42,9 +42,9 @@ int MergeMapAsOneObservation(const OccupancyGrid& teammate, const Pose2& merged_
 //  - neither on the other map's unknown cells or outside it.
 // Both directions are counted (a's walls in b's free space, b's walls in a's).
 // Robots whose lasers sweep different heights (the team scenarios: a UAV at 1.4 m, a wheeled
-// robot at 0.3 m) see different things: under the 2.5D assumption what stands on the floor reaches from
-// it up to its highest hit at least, so a laser passing below that height must have met it, but
-// one passing above may have flown over it (a low box, a table's legs). With the lasers' heights
+// robot at 0.3 m) see different things: under the 2.5D assumption what stands on the floor
+// reaches from it up to its highest hit at least, so a laser passing below that height must
+// have met it, but one passing above may have flown over it (a low box, a table's legs). With the lasers' heights
 // (`heights`), an occupied cell with a recorded highest hit (OccupancyGrid::HighestHit) more than
 // margin_meters below the other map's lowest ray (OnlineEstimatorStats::lowest_ray_height_meters)
 // is not a conflict on that map's free space, only counted as passed_over; a cell without a
