@@ -535,10 +535,14 @@ void OnlineEstimator::Solve(int max_iterations) {
   // The estimate of new nodes is corrected from here on: drift is counted afresh. (Closures
   // accepted but not yet solved do not correct it, so the gate keeps growing until a solve.)
   loop_.OnSolve();
-  // The search tables (the largest buffers besides the maps, FR079 ~3.5 MB) are not read by a
-  // solve: freed, so that the solver's scratch (about as large) does not sit next to them at
-  // the run's memory peak. The next match grows them back (a few page faults a solve).
-  ScanMatcher::ReleaseScratch();
+  // The search tables (the largest buffers besides the maps: FR079 0.8-2.5 MB resident between
+  // solves) are not read by a solve. Kept whole over solves they would hold every page any
+  // search ever wrote (FR079: 6.9 MB, its peak 29 -> 36 MiB); freed at every solve, the next
+  // searches fault their pages in again (Intel: half of its 29 thousand page faults). So
+  // they keep what the searches since the last solve used, unless the process is within that
+  // of its memory peak (then the solver's scratch, 0-0.8 MB above the freed tables on FR079,
+  // could raise the peak next to them) -- see ScanMatcher::ShrinkScratchForSolve.
+  ScanMatcher::ShrinkScratchForSolve(options_.keep_search_tables_over_solves);
   if (!graph_->Solve(max_iterations).ok()) ++stats_.loop_solves_failed;
   // Submaps that finished since the last solve at poses it had not corrected yet: once more.
   std::vector<int> recheck;

@@ -3,6 +3,10 @@
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
+#ifdef __unix__
+#include <sys/mman.h>  // madvise
+#include <unistd.h>    // sysconf
+#endif
 
 #include <algorithm>
 #include <array>
@@ -14,6 +18,7 @@
 #include <type_traits>
 
 #include "ceres/ceres.h"
+#include "core/process_memory.h"
 #include "factors/scan_cost.h"
 #include "factors/se2_manifold.h"
 #include "glog/logging.h"
@@ -209,11 +214,30 @@ class TableBuffer {
   // At least n cells, their values unspecified; the old contents are not kept when it grows.
   void Reserve(size_t n) {
     used_ = std::max(used_, n);
+    recent_ = std::max(recent_, n);
     if (n <= capacity_) return;
     n = std::max({n, regrow_, capacity_ + capacity_ / 2});
     cells_.reset();          // freed before the larger one is allocated: never two at once
     cells_.reset(new T[n]);  // default-initialised: not written
     capacity_ = n;
+  }
+  // Gives the pages beyond the most cells asked for since the last Trim back to the system;
+  // the cells before them stay resident (their values are not needed either: every search
+  // writes what it reads). Without madvise: Release.
+  void Trim() {
+#ifdef __unix__
+    if (cells_ != nullptr && used_ > recent_) {
+      const uintptr_t page = static_cast<uintptr_t>(sysconf(_SC_PAGESIZE));
+      const uintptr_t begin = (reinterpret_cast<uintptr_t>(cells_.get() + recent_) + page - 1) / page * page;
+      const uintptr_t end = reinterpret_cast<uintptr_t>(cells_.get() + capacity_) / page * page;
+      // (A failure leaves the pages resident, as a kept buffer's are.)
+      if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_DONTNEED);
+      used_ = recent_;
+    }
+    recent_ = 0;
+#else
+    Release();
+#endif
   }
   // Frees the cells; the next Reserve allocates at least as many as were ever held.
   void Release() {
@@ -230,6 +254,7 @@ class TableBuffer {
   std::unique_ptr<T[]> cells_;
   size_t capacity_ = 0;
   size_t used_ = 0;
+  size_t recent_ = 0;  // the most cells asked for since the last Trim
   size_t regrow_ = 0;
 };
 
@@ -264,11 +289,22 @@ struct Pyramid {
     for (const TableBuffer<uint8_t>& level : coarse8) bytes += level.used();
     return bytes;
   }
+  // Keeps resident the tables' pages the searches since the last Trim used (TableBuffer::Trim)
+  // and frees the rest, the scratch vectors included.
+  void Trim() {
+    finest.Trim();
+    for (TableBuffer<uint16_t>& level : coarse) level.Trim();
+    for (TableBuffer<uint8_t>& level : coarse8) level.Trim();
+    ReleaseVectors();
+  }
   // Frees every buffer (see TableBuffer::Release).
   void Release() {
     finest.Release();
     for (TableBuffer<uint16_t>& level : coarse) level.Release();
     for (TableBuffer<uint8_t>& level : coarse8) level.Release();
+    ReleaseVectors();
+  }
+  void ReleaseVectors() {
     row = std::vector<float>();  // (not `= {}`: that keeps the capacity)
     spans = std::vector<std::array<int, 2>>();
     row_spans = std::vector<int>();
@@ -1198,6 +1234,22 @@ void ScanMatcher::ReleaseScratch() {
   constexpr size_t kTrimAboveBytes = size_t{8} << 20;
   if (bytes >= kTrimAboveBytes) malloc_trim(0);
 #endif
+}
+
+size_t ScanMatcher::TrimScratch() {
+  Pyramid& pyramid = ThreadScratch();
+  pyramid.Trim();
+  return pyramid.Bytes();
+}
+
+bool ScanMatcher::ShrinkScratchForSolve(bool keep_recent_pages) {
+  if (keep_recent_pages) {
+    const size_t kept = TrimScratch();
+    const std::optional<ResidentMemory> memory = ReadResidentMemory();
+    if (memory.has_value() && memory->resident_bytes + kept <= memory->peak_bytes) return true;
+  }
+  ReleaseScratch();
+  return false;
 }
 
 size_t ScanMatcher::ScratchBytes() const { return ThreadScratch().Bytes(); }

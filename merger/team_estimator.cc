@@ -1256,7 +1256,11 @@ std::vector<int> TeamEstimator::Group(int robot) const {
 }
 
 void TeamEstimator::Solve(int max_iterations) {
-  ScanMatcher::ReleaseScratch();  // not read by a solve (see OnlineEstimator::Solve)
+  // The search tables are not read by a solve: kept as OnlineEstimator::Solve keeps them when
+  // every robot's options keep them (the robots' front ends and this share them).
+  bool keep_tables = true;
+  for (const Robot& robot : robots_) keep_tables = keep_tables && robot.estimator->options().keep_search_tables_over_solves;
+  ScanMatcher::ShrinkScratchForSolve(keep_tables);
   graph_->Solve(max_iterations).ok();  // an unusable solution keeps the poses (counted by the graph)
   // Groups follow the inter-robot constraints the graph kept.
   const std::vector<bool> kept = InterConstraintsKept();

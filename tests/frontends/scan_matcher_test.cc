@@ -322,7 +322,7 @@ TEST_F(ScanMatcherTest, NarrowFirstTryKeepsSmallOffsetsAndFallsBackForLargeOnes)
 // The tables are never initialised and keep their buffers across searches and releases
 // (frontends/scan_matcher.cc TableBuffer): a search writes every cell it reads, so what a
 // larger search or a released buffer left behind changes no result, and ScratchBytes follows
-// what the searches since the last release asked for.
+// what the searches since the last release (or trim) asked for.
 TEST_F(ScanMatcherTest, TablesLeftByLargerOrReleasedSearchesChangeNoResult) {
   const Pose2 truth(0.4, -0.3, 0.3);
   std::mt19937 rng(2);
@@ -356,6 +356,30 @@ TEST_F(ScanMatcherTest, TablesLeftByLargerOrReleasedSearchesChangeNoResult) {
   // Another matcher of the thread shares the tables.
   const ScanMatcher other{ScanMatcherOptions()};
   expect_same(first, other.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "with another matcher");
+  // Trimmed: the tables keep what the searches since the last trim asked for (the wide one's
+  // until a trim after only narrow ones), the scratch vectors go, and results stay the same.
+  ScanMatcher::ReleaseScratch();
+  matcher_.MatchWithinWindow(map_, Pose2(-1.0, 1.0, -1.0), scan, 2.0, M_PI);
+  const size_t wide_tables = ScanMatcher::TrimScratch();
+  EXPECT_GT(wide_tables, 0u);
+  EXPECT_LT(wide_tables, wide_bytes);  // without the scratch vectors
+  expect_same(first, matcher_.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "after a trim");
+  const size_t narrow_tables = ScanMatcher::TrimScratch();
+  EXPECT_GT(narrow_tables, 0u);
+  EXPECT_LT(narrow_tables, wide_tables);
+  EXPECT_LT(narrow_tables, narrow_bytes);
+  expect_same(first, matcher_.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "after a second trim");
+  expect_same(wide, matcher_.MatchWithinWindow(map_, Pose2(-1.0, 1.0, -1.0), scan, 2.0, M_PI), "wide, trimmed");
+  // Nothing searched since the last trim: nothing kept.
+  ScanMatcher::TrimScratch();
+  EXPECT_EQ(0u, ScanMatcher::TrimScratch());
+  // Before a solve: either kept (trimmed) or released, never more than the last searches'.
+  matcher_.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2);
+  ScanMatcher::ShrinkScratchForSolve(true);
+  EXPECT_LE(matcher_.ScratchBytes(), narrow_tables);
+  expect_same(first, matcher_.MatchWithinWindow(map_, predicted, scan, 0.3, 0.2), "after a solve's shrink");
+  EXPECT_FALSE(ScanMatcher::ShrinkScratchForSolve(false));
+  EXPECT_EQ(0u, matcher_.ScratchBytes());
   ScanMatcher::ReleaseScratch();
 }
 
