@@ -220,41 +220,18 @@ class TableBuffer {
     cells_.reset();          // freed before the larger one is allocated: never two at once
     cells_.reset(new T[n]);  // default-initialised: not written
     capacity_ = n;
-    written_.clear();
   }
-  // Cells [begin, end) are about to be written (BuildPyramid): Trim keeps their pages.
-  void MarkWritten(size_t begin, size_t end) {
-#ifdef __unix__
-    if (begin >= end) return;
-    const uintptr_t first = PageOf(cells_.get() + begin), last = PageOf(cells_.get() + end - 1);
-    if (written_.size() <= last) written_.resize(PageOf(cells_.get() + capacity_ - 1) + 1, 0);
-    std::fill(written_.begin() + first, written_.begin() + last + 1, 1);
-#endif
-  }
-  // Gives the pages no search wrote since the last Trim back to the system: those a search
-  // wrote stay resident (their values are not needed either: every search writes what it
-  // reads), so the next searches do not fault them in again. Without madvise: Release.
+  // Gives the pages beyond the most cells asked for since the last Trim back to the system;
+  // the cells before them stay resident (their values are not needed either: every search
+  // writes what it reads). Without madvise: Release.
   void Trim() {
 #ifdef __unix__
-    if (cells_ != nullptr) {
-      // Only pages wholly inside the buffer (the first and last may hold another block's bytes).
-      const uintptr_t page = PageSize();
-      const uintptr_t base = reinterpret_cast<uintptr_t>(cells_.get()) / page;  // the page of cell 0
-      const uintptr_t first_whole = (reinterpret_cast<uintptr_t>(cells_.get()) + page - 1) / page - base;
-      const uintptr_t end_whole = reinterpret_cast<uintptr_t>(cells_.get() + capacity_) / page - base;
-      if (written_.size() < end_whole) written_.resize(end_whole, 0);
-      for (uintptr_t i = first_whole; i < end_whole;) {
-        if (written_[i]) {
-          ++i;
-          continue;
-        }
-        uintptr_t j = i;
-        while (j < end_whole && !written_[j]) ++j;
-        // (A failure leaves the pages resident, as a kept buffer's are.)
-        madvise(reinterpret_cast<void*>((base + i) * page), (j - i) * page, MADV_DONTNEED);
-        i = j;
-      }
-      std::fill(written_.begin(), written_.end(), 0);
+    if (cells_ != nullptr && used_ > recent_) {
+      const uintptr_t page = static_cast<uintptr_t>(sysconf(_SC_PAGESIZE));
+      const uintptr_t begin = (reinterpret_cast<uintptr_t>(cells_.get() + recent_) + page - 1) / page * page;
+      const uintptr_t end = reinterpret_cast<uintptr_t>(cells_.get() + capacity_) / page * page;
+      // (A failure leaves the pages resident, as a kept buffer's are.)
+      if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_DONTNEED);
       used_ = recent_;
     }
     recent_ = 0;
@@ -266,35 +243,19 @@ class TableBuffer {
   void Release() {
     regrow_ = std::max(regrow_, capacity_);
     cells_.reset();
-    capacity_ = used_ = recent_ = 0;
-    written_ = std::vector<uint8_t>();
+    capacity_ = used_ = 0;
   }
   T* data() { return cells_.get(); }
   const T* data() const { return cells_.get(); }
-  // The most cells asked for since the buffer was allocated (since the last Trim, after one): a
-  // bound of what searches wrote.
+  // The most cells asked for since the buffer was allocated: a bound of what searches wrote.
   size_t used() const { return used_; }
 
  private:
-  static uintptr_t PageSize() {
-#ifdef __unix__
-    static const uintptr_t page = static_cast<uintptr_t>(sysconf(_SC_PAGESIZE));
-    return page;
-#else
-    return 4096;
-#endif
-  }
-  // The index of the page holding `cell`, counted from the page holding cell 0.
-  uintptr_t PageOf(const T* cell) const {
-    return reinterpret_cast<uintptr_t>(cell) / PageSize() - reinterpret_cast<uintptr_t>(cells_.get()) / PageSize();
-  }
-
   std::unique_ptr<T[]> cells_;
   size_t capacity_ = 0;
   size_t used_ = 0;
   size_t recent_ = 0;  // the most cells asked for since the last Trim
   size_t regrow_ = 0;
-  std::vector<uint8_t> written_;  // a flag a page (from the page of cell 0): written since the last Trim
 };
 
 struct Pyramid {
@@ -452,13 +413,6 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       }
     }
   };
-  // The pages each level's spans write (kept over a solve by TableBuffer::Trim).
-  for_each_span([&](int y, int span_begin, int span_end) {
-    const size_t begin = static_cast<size_t>(y) * w + span_begin, end = static_cast<size_t>(y) * w + span_end;
-    pyramid->finest.MarkWritten(begin, end);
-    for (TableBuffer<uint16_t>& level : pyramid->coarse) level.MarkWritten(begin, end);
-    for (TableBuffer<uint8_t>& level : pyramid->coarse8) level.MarkWritten(begin, end);
-  });
   const LikelihoodField& field = map.field();
   const OccupancyGrid& grid = map.grid();
   const GridGeometry& g = field.geometry();
