@@ -243,7 +243,7 @@ class TableBuffer {
   void Release() {
     regrow_ = std::max(regrow_, capacity_);
     cells_.reset();
-    capacity_ = used_ = 0;
+    capacity_ = used_ = recent_ = 0;
   }
   T* data() { return cells_.get(); }
   const T* data() const { return cells_.get(); }
