@@ -342,7 +342,7 @@ DEFINE_bool(keep_search_tables_over_solves, true,
             "Before each pose-graph solve, keep resident the pages of the scan matcher's search tables that the "
             "searches since the last solve used (the rest are given back), unless the process is within their size "
             "of its memory peak; --nokeep_search_tables_over_solves frees them all before every solve, and the next "
-            "searches fault them in again (Intel: 28.8 instead of 20.4 thousand page faults). The same results "
+            "searches fault them in again (Intel: 28.8 instead of 20.2 thousand page faults). The same results "
             "either way (README, Performance: \"Search tables kept over solves\").");
 DEFINE_int32(malloc_mmap_threshold_kib, 1024,
              "glibc: allocations of at least this many KiB get their own pages, returned when freed "

@@ -148,11 +148,9 @@ DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the f
             "voxel's middle is the midpoint of its two middle beams. Off by default: the simulated office loop's "
             "corrected trajectory and the corridor's get worse with it (README, Teams).");
 DEFINE_bool(keep_search_tables_over_solves, true,
-            "Before each pose-graph solve, keep resident the pages of the scan matcher's search tables that the "
-            "searches since the last solve used (the rest are given back), unless the process is within their size "
-            "of its memory peak; --nokeep_search_tables_over_solves frees them all before every solve, and the next "
-            "searches fault them in again (Intel: 28.8 instead of 20.4 thousand page faults). The same results "
-            "either way (README, Performance: \"Search tables kept over solves\").");
+            "Before each solve (a robot's or the team's), keep the search tables' pages the searches since the "
+            "last solve used, unless the process is near its memory peak; off: free them all (hetslam_run --help "
+            "explains it). The same results either way.");
 DEFINE_bool(rematch_first_node, true, "The frame is the body at the first scan: when the first submap is finished, "
             "the first scan is refined against it and the map turned around the first pose to the heading the finished "
             "map gives it (the next few scans' matches can turn a young submap's map against the first scan; 0.4-0.6 "

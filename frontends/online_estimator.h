@@ -123,7 +123,7 @@ struct OnlineEstimatorOptions {
   // pages the searches since the last solve used, unless the process is within their size of
   // its memory peak (ScanMatcher::ShrinkScratchForSolve; results are the same either way).
   // Off: they are freed before every solve and faulted in again by the next searches (before
-  // session 47; Intel 28.8 instead of 20.4 thousand page faults, 4-10% more time).
+  // session 47; Intel 28.8 instead of 20.2 thousand page faults).
   bool keep_search_tables_over_solves = true;
 
   AttitudeSource attitude_source = AttitudeSource::kMargFilter;

@@ -238,13 +238,13 @@ class ScanMatcher {
   // 8 MiB or more (a wide search's) are also given back to the system at once (glibc:
   // malloc_trim), not left resident in the heap.
   static void ReleaseScratch();
-  // Keeps resident the pages of the calling thread's tables that the searches since the last
-  // trim (or release) asked for, gives the rest back to the system and frees the scratch
-  // vectors; returns ScratchBytes() after it.
+  // Keeps resident the pages of the calling thread's tables up to the largest table the
+  // searches since the last trim (or release) asked for, gives the rest back to the system
+  // (madvise) and frees the scratch vectors; returns ScratchBytes() after it.
   static size_t TrimScratch();
   // Before a solve, which reads no table: with `keep_recent_pages`, TrimScratch, so that the
-  // next searches do not fault the pages in again (on the VMs measured ~11 µs a page: Intel's
-  // page faults 28.8 -> 20.4 thousand) -- unless the process's resident memory is within the
+  // next searches do not fault the pages in again (9-12 µs a page on the VMs measured: Intel's
+  // page faults 28.8 -> 20.2 thousand) -- unless the process's resident memory is within the
   // kept bytes of its peak so far (core/process_memory.h; the solver's scratch could then raise
   // the peak next to them) or cannot be read: then, and without `keep_recent_pages`,
   // ReleaseScratch. Returns whether pages were kept.
