@@ -1,5 +1,6 @@
 #include "core/process_memory.h"
 
+#include <algorithm>
 #include <charconv>
 #include <fstream>
 #include <sstream>

@@ -15,7 +15,7 @@ struct ResidentMemory {
   size_t peak_bytes = 0;      // VmHWM: the most resident so far
 };
 
-// Reads /proc/self/status (about 20 µs); nothing where it cannot be read or parsed.
+// Reads /proc/self/status (one small file read); nothing where it cannot be read or parsed.
 std::optional<ResidentMemory> ReadResidentMemory();
 
 // The VmRSS and VmHWM lines of a /proc/<pid>/status text ("VmRSS:\t  28480 kB"); nothing when

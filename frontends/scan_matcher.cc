@@ -289,8 +289,8 @@ struct Pyramid {
     for (const TableBuffer<uint8_t>& level : coarse8) bytes += level.used();
     return bytes;
   }
-  // Keeps resident the tables' pages the searches since the last Trim used (TableBuffer::Trim)
-  // and frees the rest, the scratch vectors included.
+  // Keeps resident each table's pages up to the largest the searches since the last Trim asked
+  // for (TableBuffer::Trim) and frees the rest, the scratch vectors included.
   void Trim() {
     finest.Trim();
     for (TableBuffer<uint16_t>& level : coarse) level.Trim();
