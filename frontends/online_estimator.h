@@ -119,9 +119,10 @@ struct OnlineEstimatorOptions {
   // the robot's map turns around the first pose). Its position stays: one scan can be flat
   // along a corridor, and a heading error is what grows with distance.
   bool rematch_first_node = true;
-  // Before each solve the search tables (ScanMatcher's, not read by a solve) keep resident the
-  // pages the searches since the last solve used, unless the process is within their size of
-  // its memory peak (ScanMatcher::ShrinkScratchForSolve; results are the same either way).
+  // Before each solve the search tables (ScanMatcher's, not read by a solve) keep resident their
+  // pages up to the largest table the searches since the last solve asked for, unless the
+  // process is within their size of its memory peak (ScanMatcher::ShrinkScratchForSolve;
+  // results are the same either way).
   // Off: they are freed before every solve and faulted in again by the next searches (before
   // session 47; Intel 28.8 instead of 20.2 thousand page faults).
   bool keep_search_tables_over_solves = true;
