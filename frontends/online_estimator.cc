@@ -540,8 +540,9 @@ void OnlineEstimator::Solve(int max_iterations) {
   // search ever wrote (FR079: 6.9 MB, its peak 29 -> 36 MiB); freed at every solve, the next
   // searches fault their pages in again (Intel: half of its 29 thousand page faults). So
   // they keep their pages up to the largest table the searches since the last solve asked for,
-  // unless the process is within that of its memory peak (then the solver's scratch, 0-0.8 MB above the freed tables on FR079,
-  // could raise the peak next to them) -- see ScanMatcher::ShrinkScratchForSolve.
+  // unless the process is within that of its memory peak (then the solver's scratch, 0-0.8 MB
+  // above the freed tables on FR079, could raise the peak next to them) -- see
+  // ScanMatcher::ShrinkScratchForSolve.
   ScanMatcher::ShrinkScratchForSolve(options_.keep_search_tables_over_solves);
   if (!graph_->Solve(max_iterations).ok()) ++stats_.loop_solves_failed;
   // Submaps that finished since the last solve at poses it had not corrected yet: once more.
