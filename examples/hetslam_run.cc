@@ -299,6 +299,10 @@ DEFINE_double(speed_change_sigma, 0.3, "Without a motion source: standard deviat
               "where a scan fits two places along the direction of travel that no particle follows: the scan goes on "
               "at the place this motion model and the scan's likelihood favour (a corridor's length: there the wrong "
               "place is where the scan before was taken). 0 = off: the better-scoring place.");
+DEFINE_double(mode_map_min_score, 0.5, "Where --speed_change_sigma weighs two places along the direction of travel: "
+              "when the robot's finished submaps near either place hold the scan (its mean likelihood there at least "
+              "this, in [0, 1], at one of them), the scan's likelihood against them weighs each place too (a robot "
+              "re-driving mapped space: the earlier map knows which place is right). 1 = off.");
 DEFINE_double(second_mode_exclusion, 0.5, "See --spawn_on_second_mode (metres, > 0).");
 DEFINE_double(second_mode_exclusion_deg, 20.0, "See --spawn_on_second_mode (degrees, > 0).");
 DEFINE_double(second_mode_score_ratio, 0.9, "See --spawn_on_second_mode, in (0, 1].");
@@ -420,6 +424,7 @@ std::string FlagsNamedIn(const std::string& message) {
       {"second_mode_score_ratio", "--second_mode_score_ratio"},
       {"sideslip_sigma_meters", "--sideslip_sigma"},
       {"speed_change_sigma_mps", "--speed_change_sigma"},
+      {"mode_map_min_score", "--mode_map_min_score"},
       {"max_ceres_iterations", "--refine_max_iterations"},
       {"refine_function_tolerance", "--refine_function_tolerance"},
       {"max_submaps_per_search", "--loop_max_submaps"},
@@ -529,6 +534,7 @@ bool OptionsFromFlags(OnlineEstimatorOptions* estimator, MeasurementLogOptions* 
   estimator->particles.second_mode_score_ratio = FLAGS_second_mode_score_ratio;
   estimator->particles.sideslip_sigma_meters = FLAGS_sideslip_sigma;
   estimator->particles.speed_change_sigma_mps = FLAGS_speed_change_sigma;
+  estimator->particles.mode_map_min_score = FLAGS_mode_map_min_score;
   estimator->use_odometry = FLAGS_use_odometry;
   estimator->use_commands = FLAGS_use_commands && !FLAGS_use_odometry;
   if (!ParseAttitudeSource(FLAGS_attitude_source, &estimator->attitude_source) ||
@@ -713,10 +719,11 @@ std::string Summary(const OnlineEstimator& estimator) {
                   "particles: %d scans fit two places alike (a second mode of at least --second_mode_score_ratio "
                   "of the best, distinct when matched again) that no particle followed: neither slides the robot "
                   "sideways (two places along a corridor's length, t = %.1f to %.1f s); without a motion source "
-                  "each went on at the place the scan and the change of speed favour (--speed_change_sigma), %d "
-                  "of them at the second; with one, at the better-scoring place\n",
+                  "each went on at the place the scan, the change of speed (--speed_change_sigma) and, for %d "
+                  "of them, the finished submaps near either place favour, %d of them at the second; with one, "
+                  "at the better-scoring place\n",
                   p.unfollowed_modes, p.first_unfollowed_mode_stamp, p.last_unfollowed_mode_stamp,
-                  p.modes_chosen_by_motion);
+                  p.modes_weighed_by_map, p.modes_chosen_by_motion);
     out += line;
   }
   const SubmapGraphStats& store = estimator.graph().stats();

@@ -174,6 +174,7 @@ bool ParticleFilterOptions::IsValid(std::string* error) const {
     msg << "mode_min_sideslip_sigmas must be >= 0; ";
   if (!(speed_change_sigma_mps >= 0 && std::isfinite(speed_change_sigma_mps)))
     msg << "speed_change_sigma_mps must be >= 0; ";
+  if (!(mode_map_min_score >= 0 && mode_map_min_score <= 1)) msg << "mode_map_min_score must be in [0, 1]; ";
   if (!(second_mode_score_ratio > 0 && second_mode_score_ratio <= 1))
     msg << "second_mode_score_ratio must be in (0, 1]; ";
   if (error != nullptr) *error = msg.str();
@@ -215,7 +216,7 @@ void ParticleLocalSlam::Spawn(const Eigen::Matrix3d& covariance, const Predictio
 }
 
 bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints& points, bool motion_source,
-                                          LocalSlamState before,
+                                          LocalSlamState before, const SubmapGraph& graph, int robot,
                                           std::vector<LocalResult>* results) {
   const LocalResult& first = results->front();
   const ScanMatchResult& match = first.match;
@@ -270,9 +271,16 @@ bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints
     const std::vector<StampedPose2>& recent_second = before.recent;
     if (!motion_source && options_.speed_change_sigma_mps > 0 &&
         SpeedChangeMetersPerSecond(recent_first).has_value() && SpeedChangeMetersPerSecond(recent_second).has_value()) {
-      const double first_log = ScanLogLikelihood(options_, match.score) + MotionLogLikelihood(options_, recent_first);
-      const double second_log =
-          ScanLogLikelihood(options_, second.match.score) + MotionLogLikelihood(options_, recent_second);
+      double first_log = ScanLogLikelihood(options_, match.score) + MotionLogLikelihood(options_, recent_first);
+      double second_log = ScanLogLikelihood(options_, second.match.score) + MotionLogLikelihood(options_, recent_second);
+      // The earlier map too, as for particles: the graph's finished submaps near either place.
+      const std::optional<std::vector<double>> map =
+          GraphScores(points, {first.local_pose, second.local_pose}, graph, robot);
+      if (map.has_value() && std::max((*map)[0], (*map)[1]) >= options_.mode_map_min_score) {
+        first_log += ScanLogLikelihood(options_, (*map)[0]);
+        second_log += ScanLogLikelihood(options_, (*map)[1]);
+        ++stats_.modes_weighed_by_map;
+      }
       if (second_log > first_log) {
         particles_[0].state = std::move(before);
         results->front() = std::move(second);
@@ -376,7 +384,8 @@ ParticleStep ParticleLocalSlam::AddScan(double stamp_seconds, ScanPoints points,
   if (before_match.has_value()) {
     LocalSlamState before = std::move(*before_match);
     before_match.reset();
-    if (SpawnAtSecondMode(stamp_seconds, *mode_points, predictions[0].external, std::move(before), &results)) {
+    if (SpawnAtSecondMode(stamp_seconds, *mode_points, predictions[0].external, std::move(before), graph, robot,
+                          &results)) {
       step.spawned = true;
       points = std::move(*mode_points);
       n = num_particles();
@@ -511,12 +520,12 @@ bool WeightSettles(const ParticleFilterOptions& options, const std::vector<doubl
   return true;
 }
 
-void ParticleLocalSlam::ScoreAgainstGraph(const ScanPoints& points, const std::vector<LocalResult>& results,
-                                          const SubmapGraph& graph, int robot) {
-  if (!graph.HasRobot(robot)) return;
+std::optional<std::vector<double>> ParticleLocalSlam::GraphScores(const ScanPoints& points,
+                                                                 const std::vector<Pose2>& local_poses,
+                                                                 const SubmapGraph& graph, int robot) const {
+  if (!graph.HasRobot(robot)) return std::nullopt;
   const Pose2 robot_T_local = graph.LocalToRobot(robot);
-  const int n = static_cast<int>(results.size());
-  std::vector<double> best_score(n, 0.0);
+  std::vector<double> best_score(local_poses.size(), 0.0);
   bool any = false;
   for (int s = 0; s < graph.num_submaps(robot); ++s) {
     const SubmapId submap{robot, s};
@@ -526,21 +535,30 @@ void ParticleLocalSlam::ScoreAgainstGraph(const ScanPoints& points, const std::v
     graph.SubmapBox(submap, &box_min, &box_max);
     const Pose2 submap_T_robot = graph.SubmapPose(submap).inverse() * robot_T_local;
     bool near = false;
-    for (const LocalResult& r : results) {
-      const Eigen::Vector2d p = (submap_T_robot * r.local_pose).translation();
+    for (const Pose2& local_pose : local_poses) {
+      const Eigen::Vector2d p = (submap_T_robot * local_pose).translation();
       near |= (p.array() >= box_min.array() - options_.global_margin_meters).all() &&
               (p.array() <= box_max.array() + options_.global_margin_meters).all();
     }
     if (!near) continue;
     any = true;
-    for (int i = 0; i < n; ++i) {
-      best_score[i] = std::max(best_score[i], ScoreAt(*map, submap_T_robot * results[i].local_pose, points.matching));
+    for (size_t i = 0; i < local_poses.size(); ++i) {
+      best_score[i] = std::max(best_score[i], ScoreAt(*map, submap_T_robot * local_poses[i], points.matching));
     }
   }
-  if (!any) return;
+  if (!any) return std::nullopt;
+  return best_score;
+}
+
+void ParticleLocalSlam::ScoreAgainstGraph(const ScanPoints& points, const std::vector<LocalResult>& results,
+                                          const SubmapGraph& graph, int robot) {
+  std::vector<Pose2> poses;
+  for (const LocalResult& r : results) poses.push_back(r.local_pose);
+  std::optional<std::vector<double>> scores = GraphScores(points, poses, graph, robot);
+  if (!scores.has_value()) return;
   ++stats_.global_scorings;
-  for (int i = 0; i < n; ++i) particles_[i].log_weight += ScanLogLikelihood(options_, best_score[i]);
-  map_scores_ = std::move(best_score);
+  for (size_t i = 0; i < scores->size(); ++i) particles_[i].log_weight += ScanLogLikelihood(options_, (*scores)[i]);
+  map_scores_ = std::move(*scores);
 }
 
 void ParticleLocalSlam::Resample() {

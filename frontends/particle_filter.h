@@ -166,6 +166,18 @@ struct ParticleFilterOptions {
   // 0.3 and 0.4 leave Intel's spread as it was and take ACES's far runs from 3 of 10 to 0.
   // 0 = off.
   double speed_change_sigma_mps = 0.3;
+  // The earlier map in that decision: when the graph's finished submaps near either place
+  // hold the scan (its best score there, ScoreAt, at least this at one of the two places),
+  // each place's log-likelihood also gains the scan's against them, as particles' weights do
+  // (ScoreAgainstGraph). A robot re-driving mapped space then goes on where the map it made
+  // before puts it: on Intel x 5 (tests/bench/run_growth.sh) the third copy's turn on the spot
+  // at t = 383.8 s went on at the standstill (the change of speed), 3 m off for the rest of the
+  // copy and the ones after, while the earlier map held the scan at the other place (0.80
+  // against 0.68); with it copies 2-5 are 0.035-0.045 m rms from the first. Below the floor
+  // neither place fits the earlier map, and the difference of two poor scores is noise that the
+  // logarithm magnifies: counted at every score, Intel x 5's first pass boundary (0.10 against
+  // 0.06) put copies 2-5 2.1 m rms off. 1 = off.
+  double mode_map_min_score = 0.5;
   // Per-scan log-likelihood: effective_points · log(likelihood_floor + (1 - floor) · score).
   // Beams of one scan are not independent (Thrun et al.'s and GMapping's point: the weights
   // would collapse after one scan), so a scan counts as this many independent points.
@@ -221,8 +233,12 @@ struct ParticleFilterStats {
   // the best-scoring mode). Their first and last stamps (NaN when none).
   int unfollowed_modes = 0;
   // Of those, the scans that went on at the second mode: the motion model
-  // (speed_change_sigma_mps, sideslip_sigma_meters) and the scan's likelihood favoured it.
+  // (speed_change_sigma_mps, sideslip_sigma_meters), the scan's likelihood and, where counted
+  // below, the earlier map favoured it.
   int modes_chosen_by_motion = 0;
+  // Of the scans weighed by the motion model, those also weighed against the graph's finished
+  // submaps near either place (mode_map_min_score).
+  int modes_weighed_by_map = 0;
   double first_unfollowed_mode_stamp = std::numeric_limits<double>::quiet_NaN();
   double last_unfollowed_mode_stamp = std::numeric_limits<double>::quiet_NaN();
   int collapses = 0;
@@ -312,10 +328,16 @@ class ParticleLocalSlam {
   // close in score; then matches the scan around it from `before` (the particle's state before
   // that match) and, when that match holds, adds it as a second particle (its result appended
   // to `results`) and returns true. A second mode no particle follows replaces the first (its
-  // result and the particle's state) when the motion model and the scan favour it; false then
+  // result and the particle's state) when the motion model, the scan and the earlier map
+  // (`graph`'s finished submaps of `robot`, see mode_map_min_score) favour it; false then
   // too. `motion_source`: the scan was predicted by one (no motion model then).
   bool SpawnAtSecondMode(double stamp_seconds, const ScanPoints& points, bool motion_source, LocalSlamState before,
-                         std::vector<LocalResult>* results);
+                         const SubmapGraph& graph, int robot, std::vector<LocalResult>* results);
+  // The scan's best score (ScoreAt of its matching points) at each of `local_poses` against
+  // the graph's finished submaps of `robot` whose box, grown by global_margin_meters, holds
+  // one of the poses; nullopt when none does.
+  std::optional<std::vector<double>> GraphScores(const ScanPoints& points, const std::vector<Pose2>& local_poses,
+                                                 const SubmapGraph& graph, int robot) const;
   // Log-likelihood of the scan at each particle's pose against the graph's finished submaps.
   void ScoreAgainstGraph(const ScanPoints& points, const std::vector<LocalResult>& results, const SubmapGraph& graph,
                          int robot);

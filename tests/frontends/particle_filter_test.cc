@@ -117,6 +117,10 @@ TEST(ParticleFilterOptionsTest, RejectsBadValues) {
   options.collapse_map_margin = std::nan("");
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_NE(std::string::npos, error.find("collapse_map_margin"));
+  options = ParticleFilterOptions();
+  options.mode_map_min_score = 1.5;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(std::string::npos, error.find("mode_map_min_score"));
 }
 
 // The earlier map has the last word: a weight that reaches collapse_weight settles the
@@ -363,6 +367,86 @@ TEST(ParticleLocalSlamTest, TwoPlacesAlongACorridorAreWeighedByTheChangeOfSpeed)
   const CorridorRun off = RunInPostedCorridor(options);
   EXPECT_EQ(1, off.stats.unfollowed_modes);
   EXPECT_EQ(0, off.stats.modes_chosen_by_motion);
+  EXPECT_NEAR(truth_x - 1.0, off.last.local_pose.x(), 0.05) << off.last.local_pose;
+}
+
+// A posted corridor (posts up to x = 7) with a dead end at x = 8.6, scanned with a 4 m range:
+// the scans at x = 0.5 ... 4.5 (placed by a tight motion source) do not reach the dead end, the
+// last one, at x = 5.5, does. Its prediction is the front end's own, near the scan before; the
+// best match is that standstill (x = 4.5), the truth its second mode. At both places the dead
+// end is unmapped in the submaps being built, and at the truth so are the last 0.1 m of side
+// wall: the scan alone fits the standstill better (0.67 against 0.58). With `earlier_map`, a
+// first drive to the dead end and back (at the truth) left finished submaps in the graph; they
+// hold the dead end where the truth puts it (0.77 there against 0.63 at the standstill).
+CorridorRun RunInDeadEndCorridor(const ParticleFilterOptions& options, bool earlier_map) {
+  const double kRange = 4.0;
+  sim::World world;
+  world.AddWall(Eigen::Vector2d(-40.0, 1.2), Eigen::Vector2d(8.6, 1.2));
+  world.AddWall(Eigen::Vector2d(-40.0, -1.2), Eigen::Vector2d(8.6, -1.2));
+  world.AddWall(Eigen::Vector2d(8.6, -1.2), Eigen::Vector2d(8.6, 1.2));
+  for (int k = -40; k <= 7; ++k) {
+    for (const double y : {1.0, -1.0}) world.AddBox(Eigen::Vector2d(k, y), Eigen::Vector2d(0.2, 0.2), 0.0);
+  }
+  const LocalSlamOptions local;
+  const Eigen::Matrix3d tight = Eigen::Vector3d(0.02 * 0.02, 0.02 * 0.02, 0.01 * 0.01).asDiagonal();
+  SubmapGraph graph{SubmapGraphOptions()};
+  if (earlier_map) {
+    ParticleFilterOptions single = options;
+    single.max_particles = 1;
+    ParticleLocalSlam first_drive(local, single);
+    // Out to the dead end and back, so that the submaps holding it finish.
+    for (int k = 0; k <= 64; ++k) {
+      Prediction prediction = first_drive.Predict(std::nullopt);
+      prediction.pose = Pose2(-8.0 + 0.5 * std::min(k, 64 - k), 0.0, k <= 32 ? 0.0 : M_PI);
+      prediction.external = true;
+      prediction.covariance = tight;
+      ParticleStep step = first_drive.AddScan(k, NoiselessScan(world, prediction.pose, kRange), prediction,
+                                              std::nullopt, graph, 0);
+      for (LocalResult& result : step.committed) graph.AddNode(0, std::move(result));
+    }
+  }
+  ParticleLocalSlam filter(local, options);
+  CorridorRun run;
+  const int scans = 6;
+  for (int k = 0; k < scans; ++k) {
+    const Pose2 truth(0.5 + k, 0.0, 0.0);
+    Prediction prediction = filter.Predict(std::nullopt);
+    if (k < scans - 1) {
+      prediction.pose = truth;
+      prediction.external = true;
+      prediction.covariance = tight;
+    } else {
+      prediction.pose = Pose2(truth.x() - 0.6, 0.0, 0.0);
+    }
+    ParticleStep step = filter.AddScan(100 + k, NoiselessScan(world, truth, kRange), prediction, std::nullopt, graph, 0);
+    if (k == scans - 1) run.last = step.Current();
+  }
+  run.stats = filter.stats();
+  return run;
+}
+
+TEST(ParticleLocalSlamTest, TheEarlierMapWeighsTwoPlacesAlongACorridor) {
+  const double truth_x = 0.5 + 5;
+  ParticleFilterOptions options;
+  ASSERT_DOUBLE_EQ(0.5, options.mode_map_min_score);
+  options.second_mode_score_ratio = 0.5;
+  // The change of speed as good as silent: the scan and the earlier map decide.
+  options.speed_change_sigma_mps = 10.0;
+  // Alone, the scan fits the standstill better.
+  const CorridorRun alone = RunInDeadEndCorridor(options, /*earlier_map=*/false);
+  EXPECT_EQ(1, alone.stats.unfollowed_modes);
+  EXPECT_EQ(0, alone.stats.modes_weighed_by_map);
+  EXPECT_NEAR(truth_x - 1.0, alone.last.local_pose.x(), 0.05) << alone.last.local_pose;
+  // The earlier map knows the dead end: the truth.
+  const CorridorRun mapped = RunInDeadEndCorridor(options, /*earlier_map=*/true);
+  EXPECT_EQ(1, mapped.stats.unfollowed_modes);
+  EXPECT_EQ(1, mapped.stats.modes_weighed_by_map);
+  EXPECT_EQ(1, mapped.stats.modes_chosen_by_motion);
+  EXPECT_NEAR(truth_x, mapped.last.local_pose.x(), 0.05) << mapped.last.local_pose;
+  // Off (the earlier map never holds the scan well enough): the standstill.
+  options.mode_map_min_score = 1.0;
+  const CorridorRun off = RunInDeadEndCorridor(options, /*earlier_map=*/true);
+  EXPECT_EQ(0, off.stats.modes_weighed_by_map);
   EXPECT_NEAR(truth_x - 1.0, off.last.local_pose.x(), 0.05) << off.last.local_pose;
 }
 
