@@ -122,7 +122,7 @@ DEFINE_bool(refine_on_all_points, false, "The search places each scan on the fir
             "voxel; the refinement of its pose (front end and loop closures) uses every beam. No choice within a "
             "voxel: its first beam lies nearest the side the sweep enters by, which turned the simulated robots' "
             "front ends +0.04 to +2.25 deg a run (-0.57 to +0.51 with this). Off by default: the simulated office "
-            "loop's corrected trajectory gets worse, ACES (since --speed_change_sigma) 0.095 -> 0.163 m, and the real "
+            "loop's corrected trajectory gets worse, ACES 0.095 -> 0.102 m (0.163 m in sessions 40-47), and the real "
             "logs take 5-16% longer (README, \"The score profile on every k-th point\"). Takes precedence over "
             "--refine_on_middle_beams.");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");

@@ -78,8 +78,8 @@ struct LocalSlamOptions {
   // carried across), and the simulated robots' front ends turned +0.04 to +2.25 degrees a run on
   // all 55 runs of seeds 1-5 (-0.3 to -1.7 with each voxel's last point; -0.57 to +0.51 with
   // this). Off by default: the office loop's corrected trajectory gets worse (0.038 -> 0.046 m in
-  // its original handedness), ACES (since ParticleFilterOptions::speed_change_sigma_mps weighs
-  // its corridor scan) 0.095 -> 0.163 m, and the real logs take 5-16% longer (README, "The
+  // its original handedness), ACES 0.095 -> 0.102 m (0.163 m in sessions 40-47, until
+  // ParticleFilterOptions::mode_map_min_score), and the real logs take 5-16% longer (README, "The
   // refinement on every point", "The score profile on every k-th point"). Takes precedence over
   // refine_on_middle_beams.
   // Used when the scan carries no matching weights.
