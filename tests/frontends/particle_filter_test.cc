@@ -308,24 +308,18 @@ struct CorridorRun {
   ParticleFilterStats stats;
 };
 
-// `last_external`: the last scan's prediction comes from a motion source (no covariance).
-CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options, bool last_external = false) {
-  sim::World world;
-  world.AddWall(Eigen::Vector2d(-40.0, 1.2), Eigen::Vector2d(40.0, 1.2));
-  world.AddWall(Eigen::Vector2d(-40.0, -1.2), Eigen::Vector2d(40.0, -1.2));
-  for (int k = -40; k <= 40; ++k) {
-    for (const double y : {1.0, -1.0}) world.AddBox(Eigen::Vector2d(k, y), Eigen::Vector2d(0.2, 0.2), 0.0);
-  }
+// Six scans of `world` (`range_meters`) at x = 0.5, 1.5, ... 5.5, a second apart from
+// `first_stamp`. The scans before the last one are placed by a tight motion source at the truth
+// (a metre-periodic corridor cannot place them alone); the last is predicted 0.6 m short of the
+// truth, near the scan before, by the front end itself (no motion source) unless
+// `last_external`. `graph` holds the finished submaps the filter may weigh against.
+CorridorRun DriveSixScans(const sim::World& world, double range_meters, const ParticleFilterOptions& options,
+                          const SubmapGraph& graph, double first_stamp, bool last_external) {
   ParticleLocalSlam filter(LocalSlamOptions(), options);
-  SubmapGraph graph{SubmapGraphOptions()};
   CorridorRun run;
   const int scans = 6;
   for (int k = 0; k < scans; ++k) {
     const Pose2 truth(0.5 + k, 0.0, 0.0);
-    ScanPoints points = NoiselessScan(world, truth, 8.0);
-    // The scans before the last one are placed by a tight motion source at the truth (a
-    // metre-periodic corridor cannot place them alone); the last is predicted 0.4 m from the
-    // scan before, by the front end itself (no motion source) unless `last_external`.
     Prediction prediction = filter.Predict(std::nullopt);
     if (k < scans - 1) {
       prediction.pose = truth;
@@ -335,11 +329,23 @@ CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options, bool last_
       prediction.pose = Pose2(truth.x() - 0.6, 0.0, 0.0);
       prediction.external = last_external;
     }
-    ParticleStep step = filter.AddScan(k, std::move(points), prediction, std::nullopt, graph, 0);
+    ParticleStep step = filter.AddScan(first_stamp + k, NoiselessScan(world, truth, range_meters), prediction,
+                                       std::nullopt, graph, 0);
     if (k == scans - 1) run.last = step.Current();
   }
   run.stats = filter.stats();
   return run;
+}
+
+// `last_external`: the last scan's prediction comes from a motion source (no covariance).
+CorridorRun RunInPostedCorridor(const ParticleFilterOptions& options, bool last_external = false) {
+  sim::World world;
+  world.AddWall(Eigen::Vector2d(-40.0, 1.2), Eigen::Vector2d(40.0, 1.2));
+  world.AddWall(Eigen::Vector2d(-40.0, -1.2), Eigen::Vector2d(40.0, -1.2));
+  for (int k = -40; k <= 40; ++k) {
+    for (const double y : {1.0, -1.0}) world.AddBox(Eigen::Vector2d(k, y), Eigen::Vector2d(0.2, 0.2), 0.0);
+  }
+  return DriveSixScans(world, 8.0, options, SubmapGraph{SubmapGraphOptions()}, 0.0, last_external);
 }
 
 TEST(ParticleLocalSlamTest, TwoPlacesAlongACorridorAreWeighedByTheChangeOfSpeed) {
@@ -387,42 +393,23 @@ CorridorRun RunInDeadEndCorridor(const ParticleFilterOptions& options, bool earl
   for (int k = -40; k <= 7; ++k) {
     for (const double y : {1.0, -1.0}) world.AddBox(Eigen::Vector2d(k, y), Eigen::Vector2d(0.2, 0.2), 0.0);
   }
-  const LocalSlamOptions local;
-  const Eigen::Matrix3d tight = Eigen::Vector3d(0.02 * 0.02, 0.02 * 0.02, 0.01 * 0.01).asDiagonal();
   SubmapGraph graph{SubmapGraphOptions()};
   if (earlier_map) {
     ParticleFilterOptions single = options;
     single.max_particles = 1;
-    ParticleLocalSlam first_drive(local, single);
+    ParticleLocalSlam first_drive(LocalSlamOptions(), single);
     // Out to the dead end and back, so that the submaps holding it finish.
     for (int k = 0; k <= 64; ++k) {
       Prediction prediction = first_drive.Predict(std::nullopt);
       prediction.pose = Pose2(-8.0 + 0.5 * std::min(k, 64 - k), 0.0, k <= 32 ? 0.0 : M_PI);
       prediction.external = true;
-      prediction.covariance = tight;
+      prediction.covariance = Eigen::Vector3d(0.02 * 0.02, 0.02 * 0.02, 0.01 * 0.01).asDiagonal();
       ParticleStep step = first_drive.AddScan(k, NoiselessScan(world, prediction.pose, kRange), prediction,
                                               std::nullopt, graph, 0);
       for (LocalResult& result : step.committed) graph.AddNode(0, std::move(result));
     }
   }
-  ParticleLocalSlam filter(local, options);
-  CorridorRun run;
-  const int scans = 6;
-  for (int k = 0; k < scans; ++k) {
-    const Pose2 truth(0.5 + k, 0.0, 0.0);
-    Prediction prediction = filter.Predict(std::nullopt);
-    if (k < scans - 1) {
-      prediction.pose = truth;
-      prediction.external = true;
-      prediction.covariance = tight;
-    } else {
-      prediction.pose = Pose2(truth.x() - 0.6, 0.0, 0.0);
-    }
-    ParticleStep step = filter.AddScan(100 + k, NoiselessScan(world, truth, kRange), prediction, std::nullopt, graph, 0);
-    if (k == scans - 1) run.last = step.Current();
-  }
-  run.stats = filter.stats();
-  return run;
+  return DriveSixScans(world, kRange, options, graph, 100.0, /*last_external=*/false);
 }
 
 TEST(ParticleLocalSlamTest, TheEarlierMapWeighsTwoPlacesAlongACorridor) {
