@@ -25,7 +25,10 @@
 //       distinct) and one of the two modes slides the robot sideways (mode_min_sideslip_sigmas),
 //       two particles go on from this scan, one at each mode; neither is favoured at the
 //       collapse. Their weights differ by their scans' scores and, without a motion source, by
-//       the motion model (sideslip_sigma_meters).
+//       the motion model (sideslip_sigma_meters). Where neither mode slides the robot sideways
+//       (two places along a corridor's length) no particle follows: without a motion source the
+//       scan goes on at the place its score, the change of speed (speed_change_sigma_mps) and,
+//       where it holds the scan, the earlier map (mode_map_min_score) favour.
 // Spawning after (a) and (b) needs a prediction that knows its covariance (the EKF, odometry);
 // particle 0 keeps the undisturbed prediction.
 //
