@@ -275,7 +275,9 @@ bool ParticleLocalSlam::SpawnAtSecondMode(double stamp_seconds, const ScanPoints
       double second_log = ScanLogLikelihood(options_, second.match.score) + MotionLogLikelihood(options_, recent_second);
       // The earlier map too, as for particles: the graph's finished submaps near either place.
       const std::optional<std::vector<double>> map =
-          GraphScores(points, {first.local_pose, second.local_pose}, graph, robot);
+          options_.mode_map_min_score < 1.0
+              ? GraphScores(points, {first.local_pose, second.local_pose}, graph, robot)
+              : std::nullopt;
       if (map.has_value() && std::max((*map)[0], (*map)[1]) >= options_.mode_map_min_score) {
         first_log += ScanLogLikelihood(options_, (*map)[0]);
         second_log += ScanLogLikelihood(options_, (*map)[1]);

@@ -179,7 +179,7 @@ struct ParticleFilterOptions {
   // against 0.68); with it copies 2-5 are 0.035-0.045 m rms from the first. Below the floor
   // neither place fits the earlier map, and the difference of two poor scores is noise that the
   // logarithm magnifies: counted at every score, Intel x 5's first pass boundary (0.10 against
-  // 0.06) put copies 2-5 2.1 m rms off. 1 = off.
+  // 0.06) put copies 2-5 2.1 m rms off. 1 = off (the finished submaps are not scored).
   double mode_map_min_score = 0.5;
   // Per-scan log-likelihood: effective_points · log(likelihood_floor + (1 - floor) · score).
   // Beams of one scan are not independent (Thrun et al.'s and GMapping's point: the weights
