@@ -267,9 +267,11 @@ class LikelihoodField {
   std::vector<uint8_t> tile_distances_;
   // values_ = ValueFromSquaredDistance(squared_distances_) cell by cell (+inf, tile not
   // allocated, where values_ is 0); freed by Freeze. Within ApplyChanges, kStale marks a cell
-  // queued in stale_cells_ for one recompute at the end.
+  // queued in stale_cells_ for one recompute at the end, and a value of kPendingValue a cell
+  // whose squared distance was lowered, queued once in pending_values_ for its value at the end.
   TiledGrid<float> squared_distances_;
-  std::vector<int> stale_cells_;  // scratch of ApplyChanges
+  std::vector<int> stale_cells_;     // scratch of ApplyChanges
+  std::vector<int> pending_values_;  // scratch of ApplyChanges
   // Published segment per cell, its point relative to the cell's own minimum corner; relative
   // storage makes values independent of growth. Only occupied cells publish, a few percent:
   // the segments sit in a pool, indexed per cell (-1: none) in tiles that exist only where

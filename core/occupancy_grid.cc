@@ -311,15 +311,26 @@ void OccupancyGrid::Freeze(int margin_cells) {
     y1 = std::min(geometry_.height() - 1, observed_max_.y + margin_cells);
   }
   const int width = x1 - x0 + 1, height = y1 - y0 + 1;
-  std::vector<uint8_t> states(static_cast<size_t>(width) * height);
-  std::vector<uint8_t> labels(has_label_layer_ ? states.size() : 0);
-  // Row by row (a tile lookup per tile row, not per cell).
-  std::vector<float> log_odds(static_cast<size_t>(std::max(width, 0)));
+  // Unknown (state 0) and unlabelled (0) where a tile has no log-odds or labels (never
+  // observed): only the stored tiles' rows are read, a tile lookup per tile row.
+  static_assert(static_cast<int>(CellState::kUnknown) == 0, "a cell without log-odds is state 0");
+  std::vector<uint8_t> states(static_cast<size_t>(width) * height, 0);
+  std::vector<uint8_t> labels(has_label_layer_ ? states.size() : 0, 0);
+  constexpr int kTileSize = TiledGrid<float>::kTileSize;
   for (int y = 0; y < height; ++y) {
-    log_odds_.GetRow(x0, y + y0, width, log_odds.data());
     uint8_t* to = states.data() + static_cast<size_t>(y) * width;
-    for (int x = 0; x < width; ++x) to[x] = static_cast<uint8_t>(StateOfLogOdds(log_odds[x]));
-    if (!labels.empty()) labels_.GetRow(x0, y + y0, width, labels.data() + static_cast<size_t>(y) * width);
+    uint8_t* labels_to = labels.empty() ? nullptr : labels.data() + static_cast<size_t>(y) * width;
+    for (int x = 0; x < width;) {
+      const int gx = x0 + x;
+      const int chunk = std::min(width - x, kTileSize - (gx & (kTileSize - 1)));
+      if (const float* log_odds = log_odds_.TileRow(gx, y + y0)) {
+        for (int k = 0; k < chunk; ++k) to[x + k] = static_cast<uint8_t>(StateOfLogOdds(log_odds[k]));
+      }
+      if (labels_to != nullptr) {
+        if (const uint8_t* label = labels_.TileRow(gx, y + y0)) std::copy(label, label + chunk, labels_to + x);
+      }
+      x += chunk;
+    }
   }
   frozen_states_ = SparseTiles2Bit(states, width, height, static_cast<uint8_t>(CellState::kUnknown));
   frozen_labels_ = labels.empty() ? SparseTiles<uint8_t>() : SparseTiles<uint8_t>(labels, width, height, 0);
