@@ -414,6 +414,14 @@ void CodeTileRow(const float* value, const float* odds, float occupied_threshold
   }
 }
 
+// The coarse levels are computed a span at a time in whole multiples of kVectorCells cells
+// (32: an AVX2 register of 8-bit cells, two of 16-bit ones), past the span's end: a vector
+// loop's scalar remainder on spans of a few tiles was most of MaxOfFour's instructions. So
+// every table has kTableSlack cells after its last row: the last vector of a row's last span
+// writes up to kVectorCells - 1 cells past it and reads up to that + half (<= 32) past it.
+constexpr int kVectorCells = 32;
+constexpr size_t kTableSlack = 2 * kVectorCells;
+
 // Builds `pyramid` where a search of `s` reads it (NeededSpans; its buffers are reused between
 // calls and keep their capacity).
 void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, float free_space_penalty,
@@ -422,12 +430,13 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
   const size_t size = static_cast<size_t>(w) * h;
   // Every level is written over the needed spans below before a search reads it: a buffer only
   // grows, uninitialised, its old contents not copied (see TableBuffer).
-  pyramid->finest.Reserve(size);
+  // (kTableSlack: see next_level's whole vectors.)
+  pyramid->finest.Reserve(size + kTableSlack);
   if (wall_field != nullptr && pyramid->row.size() < static_cast<size_t>(w)) pyramid->row.resize(w);
   pyramid->coarse.resize(std::min(depth, Pyramid::kLevels16));
-  for (TableBuffer<uint16_t>& level : pyramid->coarse) level.Reserve(size);
+  for (TableBuffer<uint16_t>& level : pyramid->coarse) level.Reserve(size + kTableSlack);
   pyramid->coarse8.resize(std::max(0, depth - Pyramid::kLevels16));
-  for (TableBuffer<uint8_t>& level : pyramid->coarse8) level.Reserve(size);
+  for (TableBuffer<uint8_t>& level : pyramid->coarse8) level.Reserve(size + kTableSlack);
   NeededSpans(s, 1 << depth, pyramid);
   // Calls f(y, begin, end) for every needed span [begin, end) of every row y.
   auto for_each_span = [pyramid, h](auto f) {
@@ -647,7 +656,14 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
       const auto* a = in + static_cast<size_t>(y) * w;
       const auto* b = in + static_cast<size_t>(std::min(y + half, h - 1)) * w;
       auto* o = out + static_cast<size_t>(y) * w;
-      MaxOfFour(a, b, half, span_begin, std::min(span_end, x_split), o);
+      // In whole vectors (kVectorCells): no scalar remainder. The cells after the span it
+      // writes are needed by no search (those of a later span or of the clamped loop below
+      // are written again after); the reads stay within the level's buffer (kTableSlack).
+      const int stop = std::min(span_end, x_split);
+      if (stop > span_begin) {
+        MaxOfFour(a, b, half, span_begin, span_begin + (stop - span_begin + kVectorCells - 1) / kVectorCells * kVectorCells,
+                  o);
+      }
       for (int x = std::max(span_begin, x_split); x < span_end; ++x) {
         const auto q = std::max(std::max(a[x], a[w - 1]), std::max(b[x], b[w - 1]));
         if constexpr (sizeof(*o) < sizeof(q)) {
