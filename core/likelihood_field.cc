@@ -22,6 +22,8 @@ constexpr float kStale = -1.f;
 // Marks a value as not yet computed from its lowered squared distance (no value is negative);
 // see ApplyChanges.
 constexpr float kPendingValue = -1.f;
+// The most queued values whose room ApplyChanges keeps between batches (64 KiB).
+constexpr size_t kKeptPendingValues = 16384;
 
 // LikelihoodField::SquaredDistance four at a time (GCC's vector extensions: one SSE register):
 // lane k is from the segment (point, direction, half_length) of occupied
@@ -380,6 +382,9 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     float& value = values_.Ref(c.x, c.y);
     if (value == kPendingValue) value = ValueFromSquaredDistance(squared_distances_.Get(c.x, c.y));
   }
+  // A large batch (a submap's field catching up on many scans at once) keeps no list behind it
+  // until the next: kept, the lists raised FR079's peak RSS by 0.4-0.5 MB (three runs each).
+  if (pending_values_.capacity() > kKeptPendingValues) std::vector<int>().swap(pending_values_);
 }
 
 void LikelihoodField::RecomputeStaleCells() {
