@@ -383,7 +383,7 @@ void LikelihoodField::ApplyChanges(const OccupancyGrid& grid, const std::vector<
     if (value == kPendingValue) value = ValueFromSquaredDistance(squared_distances_.Get(c.x, c.y));
   }
   // A large batch (a submap's field catching up on many scans at once) keeps no list behind it
-  // until the next: kept, the lists raised FR079's peak RSS by 0.4-0.5 MB (three runs each).
+  // until the next: kept, the lists raised FR079's peak RSS by about 0.5 MiB (three runs each).
   if (pending_values_.capacity() > kKeptPendingValues) std::vector<int>().swap(pending_values_);
 }
 
