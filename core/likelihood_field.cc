@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/vector4.h"
 #include "glog/logging.h"
 
 namespace hetslam {
@@ -25,15 +26,9 @@ constexpr float kPendingValue = -1.f;
 // The most queued values whose room ApplyChanges keeps between batches (64 KiB).
 constexpr size_t kKeptPendingValues = 16384;
 
-// LikelihoodField::SquaredDistance four at a time (GCC's vector extensions: one SSE register):
-// lane k is from the segment (point, direction, half_length) of occupied
-// cell o_k to the centre of cell c_k, (c_k - o_k) = (dx_cells[k], dy_cells[k]). The same
-// operations in the same order on each lane as the scalar function, so the same floats (no
-// FMA in the x86-64 baseline: nothing is contracted).
-using Floats4 = float __attribute__((vector_size(16)));
-using Ints4 = int32_t __attribute__((vector_size(16)));
-Floats4 Splat(float v) { return Floats4{v, v, v, v}; }
-Ints4 Splat(int32_t v) { return Ints4{v, v, v, v}; }
+// LikelihoodField::SquaredDistance four at a time (core/vector4.h: the same floats): lane k is
+// from the segment (point, direction, half_length) of occupied cell o_k to the centre of cell
+// c_k, (c_k - o_k) = (dx_cells[k], dy_cells[k]).
 Floats4 FourSquaredDistances(Ints4 dx_cells, Ints4 dy_cells, float r, Floats4 point_x, Floats4 point_y,
                              Floats4 direction_x, Floats4 direction_y, Floats4 half_length) {
   const Floats4 dx = (__builtin_convertvector(dx_cells, Floats4) + 0.5f) * r - point_x;
@@ -425,11 +420,10 @@ void LikelihoodField::RecomputeStaleCells() {
     }
     size_t size() const { return x.size(); }
   } nearby;
-  // Out of reach of every cell of the grid (a cell is at most 2^30 away on an axis), and no
-  // overflow in c - far.
+  // A padding point's cell: farther than `radius` from every cell of the grid (whose
+  // coordinates are below 2^30), and c - kFar does not overflow.
   constexpr int32_t kFar = -(1 << 30);
   const Segment far_segment{Eigen::Vector2f::Zero(), Eigen::Vector2f::UnitX(), 0.f};
-  auto load = [](const auto& v, size_t i, auto* out) { std::memcpy(out, v.data() + i, sizeof(*out)); };
   std::vector<float> recomputed(n);
   for (size_t first = 0; first < n;) {
     size_t last = first;
@@ -449,19 +443,12 @@ void LikelihoodField::RecomputeStaleCells() {
       // whatever the order, and no d^2 is NaN).
       Floats4 best = Splat(kInfinity);
       for (size_t i = 0; i < nearby.size(); i += 4) {
-        Ints4 x, y;
-        Floats4 point_x, point_y, direction_x, direction_y, half_length;
-        load(nearby.x, i, &x);
-        load(nearby.y, i, &y);
-        load(nearby.point_x, i, &point_x);
-        load(nearby.point_y, i, &point_y);
-        load(nearby.direction_x, i, &direction_x);
-        load(nearby.direction_y, i, &direction_y);
-        load(nearby.half_length, i, &half_length);
-        const Ints4 dx_cells = c.x - x, dy_cells = c.y - y;
+        const Ints4 dx_cells = c.x - Load4<Ints4>(&nearby.x[i]), dy_cells = c.y - Load4<Ints4>(&nearby.y[i]);
         const Ints4 within = (dx_cells <= radius) & (dx_cells >= -radius) & (dy_cells <= radius) & (dy_cells >= -radius);
-        const Floats4 squared = FourSquaredDistances(dx_cells, dy_cells, resolution, point_x, point_y, direction_x,
-                                                     direction_y, half_length);
+        const Floats4 squared = FourSquaredDistances(
+            dx_cells, dy_cells, resolution, Load4<Floats4>(&nearby.point_x[i]), Load4<Floats4>(&nearby.point_y[i]),
+            Load4<Floats4>(&nearby.direction_x[i]), Load4<Floats4>(&nearby.direction_y[i]),
+            Load4<Floats4>(&nearby.half_length[i]));
         best = within != 0 && squared < best ? squared : best;
       }
       float least = kInfinity;

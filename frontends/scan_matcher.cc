@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <memory>
 #include <sstream>
@@ -20,6 +19,7 @@
 
 #include "ceres/ceres.h"
 #include "core/process_memory.h"
+#include "core/vector4.h"
 #include "factors/scan_cost.h"
 #include "factors/se2_manifold.h"
 #include "glog/logging.h"
@@ -392,24 +392,19 @@ HETSLAM_CLONES void MaxOfFour(const uint8_t* a, const uint8_t* b, int half, int 
 }
 // BuildPyramid's level-0 codes of a tile row of eight cells of a field being built, with
 // log-odds: the free-space penalty's code where the value is 0 and the cell observed and not
-// occupied, else the value's code min(top, (value - lowest) inv_step + 0.5) truncated. The
-// same float operations lane by lane as BuildPyramid's to_code (GCC's vector extensions, one
-// SSE register each; no FMA in the x86-64 baseline), so the same codes.
+// occupied, else the value's code min(top, (value - lowest) inv_step + 0.5) truncated. Four
+// cells at a time with the same float operations as BuildPyramid's to_code (core/vector4.h),
+// so the same codes.
 void CodeTileRow(const float* value, const float* odds, float occupied_threshold, float lowest, float inv_step,
                  float top, uint16_t penalty, uint16_t* out) {
-  using Floats4 = float __attribute__((vector_size(16)));
-  using Ints4 = int32_t __attribute__((vector_size(16)));
   constexpr float kUnobserved = OccupancyGrid::kUnobserved;
   static_assert(TiledGrid<float>::kTileSize == 8, "a tile row: two vectors of four");
   for (int half = 0; half < 8; half += 4) {
-    Floats4 v, q;
-    std::memcpy(&v, value + half, sizeof(v));
-    std::memcpy(&q, odds + half, sizeof(q));
+    const Floats4 v = Load4<Floats4>(value + half), q = Load4<Floats4>(odds + half);
     const Ints4 free_space = (v == 0.f) & (q <= occupied_threshold) & (q != kUnobserved);
     Floats4 scaled = (v - lowest) * inv_step + 0.5f;
-    scaled = scaled < top ? scaled : Floats4{top, top, top, top};  // std::min(top, scaled)
-    const Ints4 codes = free_space != 0 ? Ints4{penalty, penalty, penalty, penalty}
-                                        : __builtin_convertvector(scaled, Ints4);
+    scaled = scaled < top ? scaled : Splat(top);  // std::min(top, scaled)
+    const Ints4 codes = free_space != 0 ? Splat(static_cast<int32_t>(penalty)) : __builtin_convertvector(scaled, Ints4);
     for (int k = 0; k < 4; ++k) out[half + k] = static_cast<uint16_t>(codes[k]);
   }
 }
@@ -580,18 +575,16 @@ void BuildPyramid(const LaserMap& map, const DiscretizedSearch& s, int depth, fl
         for (int k = 0; k < chunk; ++k) {
           o[k] = (odds[k] <= occupied_threshold) & (odds[k] != kUnobserved) ? penalty : zero;
         }
-      } else if constexpr (std::is_same_v<Out, uint16_t>) {
-        if (chunk == TiledGrid<float>::kTileSize) {
-          // A whole tile row as two vectors of four (most of the front end's level 0).
-          CodeTileRow(value, odds, occupied_threshold, lowest, inv_step, kTop, penalty, o);
-        } else {
-          for (int k = 0; k < chunk; ++k) {
-            const bool free_space = (value[k] == 0.f) & (odds[k] <= occupied_threshold) & (odds[k] != kUnobserved);
-            o[k] = free_space ? penalty : convert(value[k]);
+      } else {
+        // A whole tile row of codes as two vectors of four (most of the front end's level 0).
+        bool coded = false;
+        if constexpr (std::is_same_v<Out, uint16_t>) {
+          if (chunk == TiledGrid<float>::kTileSize) {
+            CodeTileRow(value, odds, occupied_threshold, lowest, inv_step, kTop, penalty, o);
+            coded = true;
           }
         }
-      } else {
-        for (int k = 0; k < chunk; ++k) {
+        for (int k = 0; !coded && k < chunk; ++k) {
           const bool free_space = (value[k] == 0.f) & (odds[k] <= occupied_threshold) & (odds[k] != kUnobserved);
           o[k] = free_space ? penalty : convert(value[k]);
         }
