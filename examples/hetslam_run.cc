@@ -108,23 +108,27 @@ DEFINE_bool(refine_on_voxel_ends, false, "The search places each scan on the fir
             "refinement of its pose uses each voxel's first and last beam (one where it has one): the first beam "
             "alone is a surface's end on one side of the scan only and turned every simulated front end the same "
             "way, +0.04 to +2.25 deg a run; with both ends the simulated robots' worst heading from their start "
-            "is 0.56 deg (1.13 by default), for about 3% more time on FR079. Off by default: Intel and ACES each end far "
+            "is 0.56 deg (1.13 with the first beam alone), for about 3% more time on FR079. Off by default: Intel and ACES each end far "
             "off under one of tests/bench/run_sensitivity.sh's ten stopping rules (README, \"The refinement on "
-            "each voxel's first and last beam\"). --refine_on_all_points takes precedence over it, and it over "
+            "each voxel's first and last beam\"). Only with --norefine_on_all_points (on by default, it takes "
+            "precedence over this); takes precedence over "
             "--refine_on_middle_beams.");
 DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the first beam of every --matching_voxel voxel; the "
             "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
             "of the scan only, which turned the pose that way scan after scan: the simulated 2.5D robots' worst "
             "heading from their start up to 1.13 deg, up to 0.58 with this but the corridor's 0.99). An even "
             "voxel's middle is the midpoint of its two middle beams. Off by default: the simulated office loop's "
-            "corrected trajectory and the corridor's get worse with it (README, Teams).");
-DEFINE_bool(refine_on_all_points, false, "The search places each scan on the first beam of every --matching_voxel "
-            "voxel; the refinement of its pose (front end and loop closures) uses every beam. No choice within a "
-            "voxel: its first beam lies nearest the side the sweep enters by, which turned the simulated robots' "
-            "front ends +0.04 to +2.25 deg a run (-0.57 to +0.51 with this). Off by default: the simulated office "
-            "loop's corrected trajectory gets worse, ACES 0.095 -> 0.102 m (0.163 m in sessions 40-47), and the real "
-            "logs take 5-16% longer (README, \"The score profile on every k-th point\"). Takes precedence over "
-            "--refine_on_middle_beams.");
+            "corrected trajectory and the corridor's get worse with it (README, Teams). Only with "
+            "--norefine_on_all_points (on by default, it takes precedence over this).");
+DEFINE_bool(refine_on_all_points, hetslam::LocalSlamOptions().refine_on_all_points,
+            "The search places each scan on the first beam of every --matching_voxel voxel; the refinement of its "
+            "pose (front end and loop closures) uses every beam. No choice within a voxel: its first beam lies "
+            "nearest the side the sweep enters by, which turned the simulated robots' front ends +0.04 to +2.25 deg "
+            "a run (-0.57 to +0.51 with this). On by default since session 51 (README, \"Every point refined by "
+            "default\"); --norefine_on_all_points refines on the searched beams only: the office loop's seed 1 "
+            "0.046 -> 0.030 m, ACES 0.102 -> 0.095 m, Intel 9% and FR079 14% less wall time, but Intel 0.0192 -> "
+            "0.0230 m, MIT CSAIL 0.098 -> 0.157 m and every simulated robot's heading turned one way. Takes "
+            "precedence over --refine_on_voxel_ends and --refine_on_middle_beams.");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
 DEFINE_double(flaser_max_range, 81.0, "FLASER readings at or above this range mean 'no return' (metres).");
 DEFINE_bool(no_loop_closure, false, "Run the scan-matching front end alone against one global map (no submaps, no "

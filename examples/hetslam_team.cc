@@ -133,20 +133,25 @@ DEFINE_bool(refine_on_voxel_ends, false, "The search places each scan on the fir
             "refinement of its pose uses each voxel's first and last beam (one where it has one): the first beam "
             "alone is a surface's end on one side of the scan only and turned every simulated front end the same "
             "way, +0.04 to +2.25 deg a run; with both ends the simulated robots' worst heading from their start "
-            "is 0.56 deg (1.13 by default), for about 3% more time on FR079. Off by default: Intel and ACES each end far "
+            "is 0.56 deg (1.13 with the first beam alone), for about 3% more time on FR079. Off by default: Intel and ACES each end far "
             "off under one of tests/bench/run_sensitivity.sh's ten stopping rules (README, \"The refinement on "
-            "each voxel's first and last beam\"). --refine_on_all_points takes precedence over it, and it over "
+            "each voxel's first and last beam\"). Only with --norefine_on_all_points (on by default, it takes "
+            "precedence over this); takes precedence over "
             "--refine_on_middle_beams.");
-DEFINE_bool(refine_on_all_points, false, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
-            "refinement of its pose (front ends, loop closures and inter-robot matches) uses every beam (a voxel's "
-            "first beam lies nearest the side the sweep enters by, which turned each robot's front end +0.04 to "
-            "+2.25 deg a run). Off by default (hetslam_run --help). Takes precedence over --refine_on_middle_beams.");
+DEFINE_bool(refine_on_all_points, hetslam::LocalSlamOptions().refine_on_all_points,
+            "The search places each scan on the first beam of every 0.2 m matching voxel; the refinement of its "
+            "pose (front ends, loop closures and inter-robot matches) uses every beam (a voxel's first beam lies "
+            "nearest the side the sweep enters by, which turned each robot's front end +0.04 to +2.25 deg a run). "
+            "On by default since session 51: team_three's drone-nao frames 0.233 -> 0.046 m after the second "
+            "constraint, team_overlap 0.063 -> 0.036 m (README, \"Every point refined by default\"; "
+            "hetslam_run --help). Takes precedence over --refine_on_voxel_ends and --refine_on_middle_beams.");
 DEFINE_bool(refine_on_middle_beams, false, "The search places each scan on the first beam of every 0.2 m matching voxel; the "
             "refinement of its pose uses each voxel's middle beam (the first beam is a surface's end on one side "
             "of the scan only, which turned the pose that way scan after scan: the simulated 2.5D robots' worst "
             "heading from their start up to 1.13 deg, up to 0.58 with this but the corridor's 0.99). An even "
             "voxel's middle is the midpoint of its two middle beams. Off by default: the simulated office loop's "
-            "corrected trajectory and the corridor's get worse with it (README, Teams).");
+            "corrected trajectory and the corridor's get worse with it (README, Teams). Only with "
+            "--norefine_on_all_points (on by default, it takes precedence over this).");
 DEFINE_bool(keep_search_tables_over_solves, true,
             "Before each solve (a robot's or the team's), keep the search tables' pages the searches since the "
             "last solve used, unless the process is near its memory peak; off: free them all (hetslam_run --help "

@@ -575,6 +575,10 @@ LocalResult LocalSlam::Match(double stamp_seconds, ScanPoints points, const Pred
   if (prediction.motion.has_value()) state.last_odometry = prediction.motion;
   state.recent.push_back({stamp_seconds, result.local_pose});
   if (state.recent.size() > 3) state.recent.erase(state.recent.begin());
+  // The refinement's points served the match only (insertion and the graph's nodes take `all`
+  // and `matching`); with refine_on_all_points they are a copy of the whole scan, which a
+  // particle's deferred results would otherwise hold until it collapses.
+  points.refinement = std::vector<Eigen::Vector2f>();
   result.points = std::move(points);
   result.awaiting_insertion = true;
   return result;

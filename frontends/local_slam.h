@@ -77,13 +77,14 @@ struct LocalSlamOptions {
   // lies nearest the side the sweep enters by (a surface's end, or a point that range noise
   // carried across), and the simulated robots' front ends turned +0.04 to +2.25 degrees a run on
   // all 55 runs of seeds 1-5 (-0.3 to -1.7 with each voxel's last point; -0.57 to +0.51 with
-  // this). Off by default: the office loop's corrected trajectory gets worse (0.038 -> 0.046 m in
-  // its original handedness), ACES 0.095 -> 0.102 m (0.163 m in sessions 40-47, until
-  // ParticleFilterOptions::mode_map_min_score), and the real logs take 5-16% longer (README, "The
-  // refinement on every point", "The score profile on every k-th point"). Takes precedence over
-  // refine_on_middle_beams.
+  // this). On by default since session 51 (README, "Every point refined by default"): the
+  // simulated robots' worst heading from their start over seeds 1-5 1.13 -> 0.61 degrees, the
+  // teams' relative poses after the second constraint team_three drone-nao 0.233 -> 0.046 m,
+  // team_overlap 0.063 -> 0.036 m, Intel 0.0230 -> 0.0192 m on its relations, MIT CSAIL 0.157 ->
+  // 0.098 m against GMapping; at a cost: ACES 0.095 -> 0.102 m, the office loop's seed 1 0.030 ->
+  // 0.046 m, Intel 10% and FR079 16% more wall time. Takes precedence over refine_on_middle_beams.
   // Used when the scan carries no matching weights.
-  bool refine_on_all_points = false;
+  bool refine_on_all_points = true;
   // The search keeps each voxel's first point; with this the refinement (and the match's
   // information and score profile) uses each voxel's first and last point (core/laser_scan.h
   // VoxelPoint::kFirstAndLast): where a surface ends in a voxel, its end on whichever side of

@@ -91,9 +91,9 @@ struct LoopCloserOptions {
   // 0.072, 0.074 and 0.079 m. 0 = off.
   double degenerate_max_drop_ratio = 0.1;
   // Each match refined on every point of the node's scan, not only the searched ones
-  // (LocalSlamOptions::refine_on_all_points for the front end; hetslam_run's
+  // (LocalSlamOptions::refine_on_all_points for the front end, on by default too; hetslam_run's
   // --refine_on_all_points sets both).
-  bool refine_on_all_points = false;
+  bool refine_on_all_points = true;
   // Loop search within a budget (issue #15): each search matches the node against at most this
   // many finished submaps (0 = every one whose box holds the node; a robot re-driving mapped
   // space has more of them each time round), so that a search costs the same however long the

@@ -202,9 +202,9 @@ struct TeamEstimatorOptions {
   // 0: off.
   double min_profile_drop_ratio = 0.1;
   // Each inter-robot match refined on every point of the node's scan, not only the searched
-  // ones (LocalSlamOptions::refine_on_all_points; hetslam_team's --refine_on_all_points sets
-  // all three).
-  bool refine_on_all_points = false;
+  // ones (LocalSlamOptions::refine_on_all_points, on by default; hetslam_team's
+  // --refine_on_all_points sets all three).
+  bool refine_on_all_points = true;
   int min_agreeing_submaps = 2;
   double submap_agreement_meters = 0.1;
   double submap_agreement_radians = 1.0 * M_PI / 180.0;

@@ -682,16 +682,20 @@ TEST(PrepareScanPointsTest, DensifyFillsGapsAlongASurfaceOnly) {
   EXPECT_GT(on_side_wall, 150);
 }
 
-// The refinement's points: none by default (the refinement then uses `matching`) or without
-// voxels; with refine_on_voxel_ends the matching voxels, each by its first and last beam; with
-// refine_on_middle_beams, each by its middle beam.
+// The refinement's points: every point by default (refine_on_all_points); without it none (the
+// refinement then uses `matching`), and none without voxels; with refine_on_voxel_ends the
+// matching voxels, each by its first and last beam; with refine_on_middle_beams, each by its
+// middle beam.
 TEST(PrepareScanPointsTest, TheRefinementTakesEachMatchingVoxelsEndsOrMiddleBeam) {
   LaserScan scan;
   scan.angles_radians = EvenlySpacedAngles(91, 0.0, M_PI / 180);
   scan.range_max_meters = 30.0;
   for (double angle : scan.angles_radians) scan.ranges_meters.push_back(1.0 / std::sin(angle + 0.3));
   LocalSlamOptions options;
-  EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty()) << "off by default";
+  const ScanPoints by_default = PrepareScanPoints(options, scan);
+  EXPECT_EQ(by_default.all, by_default.refinement) << "every point by default";
+  options.refine_on_all_points = false;
+  EXPECT_TRUE(PrepareScanPoints(options, scan).refinement.empty()) << "the matching points without the option";
   options.refine_on_voxel_ends = true;
   const ScanPoints ends = PrepareScanPoints(options, scan);
   ASSERT_EQ(91u, ends.all.size());
