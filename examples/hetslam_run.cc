@@ -126,7 +126,7 @@ DEFINE_bool(refine_on_all_points, hetslam::LocalSlamOptions().refine_on_all_poin
             "nearest the side the sweep enters by, which turned the simulated robots' front ends +0.04 to +2.25 deg "
             "a run (-0.57 to +0.51 with this). On by default since session 51 (README, \"Every point refined by "
             "default\"); --norefine_on_all_points refines on the searched beams only: the office loop's seed 1 "
-            "0.046 -> 0.030 m, ACES 0.102 -> 0.095 m, Intel 9% and FR079 14% less wall time, but Intel 0.0192 -> "
+            "0.046 -> 0.030 m, ACES 0.102 -> 0.095 m, Intel 7-9% and FR079 14-22% less wall time, but Intel 0.0192 -> "
             "0.0230 m, MIT CSAIL 0.098 -> 0.157 m and every simulated robot's heading turned one way. Takes "
             "precedence over --refine_on_voxel_ends and --refine_on_middle_beams.");
 DEFINE_double(max_range, 30.0, "Ignore beam end points farther than this (metres).");
@@ -189,8 +189,8 @@ DEFINE_double(loop_agreeing_min_score, hetslam::LoopCloserOptions().agreeing_min
               "beyond the ±2 m window, once per --loop_wide_spacing), the node is also searched in the standard "
               "window for matches scoring at least this (below --loop_min_score: a scan that overlaps an old submap "
               "only in part); such a match is a closure only once a later node's calls for the same correction of "
-              "the estimate (within 5 cm and 0.57 degrees). 0 = off (the default); 0.35 with "
-              "--refine_on_all_points in examples/flags/unbiased.flags (README, \"Mirrored worlds\").");
+              "the estimate (within 5 cm and 0.57 degrees). 0 = off (the default); 0.35 in "
+              "examples/flags/unbiased.flags (README, \"Mirrored worlds\").");
 DEFINE_double(loop_degenerate_drop_ratio, 0.1, "A loop-closure match whose score drops, shifted 0.1-0.3 m along its "
               "flattest direction, by less than this fraction of its drop along the steepest (a corridor's walls) "
               "places the scan poorly along that direction: the closure's information along it is scaled by (drop "

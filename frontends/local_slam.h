@@ -82,7 +82,8 @@ struct LocalSlamOptions {
   // teams' relative poses after the second constraint team_three drone-nao 0.233 -> 0.046 m,
   // team_overlap 0.063 -> 0.036 m, Intel 0.0230 -> 0.0192 m on its relations, MIT CSAIL 0.157 ->
   // 0.098 m against GMapping; at a cost: ACES 0.095 -> 0.102 m, the office loop's seed 1 0.030 ->
-  // 0.046 m, Intel 10% and FR079 16% more wall time. Takes precedence over refine_on_middle_beams.
+  // 0.046 m, Intel 8-10% and FR079 16-28% more wall time (two same-hour measurements). Takes
+  // precedence over refine_on_middle_beams.
   // Used when the scan carries no matching weights.
   bool refine_on_all_points = true;
   // The search keeps each voxel's first point; with this the refinement (and the match's

@@ -71,11 +71,11 @@ struct LoopCloserOptions {
   // (non-degenerate, within the gate) is a candidate until a later node's candidate calls for
   // the same correction of the graph's estimate (world frame, within agreeing_meters /
   // agreeing_radians); then both are closures (robust, checked like any other) and the caller
-  // solves at once. 0 = off, the default: with the first beams' refinement (the default, see
-  // LocalSlamOptions::refine_on_middle_beams) the office loop's seed 1 went 0.030 -> 0.120 m
-  // (its closures right, its submaps turned inside); with refine_on_all_points the office loop
-  // and its mirror image are within 0.048 m on seeds 1-5 (0.084 without it; README, "Mirrored
-  // worlds"). 0.35 with refine_on_all_points: examples/flags/unbiased.flags.
+  // solves at once. 0 = off, the default: with the first beams' refinement (the default until
+  // session 51, see LocalSlamOptions::refine_on_all_points) the office loop's seed 1 went 0.030 ->
+  // 0.120 m (its closures right, its submaps turned inside); with refine_on_all_points (the
+  // default now) the office loop and its mirror image are within 0.048 m on seeds 1-5 (0.084
+  // without it; README, "Mirrored worlds"). 0.35: examples/flags/unbiased.flags.
   double agreeing_min_score = 0.0;
   double agreeing_meters = 0.05;
   double agreeing_radians = 0.01;

@@ -1102,7 +1102,7 @@ double BilinearScore(const LikelihoodField& field, const Pose2& pose, const std:
 // the smallest stride that leaves at most `searched` points, starting half a stride in; empty
 // when there are no more refinement points than searched ones (the profile then takes them
 // all). The profile scores 96 shifted poses: on all of a dense scan's points it made FR079 with
-// every point refined 21% slower than by default, 5-8% with this (README, "The score profile
+// every point refined 21% slower than with the searched points alone, 5-8% with this (README, "The score profile
 // on every k-th point").
 // A stride takes points in beam order without choosing within a surface, so the profile keeps
 // every point's balance (each voxel's first point turned matches one way: see
