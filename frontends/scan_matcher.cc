@@ -20,6 +20,7 @@
 #include "ceres/ceres.h"
 #include "core/process_memory.h"
 #include "core/vector4.h"
+#include "factors/compressed_cost.h"
 #include "factors/scan_cost.h"
 #include "factors/se2_manifold.h"
 #include "glog/logging.h"
@@ -1312,8 +1313,9 @@ Pose2 ScanMatcher::RefineHoldingDirection(const LaserMap& map, const Pose2& star
   const LikelihoodField& field = map.field();
   double pose[3] = {start.x(), start.y(), start.theta()};
   ceres::Problem problem;
-  problem.AddResidualBlock(CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation),
-                           nullptr, pose);
+  problem.AddResidualBlock(
+      CreateCompressedCost(CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation)),
+      nullptr, pose);
   problem.SetManifold(pose, new Se2HeldDirectionManifold(held_direction));
   ceres::Solver::Summary summary;
   ceres::Solve(RefinementSolverOptions(options_), &problem, &summary);
@@ -1334,8 +1336,9 @@ std::optional<Pose2> ScanMatcher::Refine(const LaserMap& map, const Pose2& start
   if (points_robot.empty() || field.geometry().num_cells() == 0) return std::nullopt;
   double pose[3] = {start.x(), start.y(), start.theta()};
   ceres::Problem problem;
-  problem.AddResidualBlock(CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation),
-                           nullptr, pose);
+  problem.AddResidualBlock(
+      CreateCompressedCost(CreateScanToLikelihoodFieldCost(field, points_robot, weights, options_.refine_interpolation)),
+      nullptr, pose);
   ceres::Solver::Summary summary;
   ceres::Solve(RefinementSolverOptions(options_), &problem, &summary);
   const Pose2 refined(pose[0], pose[1], pose[2]);
@@ -1559,10 +1562,10 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
     double pose[3] = {result.pose.x(), result.pose.y(), result.pose.theta()};
     ceres::Problem::Options problem_options;
     ceres::Problem problem(problem_options);
-    std::vector<ceres::CostFunction*> refinement_costs;  // owned by `problem`
+    std::vector<ceres::CostFunction*> refinement_costs;  // owned by `problem` (through their compressed costs)
     refinement_costs.push_back(
         CreateScanToLikelihoodFieldCost(field, refinement, weights, options_.refine_interpolation));
-    problem.AddResidualBlock(refinement_costs.back(), nullptr, pose);
+    problem.AddResidualBlock(CreateCompressedCost(refinement_costs.back()), nullptr, pose);
     // Paper §III-E: the wall channel as a second cost over the same points, each residual
     // weighted sqrt(wall_weight - 1): summed, (1 - L)^2 + (wall_weight - 1)(1 - L_wall)^2 per
     // point, wall_weight (1 - L)^2 on a wall (where L_wall = L), (1 - L)^2 away from walls
@@ -1572,7 +1575,7 @@ ScanMatchResult ScanMatcher::MatchOnce(const LaserMap& map, const Pose2& predict
       wall_weights = WallResidualWeights(weights, refinement.size(), wall_weight);
       refinement_costs.push_back(
           CreateScanToLikelihoodFieldCost(*wall_field, refinement, wall_weights, options_.refine_interpolation));
-      problem.AddResidualBlock(refinement_costs.back(), nullptr, pose);
+      problem.AddResidualBlock(CreateCompressedCost(refinement_costs.back()), nullptr, pose);
     }
     ceres::Solver::Summary summary;
     ceres::Solve(RefinementSolverOptions(options_), &problem, &summary);

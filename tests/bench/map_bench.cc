@@ -43,6 +43,9 @@
 //                                  cells are not read again, as in 87–89% of the real logs'
 //                                  evaluations; call 3 is call 1 at poses a cell (5 cm) apart,
 //                                  every point's cells read again.
+//   BM_ScanRefine/<compressed>     a Ceres refinement of all 360 points from 2 cm and 1 degree
+//                                  off, over the tall scan cost (0) or its compressed form
+//                                  (1, factors/compressed_cost.h): the same steps.
 //   BM_DropWeakOccupiedCells/N     the rendered maps' tail rule (see its comment below).
 //   BM_SubmapFreeze/N, BM_SubmapLoopMatch/<frozen>/N
 //                                  the finished-submap store: freezing a submap of N scans,
@@ -67,11 +70,13 @@
 
 #include "Eigen/Core"
 #include "benchmark/benchmark.h"
+#include "ceres/ceres.h"
 #include "core/laser_map.h"
 #include "core/laser_scan.h"
 #include "core/likelihood_field.h"
 #include "core/occupancy_grid.h"
 #include "core/se2.h"
+#include "factors/compressed_cost.h"
 #include "factors/scan_cost.h"
 #include "frontends/loop_closer.h"
 #include "frontends/scan_matcher.h"
@@ -438,6 +443,35 @@ void BM_ScanCostEvaluate(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(f.voxel_points.size()));
 }
 BENCHMARK(BM_ScanCostEvaluate)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMicrosecond);
+
+// A Ceres refinement as the matcher runs it (dense QR, interpolated distances), of all 360
+// points from 2 cm and 1 degree off the truth, over the tall scan cost (0: N residuals) or
+// through factors/compressed_cost.h (1: the same steps, 4 residuals).
+void BM_ScanRefine(benchmark::State& state) {
+  const MatchFixture& f = GetMatchFixture();
+  const bool compressed = state.range(0) != 0;
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = 20;
+  options.function_tolerance = 1e-6;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  double error_cm = 0.0;
+  for (auto _ : state) {
+    double pose[3] = {f.truth.x() + 0.02, f.truth.y(), f.truth.theta() + M_PI / 180.0};
+    ceres::Problem problem;
+    ceres::CostFunction* cost =
+        CreateScanToLikelihoodFieldCost(f.map->field(), f.points, {}, ScanCostInterpolation::kDistances);
+    problem.AddResidualBlock(compressed ? CreateCompressedCost(cost) : cost, nullptr, pose);
+    ceres::Solve(options, &problem, &summary);
+    error_cm = 100.0 * std::hypot(pose[0] - f.truth.x(), pose[1] - f.truth.y());
+    benchmark::DoNotOptimize(pose);
+  }
+  state.counters["points"] = static_cast<double>(f.points.size());
+  state.counters["iterations"] = static_cast<double>(summary.iterations.size() - 1);
+  state.counters["error_cm"] = error_cm;
+}
+BENCHMARK(BM_ScanRefine)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // ---------------------------------------------------------------------------------------
 // Finished submaps: LaserMap::Freeze (crop, 16-bit values, sparse tiles) and loop-closure
