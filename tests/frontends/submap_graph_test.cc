@@ -420,8 +420,10 @@ TEST(SubmapGraphTest, CoveredShareCountsTheStructureOtherSubmapsHold) {
 }
 
 // A straight run of 60 scans, 0.5 m apart, each with three points; a submap starts every 10
-// scans and takes 20 (finished then, with a small frozen map), as the front end does.
-std::unique_ptr<SubmapGraph> FinishedRun(const SubmapGraphOptions& options = SubmapGraphOptions()) {
+// scans and takes 20 (finished then, with a small frozen map), as the front end does. Scan i
+// faces i * yaw_per_scan (0: along the run; else the scans turn as they go, a robot crabbing).
+std::unique_ptr<SubmapGraph> FinishedRun(const SubmapGraphOptions& options = SubmapGraphOptions(),
+                                         double yaw_per_scan = 0.0) {
   auto graph = std::make_unique<SubmapGraph>(options);
   const std::shared_ptr<const LaserMap> map = FrozenWalls({{{2.0f, -1.0f}, {2.0f, 1.0f}}});
   std::vector<Pose2> submap_origins;
@@ -429,7 +431,7 @@ std::unique_ptr<SubmapGraph> FinishedRun(const SubmapGraphOptions& options = Sub
     LocalResult result;
     result.inserted = true;
     result.stamp_seconds = i;
-    result.local_pose = Pose2(0.5 * i, 0.0, 0.0);
+    result.local_pose = Pose2(0.5 * i, 0.0, yaw_per_scan * i);
     result.points.all = {{1.0f, 0.0f}, {1.0f, 0.5f}, {1.0f, -0.5f}};
     result.points.matching = result.points.all;
     if (i % 10 == 0) {
@@ -520,6 +522,54 @@ TEST(SubmapGraphTest, RevisitsRideOnTheirSubmapWithSummariesInPlaceOfTheirConstr
   // Decided once: a second call changes nothing.
   EXPECT_EQ(0, graph->AttachRevisits(0));
   EXPECT_EQ(10, graph->stats().nodes_attached);
+}
+
+// A summary of degenerate closures stays weak along their weak direction whatever the heading
+// of their scans in the submaps: their covariances are in the scans' frames, the summary's in
+// the submap it starts from (wheeled_corridor: closures 0.5 m off along a corridor, their scans
+// driving 49° to it, stretched the corridor by 0.2 m while the summaries took the covariances
+// in the wrong frames).
+TEST(SubmapGraphTest, DegenerateClosuresSummariesStayWeakAlongTheirWeakDirection) {
+  // The scans turn 0.02 rad each: scan 45 faces 0.9 rad (52°) in submap 0, submap 3 starts at 0.6.
+  std::unique_ptr<SubmapGraph> graph = FinishedRun(SubmapGraphOptions(), 0.02);
+  // Nodes 40-49 close with submap 0, flat along its x axis and 0.5 m off along it.
+  const Eigen::Vector2d weak_in_submap(1.0, 0.0);
+  for (int i = 40; i < 50; ++i) {
+    ConstraintCandidate closure;
+    closure.submap = {0, 0};
+    closure.node = {0, i};
+    const Pose2 estimated = graph->SubmapPose(closure.submap).inverse() * graph->NodePose(closure.node);
+    closure.submap_T_node = Pose2(estimated.x() + 0.5, estimated.y(), estimated.theta());
+    closure.score = 0.8;
+    closure.weak_direction = weak_in_submap;
+    closure.weak_information_fraction = 0.0;  // nothing measured along it: the weak sigma
+    ASSERT_TRUE(graph->AddConstraint(closure));
+  }
+  ASSERT_TRUE(graph->Solve(20).ok());
+  const std::vector<StampedPose2> before = graph->Trajectory(0);
+  ASSERT_TRUE(graph->EvictSubmapMap({0, 3}, SubmapGraph::EvictionReason::kRevisited));
+  ASSERT_TRUE(graph->EvictSubmapMap({0, 4}, SubmapGraph::EvictionReason::kRevisited));
+  ASSERT_EQ(10, graph->AttachRevisits(0));
+  // The summary 0 -> 3: its residual is in submap 3's frame, where the weak direction is
+  // submap 0's x axis turned back by submap 3's heading in submap 0.
+  const PoseGraph2d exported = graph->ExportGraph(0);
+  const auto summary = std::find_if(exported.edges.begin(), exported.edges.end(),
+                                    [](const PoseGraph2dEdge& e) { return e.id_from == 0 && e.id_to == 3; });
+  ASSERT_NE(exported.edges.end(), summary);
+  const Eigen::Vector2d weak_in_3 = summary->from_T_to_measured.rotation().transpose() * weak_in_submap;
+  const Eigen::Vector2d across_in_3(-weak_in_3.y(), weak_in_3.x());
+  const Eigen::Matrix2d translation = summary->information.topLeftCorner<2, 2>();
+  const double along_information = weak_in_3.dot(translation * weak_in_3);
+  const double across_information = across_in_3.dot(translation * across_in_3);
+  EXPECT_LT(along_information, 1e-3 * across_information)
+      << "along " << along_information << ", across " << across_information;
+  // So another solve leaves the run where it was: the 0.5 m along the weak direction pulls nothing.
+  ASSERT_TRUE(graph->Solve(20).ok());
+  const std::vector<StampedPose2> after = graph->Trajectory(0);
+  ASSERT_EQ(before.size(), after.size());
+  for (size_t k = 0; k < before.size(); ++k) {
+    EXPECT_NEAR(0.0, (before[k].pose.translation() - after[k].pose.translation()).norm(), 0.01) << k;
+  }
 }
 
 // Issue #15: an attached scan keeps its points for the rendered maps once per so much travel
