@@ -757,12 +757,13 @@ std::string Summary(const OnlineEstimator& estimator) {
                 "graph: %d nodes, %d submaps, %d loop searches (%d submaps over the budget skipped, %d that could not "
                 "reach the score), %d loop closures accepted (%d gated out), %d removed as inconsistent, %d solves (%d "
                 "iterations, %.2f s, %d failed), loop search %.2f s\n"
-                "wide loop search: %d matches, %d candidates, %d closures accepted; %d results flat along a direction "
-                "(held across it only; wide ones dropped)\n"
+                "wide loop search: %d matches, %d candidates, %d closures accepted (%d submaps left out: drift bound from "
+                "them within the standard window); %d results flat along a direction (held across it only; wide ones "
+                "dropped)\n"
                 "agreeing loop search (--loop_agreeing_min_score): %d matches, %d candidates, %d closures accepted\n",
                 g.nodes, g.submaps, l.searches, l.submaps_skipped, l.searches_without_overlap, g.loop_closures_accepted,
                 l.rejected_by_gate, g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds,
-                g.failed_solves, l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.degenerate,
+                g.failed_solves, l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.wide_within_standard, l.degenerate,
                 l.agreeing_searches, l.agreeing_candidates, l.agreeing_accepted);
   out += line;
   // Loop-closure precision as Cartographer reports it: the share of kept closures that the

@@ -96,10 +96,15 @@ LoopCloser::LoopCloser(const LoopCloserOptions& options)
 void LoopCloser::AddTravel(double meters) {
   travel_since_solve_meters_ += meters;
   travel_since_wide_search_meters_ += meters;
+  travel_meters_ += meters;
 }
 
 LoopSearchResult LoopCloser::Search(const SubmapGraph& graph, const NodeId& node) {
   LoopSearchResult result;
+  if (node.index >= 0) {
+    if (static_cast<size_t>(node.index) >= node_travel_meters_.size()) node_travel_meters_.resize(node.index + 1, -1.0);
+    node_travel_meters_[node.index] = travel_meters_;
+  }
   const Pose2& local_pose = graph.NodeLocalPose(node);
   if (last_search_pose_.has_value()) {
     const Pose2 moved = Between(*last_search_pose_, local_pose);
@@ -213,9 +218,23 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
   };
   // The submap's gate: narrower than the drift since the solve when a closure since then
   // measured the estimate's offset from it (standard search only; degenerate closures do not
-  // measure it).
+  // measure it). The wide search's: narrower when the submap began after the solve, its
+  // estimate chained to the node's over less travel than that since the solve.
+  const bool wide = wide_best != nullptr && best_matcher == nullptr;
   auto gate_for = [&](int s) {
     Gate gate{gate_meters, gate_radians, linear_window, angular_window};
+    if (wide) {
+      const int first = graph.SubmapFirstNode({node.robot, s});
+      if (first < 0 || static_cast<size_t>(first) >= node_travel_meters_.size() || node_travel_meters_[first] < 0) {
+        return gate;
+      }
+      const double travel = std::min(travel_since_solve_meters_, travel_meters_ - node_travel_meters_[first]);
+      gate.meters = std::min(gate_meters, options_.gate_base_meters + options_.gate_meters_per_meter * travel);
+      gate.radians = std::min(gate_radians, options_.gate_base_radians + options_.gate_radians_per_meter * travel);
+      gate.linear_window = std::min(linear_window, gate.meters);
+      gate.angular_window = std::min(angular_window, gate.radians);
+      return gate;
+    }
     const auto it = measured_.find(s);
     if (wide_best != nullptr || it == measured_.end()) return gate;
     const double travel = travel_since_solve_meters_ - it->second.travel_since_solve_meters;
@@ -245,19 +264,26 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     // The front end built this submap moments ago: the intra-submap chain already ties the
     // node to it, a closure would add little but cost a search.
     if (node.index - graph.SubmapLastNode(submap) < options_.min_node_separation) continue;
+    const Gate gate = gate_for(s);
+    // A wide search of a submap whose drift bound is within the standard window: the standard
+    // search (which found nothing) had that window.
+    if (wide && gate.meters <= options_.matcher.linear_search_window_meters) {
+      ++stats_.wide_within_standard;
+      continue;
+    }
     // Only submaps the node could be inside: its estimated position within the box of the
-    // submap's own trajectory, grown by the search window.
+    // submap's own trajectory, grown by the search window (the wide search: the submap's).
+    const double margin = wide ? std::min(margin_meters, gate.linear_window) : margin_meters;
     const Eigen::Vector2d p = (graph.SubmapPose(submap).inverse() * robot_T_node).translation();
     Eigen::Vector2d box_min, box_max;
     graph.SubmapBox(submap, &box_min, &box_max);
-    if ((p.array() < box_min.array() - margin_meters).any() || (p.array() > box_max.array() + margin_meters).any()) {
+    if ((p.array() < box_min.array() - margin).any() || (p.array() > box_max.array() + margin).any()) {
       continue;
     }
     // No pose the gate admits can score min_score (the node's scan does not reach enough of
     // the submap's structure): no search; its result would be rejected (exact). Before the
     // budget, so that the budget goes to submaps that can give a closure.
     const Pose2 predicted = graph.SubmapPose(submap).inverse() * robot_T_node;
-    const Gate gate = gate_for(s);
     if (ReachableScoreBound(*graph.FinishedSubmapMap(submap), predicted, points, weights, gate.meters, gate.radians,
                             min_score) < min_score) {
       ++stats_.searches_without_overlap;

@@ -17,8 +17,11 @@
 // Wide search (long corridors): once the drift bound exceeds the window and the standard search
 // found nothing, the node is also searched over ±min(drift bound, wide_window_meters) and
 // ±min(angular bound, wide_angular_window_radians) without motion prior, at most once per
-// wide_search_spacing_meters of travel. A wide result (score >= wide_min_score, within the
-// bound) is only a candidate until a wide result of a later node confirms it: their
+// wide_search_spacing_meters of travel. Each submap's drift bound there is the smaller of
+// that and the bound from the travel since the submap began (its estimate is chained to the
+// node's over that travel); a submap whose bound is within the standard window is left out
+// (the standard search had that window: FR079's wide matches 108 -> 51, the same closures).
+// A wide result (score >= wide_min_score, within the bound) is only a candidate until a wide result of a later node confirms it: their
 // corrections of the graph's estimate (world frame) agree within wide_agreement_*; then both
 // are returned without robust loss, exempt from the next consistency check, and the caller is
 // asked to solve at once (a correction of metres must reach the next nodes' estimates).
@@ -119,6 +122,7 @@ struct LoopCloserStats {
   int searches_without_overlap = 0;
   int rejected_by_gate = 0;
   int wide_searches = 0;       // (node, submap) matches over the wide window
+  int wide_within_standard = 0;  // submaps the wide search left out: their drift bound within the standard window
   int wide_candidates = 0;     // wide results above the score, within the bound
   int wide_accepted = 0;       // confirmed wide candidates
   int agreeing_searches = 0;   // (node, submap) matches with the floor at agreeing_min_score
@@ -187,6 +191,11 @@ class LoopCloser {
     double travel_since_solve_meters = 0.0;
   };
   std::map<int, MeasuredOffset> measured_;
+  // The robot's travel since its first node, and at each node searched (index: the node's;
+  // -1 for one never searched): the drift between a node and a submap is bounded by the travel
+  // from the submap's first node as well as by the travel since the solve (WideSearch).
+  double travel_meters_ = 0.0;
+  std::vector<double> node_travel_meters_;
   double travel_since_wide_search_meters_ = 0.0;
   std::optional<WideCandidate> pending_wide_;
   std::optional<WideCandidate> pending_agreeing_;

@@ -1,8 +1,10 @@
 // The loop closer (frontends/loop_closer.h). Its drift gate: a closure accepted against a
 // submap measures how far the graph's estimate is off that submap; until the next solve, that
 // submap's gate is the base plus that offset plus the drift since, where the drift since the
-// last solve alone allows more. Its agreeing search: revisits seen the other way round, whose
-// matches score below min_score, close the loop once two nodes call for the same correction.
+// last solve alone allows more; its wide search leaves out a submap whose own drift bound (the
+// travel since the submap began) is within the standard window. Its agreeing search: revisits
+// seen the other way round, whose matches score below min_score, close the loop once two nodes
+// call for the same correction.
 #include "frontends/loop_closer.h"
 
 #include <cmath>
@@ -43,9 +45,9 @@ LocalResult Node(double stamp, const Pose2& estimate, std::vector<Eigen::Vector2
 
 // Submap 0: the room mapped from the origin, finished with node 0. Then 45 nodes standing at
 // the origin in submap 1 (never finished), so that submap 0 is old enough to be searched.
-// Then node 46 at truth (0.5, -0.5), estimated 5 cm off, and node 47 at truth (-0.5, -0.5),
-// estimated `offset_47` metres off along x.
-std::unique_ptr<SubmapGraph> Graph(double offset_47) {
+// Then node 46 at truth (0.5, -0.5), estimated `offset_46` metres off along x, and node 47 at
+// truth (-0.5, -0.5), estimated `offset_47` metres off along x.
+std::unique_ptr<SubmapGraph> Graph(double offset_47, double offset_46 = 0.05) {
   const sim::World world = testing_sim::RoomWithPillar();
   auto map = std::make_shared<LaserMap>(OccupancyGridOptions(), LikelihoodFieldOptions());
   for (int k = 0; k < 3; ++k) map->InsertScan(Pose2::Identity(), Eigen::Vector2d::Zero(), Scan(world, Pose2::Identity()));
@@ -63,7 +65,7 @@ std::unique_ptr<SubmapGraph> Graph(double offset_47) {
     graph->AddNode(0, std::move(standing));
   }
   const Pose2 truth_46(0.5, -0.5, 0.0), truth_47(-0.5, -0.5, 0.0);
-  for (const auto& [truth, offset] : {std::make_pair(truth_46, 0.05), std::make_pair(truth_47, offset_47)}) {
+  for (const auto& [truth, offset] : {std::make_pair(truth_46, offset_46), std::make_pair(truth_47, offset_47)}) {
     const Pose2 estimate(truth.translation().x() + offset, truth.translation().y(), truth.theta());
     LocalResult moved = Node(graph->num_nodes(0), estimate, Scan(world, truth));
     moved.insertions.push_back({1, estimate});
@@ -115,6 +117,42 @@ TEST(LoopCloserTest, AClosureNarrowsItsSubmapsGateUntilTheNextSolve) {
   ASSERT_FALSE(narrowed.Search(*near, node_46).closures.empty());
   narrowed.AddTravel(0.5);
   EXPECT_TRUE(ClosesWith(narrowed.Search(*near, node_47), 0, 0.3, *near, node_47));
+}
+
+TEST(LoopCloserTest, TheWideSearchLeavesOutSubmapsWhoseDriftBoundIsWithinTheStandardWindow) {
+  const NodeId node_0{0, 0}, node_46{0, 46}, node_47{0, 47};
+  // Nodes 46 and 47 both estimated 3 m off submap 0 along x: beyond the standard ±2 m window,
+  // a correction only the wide search can find.
+  const std::unique_ptr<SubmapGraph> graph = Graph(3.0, 3.0);
+  // The loop closer searched node 0 after `before` metres since the last solve, node 46
+  // `after` metres later and node 47 a metre after that: the closures each of them returned.
+  const auto closures = [&](LoopCloser* closer, double before, double after) {
+    closer->AddTravel(before);
+    EXPECT_TRUE(closer->Search(*graph, node_0).closures.empty());
+    closer->AddTravel(after);
+    const size_t first = closer->Search(*graph, node_46).closures.size();
+    closer->AddTravel(1.0);
+    return std::make_pair(first, closer->Search(*graph, node_47).closures.size());
+  };
+  // 40 m since the solve, all of it since submap 0 began: a drift bound of 4.3 m from it. The
+  // first wide match is a candidate, the second confirms it.
+  LoopCloser far{LoopCloserOptions()};
+  EXPECT_EQ(closures(&far, 0.0, 40.0), std::make_pair(size_t{0}, size_t{2}));
+  EXPECT_EQ(far.stats().wide_accepted, 2);
+  EXPECT_EQ(far.stats().wide_within_standard, 0);
+  // 55 m since the solve (a drift bound of 5.8 m), but submap 0 began 15 m before node 46: its
+  // estimate is chained to theirs over 15-16 m, a drift bound of 1.8-1.9 m, within the
+  // standard window that found nothing. 3 m off it is an alias, not drift: no wide search.
+  LoopCloser near{LoopCloserOptions()};
+  EXPECT_EQ(closures(&near, 40.0, 15.0), std::make_pair(size_t{0}, size_t{0}));
+  EXPECT_EQ(near.stats().wide_searches, 0);
+  EXPECT_EQ(near.stats().wide_within_standard, 2);
+  // A node the loop closer never searched tells it nothing: the drift since the solve decides.
+  LoopCloser unknown{LoopCloserOptions()};
+  unknown.AddTravel(55.0);
+  EXPECT_TRUE(unknown.Search(*graph, node_46).closures.empty());
+  unknown.AddTravel(1.0);
+  EXPECT_EQ(unknown.Search(*graph, node_47).closures.size(), 2u);
 }
 
 // Submap 0: the room seen from the origin looking east with a 240° laser, finished with node
