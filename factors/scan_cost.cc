@@ -115,14 +115,21 @@ class SquaredDistanceGrid {
 
 // ceres::CubicHermiteSpline (ceres/cubic_interpolation.h) for one value, operation for
 // operation, so the same doubles: the Catmull-Rom spline through p[0..3] at x in [0, 1]
-// between p[1] and p[2], and its derivative.
+// between p[1] and p[2] is d + x (c + x (b + x a)) with these coefficients; its derivative
+// c + x (2 b + 3 a x).
+struct SplineCoefficients {
+  double a, b, c, d;
+};
+inline SplineCoefficients HermiteCoefficients(const double p[4]) {
+  return {0.5 * (-p[0] + 3.0 * p[1] - 3.0 * p[2] + p[3]), 0.5 * (2.0 * p[0] - 5.0 * p[1] + 4.0 * p[2] - p[3]),
+          0.5 * (-p[0] + p[2]), p[1]};
+}
+inline void HermiteSpline(const SplineCoefficients& k, double x, double* f, double* dfdx) {
+  *f = k.d + x * (k.c + x * (k.b + x * k.a));
+  if (dfdx != nullptr) *dfdx = k.c + x * (2.0 * k.b + 3.0 * k.a * x);
+}
 inline void HermiteSpline(const double p[4], double x, double* f, double* dfdx) {
-  const double a = 0.5 * (-p[0] + 3.0 * p[1] - 3.0 * p[2] + p[3]);
-  const double b = 0.5 * (2.0 * p[0] - 5.0 * p[1] + 4.0 * p[2] - p[3]);
-  const double c = 0.5 * (-p[0] + p[2]);
-  const double d = p[1];
-  *f = d + x * (c + x * (b + x * a));
-  if (dfdx != nullptr) *dfdx = c + x * (2.0 * b + 3.0 * a * x);
+  HermiteSpline(HermiteCoefficients(p), x, f, dfdx);
 }
 
 // `Grid` is the field's storage: BuiltFieldGrid over values() (or SquaredDistanceGrid of it)
@@ -180,19 +187,22 @@ class ScanToLikelihoodFieldCost final : public ceres::CostFunction {
         Sample& sample = samples_[i];
         // ceres::BiCubicInterpolator<Grid>::Evaluate's arithmetic, operation for operation: the
         // four rows' splines along x, then theirs and their derivatives' along y. Its 16 cells
-        // are read again only when the point moved to another cell.
+        // are read, and the rows' spline coefficients computed, again only when the point
+        // moved to another cell.
         const int cell_row = std::floor(row);
         const int cell_col = std::floor(col);
         if (!sample.has_patch || cell_row != sample.row || cell_col != sample.col) {
           for (int r = 0; r < 4; ++r) {
-            for (int k = 0; k < 4; ++k) grid_.GetValue(cell_row - 1 + r, cell_col - 1 + k, &sample.patch[r][k]);
+            double patch_row[4];
+            for (int k = 0; k < 4; ++k) grid_.GetValue(cell_row - 1 + r, cell_col - 1 + k, &patch_row[k]);
+            sample.rows[r] = HermiteCoefficients(patch_row);
           }
           sample.row = cell_row;
           sample.col = cell_col;
           sample.has_patch = true;
         }
         double along_x[4], along_x_derivative[4];
-        for (int r = 0; r < 4; ++r) HermiteSpline(sample.patch[r], col - cell_col, &along_x[r], &along_x_derivative[r]);
+        for (int r = 0; r < 4; ++r) HermiteSpline(sample.rows[r], col - cell_col, &along_x[r], &along_x_derivative[r]);
         HermiteSpline(along_x, row - cell_row, &sample.f, &sample.dfdr);
         HermiteSpline(along_x_derivative, row - cell_row, &sample.dfdc, nullptr);
       }
@@ -251,14 +261,16 @@ class ScanToLikelihoodFieldCost final : public ceres::CostFunction {
     double f = 0.0;     // the interpolated sample
     double dfdr = 0.0;  // its derivatives along rows (y) and columns (x), per cell
     double dfdc = 0.0;
-    // The 4 x 4 cells around the point's last cell (row, col): patch[i][k] is the grid's value at
-    // row - 1 + i, col - 1 + k. Most of a refinement's steps leave a point in its cell (87% of
-    // the points' evaluations on Intel, 89% on FR079), and each of the 16 reads is a tile or a
-    // cache lookup (the interpolation was ~9% of a FR079 run).
+    // The 4 x 4 cells around the point's last cell (row, col), as the splines along x of its
+    // four rows: rows[i] through the grid's values at row - 1 + i, columns col - 1 .. col + 2.
+    // Most of a refinement's steps leave a point in its cell (87% of the points' evaluations on
+    // Intel, 89% on FR079), and each of the 16 reads is a tile or a cache lookup (the
+    // interpolation was ~9% of a FR079 run; the rows' coefficients, computed at every
+    // evaluation until session 53, 3% of its instructions).
     bool has_patch = false;
     int row = 0;
     int col = 0;
-    double patch[4][4];
+    SplineCoefficients rows[4];
   };
 
   static std::vector<double> Scale(const std::vector<float>& weights, size_t n) {
