@@ -175,7 +175,9 @@ DEFINE_double(loop_search_min_turn_deg, 20.0, "See --loop_search_min_travel.");
 DEFINE_bool(loop_wide_search, true, "Once the drift bound (grown with the travel since the last solve) exceeds "
             "--loop_linear_window and the standard search finds nothing, also search a wide window (up to "
             "--loop_wide_window m), without motion prior; two wide matches of different scans that agree on the "
-            "correction enter the graph (long corridors).");
+            "correction enter the graph (long corridors). Each submap is searched within the smaller of that bound "
+            "and the one grown with the travel since the submap began, and not at all when that is within "
+            "--loop_linear_window.");
 DEFINE_int32(loop_max_submaps, 4, "Loop search budget: match each node against at most this many finished submaps, "
              "those its scan overlaps most at its estimate (then the nearest), so a search costs the same however long "
              "the run; submaps that cannot reach --loop_min_score within the drift bound are never searched. 0 = every "
