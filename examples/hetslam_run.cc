@@ -765,8 +765,8 @@ std::string Summary(const OnlineEstimator& estimator) {
                 "agreeing loop search (--loop_agreeing_min_score): %d matches, %d candidates, %d closures accepted\n",
                 g.nodes, g.submaps, l.searches, l.submaps_skipped, l.searches_without_overlap, g.loop_closures_accepted,
                 l.rejected_by_gate, g.loop_closures_rejected_after_solve, g.solves, g.solver_iterations, g.solve_seconds,
-                g.failed_solves, l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted, l.wide_within_standard, l.degenerate,
-                l.agreeing_searches, l.agreeing_candidates, l.agreeing_accepted);
+                g.failed_solves, l.search_seconds, l.wide_searches, l.wide_candidates, l.wide_accepted,
+                l.wide_within_standard, l.degenerate, l.agreeing_searches, l.agreeing_candidates, l.agreeing_accepted);
   out += line;
   // Loop-closure precision as Cartographer reports it: the share of kept closures that the
   // final graph agrees with to 20 cm and 1° (a degenerate closure: across its weak direction).

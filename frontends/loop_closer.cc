@@ -225,9 +225,9 @@ void LoopCloser::SearchSubmaps(const SubmapGraph& graph, const NodeId& node, dou
     Gate gate{gate_meters, gate_radians, linear_window, angular_window};
     if (wide) {
       const int first = graph.SubmapFirstNode({node.robot, s});
-      if (first < 0 || static_cast<size_t>(first) >= node_travel_meters_.size() || node_travel_meters_[first] < 0) {
-        return gate;
-      }
+      const bool searched = first >= 0 && static_cast<size_t>(first) < node_travel_meters_.size() &&
+                            node_travel_meters_[first] >= 0;
+      if (!searched) return gate;
       const double travel = std::min(travel_since_solve_meters_, travel_meters_ - node_travel_meters_[first]);
       gate.meters = std::min(gate_meters, options_.gate_base_meters + options_.gate_meters_per_meter * travel);
       gate.radians = std::min(gate_radians, options_.gate_base_radians + options_.gate_radians_per_meter * travel);

@@ -21,10 +21,11 @@
 // that and the bound from the travel since the submap began (its estimate is chained to the
 // node's over that travel); a submap whose bound is within the standard window is left out
 // (the standard search had that window: FR079's wide matches 108 -> 51, the same closures).
-// A wide result (score >= wide_min_score, within the bound) is only a candidate until a wide result of a later node confirms it: their
-// corrections of the graph's estimate (world frame) agree within wide_agreement_*; then both
-// are returned without robust loss, exempt from the next consistency check, and the caller is
-// asked to solve at once (a correction of metres must reach the next nodes' estimates).
+// A wide result (score >= wide_min_score, within the bound) is only a candidate until a wide
+// result of a later node confirms it: their corrections of the graph's estimate (world frame)
+// agree within wide_agreement_*; then both are returned without robust loss, exempt from the
+// next consistency check, and the caller is asked to solve at once (a correction of metres must
+// reach the next nodes' estimates).
 //
 // Agreeing search (opt-in, agreeing_min_score): where the wide search would run, the node is
 // also matched in the standard window down to a lower score (a revisit seen the other way
