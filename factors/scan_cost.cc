@@ -259,7 +259,7 @@ class ScanToLikelihoodFieldCost final : public ceres::CostFunction {
  private:
   struct Sample {
     // Only has_patch is set: the rest is written before it is read (Evaluate). A value-initialised
-    // vector of Samples with member initialisers was zeroed first, 160 bytes a point for every
+    // vector of Samples with member initialisers was zeroed first, 168 bytes a point for every
     // cost made (1% of a FR079 run in memset).
     Sample() {}  // NOLINT: user-provided, so std::vector<Sample>(n) does not zero it
     double f;     // the interpolated sample
